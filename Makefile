@@ -1,0 +1,38 @@
+# frictionid: two commands for a newcomer — `make demo` and `make test`.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+PIP    := $(PY) -m pip
+STAMP  := $(VENV)/.frictionid-setup
+IFACE_STAMP := $(VENV)/.frictionid-interfaces
+
+.PHONY: setup demo test bags bench-optim clean
+
+setup: $(STAMP) $(IFACE_STAMP)
+
+$(STAMP): requirements.txt constraints.txt frictionid_core/pyproject.toml frictionid_ros/setup.py
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PIP) install -q --upgrade pip
+	$(PIP) install -q -r requirements.txt -c constraints.txt
+	$(PIP) install -q --no-deps -e frictionid_core
+	$(PIP) install -q --no-deps -e frictionid_ros
+	touch $@
+
+$(IFACE_STAMP): $(STAMP) $(shell find ros2_ws/src/frictionid_interfaces/ -type f 2>/dev/null)
+	@if [ -d ros2_ws/src/frictionid_interfaces ]; then \
+	  VIRTUAL_ENV=$(abspath $(VENV)) AMENT_PREFIX_PATH=$(abspath $(VENV)) PATH=$(abspath $(VENV))/bin:$$PATH \
+	    tools/build_interfaces.sh $(abspath $(VENV)); fi
+	touch $@
+
+demo: setup
+	$(VENV)/bin/frictionid identify bags/emps_estimation --system emps --friction coulomb --solver ls --json demo_result.json
+	$(VENV)/bin/frictionid validate bags/emps_validation --params demo_result.json --json demo_validation.json
+
+test: setup
+	$(PY) -m pytest -q tests
+
+bags: setup
+	$(PY) tools/make_emps_bags.py
+
+clean:
+	rm -rf $(VENV) build demo_result.json demo_validation.json

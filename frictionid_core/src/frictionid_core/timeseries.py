@@ -1,0 +1,92 @@
+"""The one time-series structure every loader returns."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from frictionid_core.errors import InputError
+
+
+@dataclass
+class JointSeries:
+    """Joint measurements sampled at times ``t``.
+
+    Attributes:
+        t: sample times, s, shape (N,), strictly increasing.
+        joints: joint names, length J.
+        position: joint positions, m or rad, shape (N, J).
+        effort: joint force/torque, N or N·m, shape (N, J).
+        velocity: recorded joint velocities, m/s or rad/s, shape (N, J), or None.
+        source: where the data came from (for messages and reports).
+        extras: other named signals on the same time base (e.g. EMPS ``qg``), each (N,) or (N, J).
+        notes: what the loader did to the data (e.g. dropped duplicated stamps).
+    """
+
+    t: np.ndarray
+    joints: list[str]
+    position: np.ndarray
+    effort: np.ndarray
+    velocity: np.ndarray | None = None
+    source: str = ""
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.t = np.asarray(self.t, dtype=float).ravel()
+        self.position = _as_2d(self.position, "position", self.source)
+        self.effort = _as_2d(self.effort, "effort", self.source)
+        if self.velocity is not None:
+            self.velocity = _as_2d(self.velocity, "velocity", self.source)
+        n, nj = len(self.t), len(self.joints)
+        for name in ("position", "effort", "velocity"):
+            arr = getattr(self, name)
+            if arr is None:
+                continue
+            if arr.shape[0] != n:
+                raise InputError(
+                    f"{self.source}: field '{name}' has {arr.shape[0]} samples but there are {n} time stamps"
+                )
+            if arr.shape[1] != nj:
+                raise InputError(
+                    f"{self.source}: field '{name}' has {arr.shape[1]} columns for {nj} joints {self.joints}"
+                )
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    @property
+    def dt(self) -> float:
+        """Mean sample period, s."""
+        return float((self.t[-1] - self.t[0]) / (len(self.t) - 1))
+
+    def select(self, joints: list[str]) -> JointSeries:
+        """Return the series restricted to ``joints`` (in that order)."""
+        missing = [j for j in joints if j not in self.joints]
+        if missing:
+            raise InputError(
+                f"{self.source}: joint(s) {missing} not present; joints in the data: {self.joints}"
+            )
+        idx = [self.joints.index(j) for j in joints]
+        pick = lambda a: None if a is None else a[:, idx]  # noqa: E731
+        extras = {k: (v[:, idx] if v.ndim == 2 and v.shape[1] == len(self.joints) else v)
+                  for k, v in self.extras.items()}
+        return JointSeries(self.t, list(joints), pick(self.position), pick(self.effort),
+                           pick(self.velocity), self.source, extras, list(self.notes))
+
+    def slice(self, start: int, stop: int) -> JointSeries:
+        """Samples ``start:stop`` (indices) as a new series."""
+        cut = lambda a: None if a is None else a[start:stop]  # noqa: E731
+        return JointSeries(self.t[start:stop], list(self.joints), cut(self.position),
+                           cut(self.effort), cut(self.velocity), self.source,
+                           {k: v[start:stop] for k, v in self.extras.items()}, list(self.notes))
+
+
+def _as_2d(a, name: str, source: str) -> np.ndarray:
+    arr = np.asarray(a, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2:
+        raise InputError(f"{source}: field '{name}' must be 1-D or 2-D, got shape {arr.shape}")
+    return arr
