@@ -21,6 +21,7 @@ class JointSeries:
         velocity: recorded joint velocities, m/s or rad/s, shape (N, J), or None.
         source: where the data came from (for messages and reports).
         extras: other named signals on the same time base (e.g. EMPS ``qg``), each (N,) or (N, J).
+        meta: scalar facts about the recording (e.g. EMPS ``gtau``, ``kp``, ``kv``).
         notes: what the loader did to the data (e.g. dropped duplicated stamps).
     """
 
@@ -31,6 +32,7 @@ class JointSeries:
     velocity: np.ndarray | None = None
     source: str = ""
     extras: dict[str, np.ndarray] = field(default_factory=dict)
+    meta: dict[str, float] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
@@ -73,14 +75,15 @@ class JointSeries:
         extras = {k: (v[:, idx] if v.ndim == 2 and v.shape[1] == len(self.joints) else v)
                   for k, v in self.extras.items()}
         return JointSeries(self.t, list(joints), pick(self.position), pick(self.effort),
-                           pick(self.velocity), self.source, extras, list(self.notes))
+                           pick(self.velocity), self.source, extras, dict(self.meta), list(self.notes))
 
     def slice(self, start: int, stop: int) -> JointSeries:
         """Samples ``start:stop`` (indices) as a new series."""
         cut = lambda a: None if a is None else a[start:stop]  # noqa: E731
         return JointSeries(self.t[start:stop], list(self.joints), cut(self.position),
                            cut(self.effort), cut(self.velocity), self.source,
-                           {k: v[start:stop] for k, v in self.extras.items()}, list(self.notes))
+                           {k: v[start:stop] for k, v in self.extras.items()}, dict(self.meta),
+                           list(self.notes))
 
 
 def _as_2d(a, name: str, source: str) -> np.ndarray:

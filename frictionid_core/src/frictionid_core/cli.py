@@ -1,0 +1,139 @@
+"""The ``frictionid`` command line.
+
+    frictionid identify SOURCE --system emps --friction coulomb [--asymmetric] --solver ls --json OUT
+    frictionid validate SOURCE --params OUT.json [--json V.json]
+
+Errors in the input are reported as one line on stderr with exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import warnings
+from pathlib import Path
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.friction import KINDS
+
+EXIT_INPUT = 2
+SOLVERS = ("ls", "lm", "ga", "aco", "bbo", "de", "pso", "bo", "dt", "hybrid")
+CALL_SOLVERS = ("bo", "dt")
+
+
+def _add_source_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("source", help="MAT (EMPS), CSV, rosbag2 directory / .mcap / .db3, or ROS 1 .bag")
+    p.add_argument("--topic", help="JointState topic of a bag (default /joint_states, else the only one)")
+    p.add_argument("--joints", help="comma-separated joint names to use, in order (default: all)")
+    p.add_argument("--effort-topic", help="separate effort topic (JointState or Float64MultiArray)")
+    p.add_argument("--strict-time", action="store_true",
+                   help="fail on duplicated or out-of-order time stamps instead of repairing them")
+    p.add_argument("--json", type=Path, help="write the result as JSON to this file")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="frictionid", description="Joint friction identification for robot manipulators.")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("identify", help="identify friction (and rigid-body) parameters from data")
+    _add_source_args(p)
+    p.add_argument("--system", default="emps", help="inverse dynamic model: emps | friction-only (default emps)")
+    p.add_argument("--friction", default="coulomb", choices=KINDS, help="friction model (default coulomb)")
+    p.add_argument("--asymmetric", action="store_true", help="separate parameters for v > 0 and v < 0")
+    p.add_argument("--solver", default="ls", choices=SOLVERS, help="optimiser (default ls: linear least squares)")
+    p.add_argument("--seed", type=int, default=0, help="random seed of stochastic solvers (default 0)")
+    p.add_argument("--budget", type=int, help="generations (population solvers) or calls (bo, dt)")
+    p.add_argument("--pop", type=int, help="population size of population solvers")
+
+    p = sub.add_parser("validate", help="cross-test identified parameters on other data")
+    _add_source_args(p)
+    p.add_argument("--params", type=Path, required=True, help="JSON written by 'frictionid identify'")
+    return parser
+
+
+def _load(args):
+    from frictionid_core.io import load
+
+    joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
+    return load(args.source, topic=args.topic, joints=joints, effort_topic=args.effort_topic,
+                strict_time=args.strict_time)
+
+
+def _fmt(x: float) -> str:
+    return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.6g}"
+
+
+def print_table(result: dict, out=sys.stdout) -> None:
+    """A readable table of parameters (± σ) and metrics."""
+    head = f"{result['system']} · {result['friction']}{' (asymmetric)' if result['asymmetric'] else ''} · solver {result['solver']}"
+    print(head, file=out)
+    print(f"source: {result['source']}", file=out)
+    print(f"{'parameter':<16}{'value':>14}{'σ':>12}", file=out)
+    for name, value in result["params"].items():
+        print(f"{name:<16}{_fmt(value):>14}{_fmt(result['std'].get(name)):>12}", file=out)
+    print("metrics:", ", ".join(f"{k} {_fmt(v)}" for k, v in result["metrics"].items()), file=out)
+
+
+def _write_json(path: Path | None, data: dict) -> None:
+    if path is None:
+        return
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2, allow_nan=True) + "\n")
+    tmp.replace(path)
+
+
+def cmd_identify(args) -> int:
+    from frictionid_core.identify import identify
+
+    opts = {}
+    if args.budget is not None:
+        opts["calls" if args.solver in CALL_SOLVERS else "generations"] = args.budget
+    if args.pop is not None:
+        opts["pop"] = args.pop
+    series = _load(args)
+    result = identify(series, system=args.system, friction=args.friction, asymmetric=args.asymmetric,
+                      solver=args.solver, seed=args.seed, **opts).to_dict()
+    print_table(result)
+    _write_json(args.json, result)
+    return 0
+
+
+def cmd_validate(args) -> int:
+    from frictionid_core.identify import validate
+
+    try:
+        params = json.loads(args.params.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise FrictionIdError(f"{args.params}: cannot read parameters ({exc})") from None
+    series = _load(args)
+    metrics = validate(series, params)
+    out = {"source": series.source, "params_file": str(args.params), "system": params.get("system"),
+           "friction": params.get("friction"), "asymmetric": params.get("asymmetric"), "metrics": metrics}
+    print(f"cross-test of {args.params} on {series.source}")
+    print("metrics:", ", ".join(f"{k} {_fmt(v)}" for k, v in metrics.items()))
+    _write_json(args.json, out)
+    return 0
+
+
+COMMANDS = {"identify": cmd_identify, "validate": cmd_validate}
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        try:
+            code = COMMANDS[args.command](args)
+        except FrictionIdError as exc:
+            code = EXIT_INPUT
+            print(f"frictionid: error: {exc}", file=sys.stderr)
+        for w in caught:
+            if issubclass(w.category, UserWarning):
+                print(f"frictionid: warning: {w.message}", file=sys.stderr)
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,55 @@
+"""Loaders: every source becomes one :class:`~frictionid_core.timeseries.JointSeries`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from frictionid_core.errors import InputError
+from frictionid_core.io.checks import check_series
+from frictionid_core.timeseries import JointSeries
+
+__all__ = ["load"]
+
+
+def load(
+    source: str | Path,
+    *,
+    topic: str | None = None,
+    joints: list[str] | None = None,
+    effort_topic: str | None = None,
+    strict_time: bool = False,
+) -> JointSeries:
+    """Load joint measurements from a MAT (EMPS), CSV, rosbag2 (MCAP/sqlite3) or ROS 1 bag.
+
+    Args:
+        source: file or rosbag2 directory.
+        topic: JointState topic of a bag (default: /joint_states, else the only JointState topic).
+        joints: joint names to keep, in this order (default: all).
+        effort_topic: separate effort topic of a bag (JointState or Float64MultiArray);
+            default: the JointState's effort field.
+        strict_time: fail on duplicated or out-of-order stamps instead of repairing them.
+
+    Raises:
+        InputError: naming the file, topic, joint or field at fault.
+    """
+    path = Path(source)
+    if not path.exists():
+        raise InputError(f"{path}: no such file or directory")
+    suffix = path.suffix.lower()
+    if suffix == ".mat":
+        from frictionid_core.io.mat import load_emps_mat
+
+        series = load_emps_mat(path)
+    elif suffix == ".csv":
+        from frictionid_core.io.csv import load_csv
+
+        series = load_csv(path)
+    elif path.is_dir() or suffix in {".mcap", ".db3", ".bag"}:
+        from frictionid_core.io.bag import load_bag
+
+        series = load_bag(path, topic=topic, effort_topic=effort_topic)
+    else:
+        raise InputError(f"{path}: unknown format '{suffix}'; expected .mat, .csv, .mcap, .db3, .bag or a rosbag2 directory")
+    if joints:
+        series = series.select(joints)
+    return check_series(series, strict_time=strict_time)

@@ -1,0 +1,246 @@
+"""sensor_msgs/JointState from rosbag2 (MCAP, sqlite3) and ROS 1 bags, via rosbags."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from frictionid_core.errors import InputError
+from frictionid_core.timeseries import JointSeries
+
+JOINT_STATE = "sensor_msgs/msg/JointState"
+FLOAT_ARRAY = "std_msgs/msg/Float64MultiArray"
+META_PREFIX = "frictionid."
+DEFAULT_TOPIC = "/joint_states"
+
+
+def _typestore():
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS2_KILTED)
+
+
+def _open_reader(path: Path):
+    from rosbags.highlevel import AnyReader
+
+    try:
+        reader = AnyReader([path], default_typestore=_typestore())
+        reader.open()
+    except Exception as exc:  # rosbags raises reader-specific errors for corrupt files
+        raise InputError(f"{path}: not a readable bag ({type(exc).__name__}: {exc})") from None
+    return reader
+
+
+def list_topics(path: Path) -> dict[str, str]:
+    """{topic: message type} of a bag."""
+    reader = _open_reader(Path(path))
+    try:
+        return {name: info.msgtype for name, info in reader.topics.items()}
+    finally:
+        reader.close()
+
+
+def load_bag(path: Path, *, topic: str | None = None, effort_topic: str | None = None) -> JointSeries:
+    """Read a JointState topic (and an optional separate effort topic) into a JointSeries.
+
+    Time is the message header stamp, or the bag's receive time when the stamp is zero.
+    """
+    reader = _open_reader(path)
+    try:
+        topics = {name: info.msgtype for name, info in reader.topics.items()}
+        listing = ", ".join(f"{n} [{t}]" for n, t in sorted(topics.items())) or "none"
+        if topic is None:
+            js = [n for n, t in topics.items() if t == JOINT_STATE]
+            if DEFAULT_TOPIC in js:
+                js = [DEFAULT_TOPIC]
+            if len(js) != 1:
+                raise InputError(
+                    f"{path}: {'no' if not js else 'several'} {JOINT_STATE} topics; pick one with --topic. Topics: {listing}"
+                )
+            topic = js[0]
+        for name, want in ((topic, JOINT_STATE), (effort_topic, None)):
+            if name is None:
+                continue
+            if name not in topics:
+                raise InputError(f"{path}: topic '{name}' not in the bag. Topics: {listing}")
+            if want and topics[name] != want:
+                raise InputError(f"{path}: topic '{name}' is {topics[name]}, not {want}")
+        series, t0_ns = _read_joint_states(reader, path, topic, need_effort=effort_topic is None)
+        if effort_topic is not None:
+            t_eff, eff = _read_effort(reader, path, effort_topic, topics[effort_topic], series.joints)
+            series = _attach_effort(series, (t_eff - t0_ns) * 1e-9, eff, effort_topic)
+        for key, value in _custom_data(reader).items():
+            if key.startswith(META_PREFIX):
+                series.meta[key.removeprefix(META_PREFIX)] = float(value)
+        return series
+    finally:
+        reader.close()
+
+
+def _custom_data(reader) -> dict[str, str]:
+    """rosbag2 metadata custom_data (empty for ROS 1 bags and bare storage files)."""
+    if not reader.is2:
+        return {}
+    metadata = getattr(getattr(reader.readers[0], "storage", None), "metadata", None)
+    return dict(getattr(metadata, "custom", None) or {})
+
+
+def _stamp(msg, bag_ns: int) -> int:
+    st = msg.header.stamp
+    ns = int(st.sec) * 1_000_000_000 + int(st.nanosec)
+    return ns if ns else bag_ns
+
+
+def _read_joint_states(reader, path: Path, topic: str, *, need_effort: bool) -> tuple[JointSeries, int]:
+    """The topic's samples (time relative to the first stamp) and that first stamp, ns."""
+    conns = [c for c in reader.connections if c.topic == topic]
+    n_msgs = sum(c.msgcount for c in conns)
+    if n_msgs == 0:
+        raise InputError(f"{path}: topic '{topic}' has no messages")
+    stamps = np.empty(n_msgs, dtype=np.int64)
+    joints: list[str] | None = None
+    pos = vel = eff = None
+    order_cache: dict[tuple, np.ndarray] = {}
+    short = {"position": 0, "velocity": 0, "effort": 0}
+    k = 0
+    for conn, bag_ns, raw in reader.messages(connections=conns):
+        msg = reader.deserialize(raw, conn.msgtype)
+        names = tuple(msg.name)
+        if joints is None:
+            if not names:
+                raise InputError(f"{path}: topic '{topic}': first JointState has no joint names")
+            joints = list(names)
+            nj = len(joints)
+            pos, vel, eff = (np.full((n_msgs, nj), np.nan) for _ in range(3))
+        idx = order_cache.get(names)
+        if idx is None:
+            missing = [j for j in joints if j not in names]
+            if missing:
+                raise InputError(
+                    f"{path}: topic '{topic}': message {k} lacks joint(s) {missing} (it has {list(names)})"
+                )
+            idx = order_cache[names] = np.array([names.index(j) for j in joints])
+        stamps[k] = _stamp(msg, bag_ns)
+        for field, out in (("position", pos), ("velocity", vel), ("effort", eff)):
+            arr = np.asarray(getattr(msg, field), dtype=float)
+            if arr.size >= len(names):
+                out[k] = arr[idx]
+            else:
+                short[field] += 1
+        k += 1
+    if short["position"]:
+        raise InputError(
+            f"{path}: topic '{topic}': field 'position' is empty or shorter than 'name' in {short['position']} of {n_msgs} messages"
+        )
+    if need_effort and short["effort"]:
+        raise InputError(
+            f"{path}: topic '{topic}': field 'effort' is empty or shorter than 'name' in {short['effort']} of {n_msgs} "
+            "messages; record effort in the JointState or give a separate effort topic (--effort-topic)"
+        )
+    velocity = vel if short["velocity"] == 0 else None
+    series = JointSeries(t=(stamps - stamps[0]) * 1e-9, joints=joints, position=pos, effort=eff,
+                         velocity=velocity, source=f"{path}:{topic}")
+    return series, int(stamps[0])
+
+
+def _read_effort(reader, path: Path, topic: str, msgtype: str, joints: list[str]):
+    conns = [c for c in reader.connections if c.topic == topic]
+    t, rows = [], []
+    for conn, bag_ns, raw in reader.messages(connections=conns):
+        msg = reader.deserialize(raw, conn.msgtype)
+        if msgtype == JOINT_STATE:
+            names = list(msg.name)
+            missing = [j for j in joints if j not in names]
+            if missing:
+                raise InputError(f"{path}: effort topic '{topic}' lacks joint(s) {missing} (it has {names})")
+            e = np.asarray(msg.effort, dtype=float)
+            if e.size < len(names):
+                raise InputError(f"{path}: effort topic '{topic}': field 'effort' is empty or short in message {len(t)}")
+            rows.append(e[[names.index(j) for j in joints]])
+            t.append(_stamp(msg, bag_ns))
+        elif msgtype == FLOAT_ARRAY:
+            e = np.asarray(msg.data, dtype=float)
+            if e.size != len(joints):
+                raise InputError(
+                    f"{path}: effort topic '{topic}': message {len(t)} has {e.size} values for {len(joints)} joints {joints}"
+                )
+            rows.append(e)
+            t.append(bag_ns)
+        else:
+            raise InputError(f"{path}: effort topic '{topic}' is {msgtype}; expected {JOINT_STATE} or {FLOAT_ARRAY}")
+    if not rows:
+        raise InputError(f"{path}: effort topic '{topic}' has no messages")
+    return np.asarray(t, dtype=np.int64), np.vstack(rows)
+
+
+def _attach_effort(series: JointSeries, t: np.ndarray, eff: np.ndarray, topic: str) -> JointSeries:
+    """Interpolate the effort topic (times t, s, on the series' time base) at the JointState stamps."""
+    order = np.argsort(t, kind="stable")
+    t, eff = t[order], eff[order]
+    inside = (series.t >= t[0]) & (series.t <= t[-1])
+    if inside.sum() < 3:
+        raise InputError(f"{series.source}: effort topic '{topic}' does not overlap the joint states in time")
+    idx = np.flatnonzero(inside)
+    out = series.slice(idx[0], idx[-1] + 1)
+    out.effort = np.column_stack([np.interp(out.t, t, eff[:, j]) for j in range(eff.shape[1])])
+    dropped = len(series) - len(out)
+    if dropped:
+        out.notes.append(f"{dropped} joint-state samples outside the effort topic '{topic}' time range dropped")
+    return out
+
+
+def write_joint_state_bag(
+    path: Path,
+    series: JointSeries,
+    *,
+    topic: str = DEFAULT_TOPIC,
+    storage: str = "mcap",
+    extra_topics: dict[str, tuple[str, np.ndarray]] | None = None,
+    t0_ns: int = 1_700_000_000_000_000_000,
+) -> Path:
+    """Write ``series`` as sensor_msgs/JointState messages to a new rosbag2 directory.
+
+    Args:
+        path: bag directory to create (must not exist).
+        topic: JointState topic.
+        storage: "mcap" (zstd-compressed chunks) or "sqlite3".
+        extra_topics: {topic: (field, array (N,) or (N, J))}: further JointState topics on the
+            same stamps carrying ``array`` in ``field`` ("position", "velocity" or "effort").
+        t0_ns: stamp of the first sample, ns since the epoch.
+    Series ``meta`` goes into the bag's custom data (``frictionid.<key>``).
+    """
+    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
+
+    ts = _typestore()
+    JointState = ts.types[JOINT_STATE]
+    Header = ts.types["std_msgs/msg/Header"]
+    Time = ts.types["builtin_interfaces/msg/Time"]
+    path = Path(path)
+    if path.exists():
+        raise InputError(f"{path}: already exists; refusing to overwrite a bag")
+    plugin = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}[storage]
+    stamps = t0_ns + np.round(series.t * 1e9).astype(np.int64)
+    empty = np.empty(0)
+    names = list(series.joints)
+    streams = [(topic, {"position": series.position, "effort": series.effort,
+                        "velocity": series.velocity})]
+    for extra, (field, arr) in (extra_topics or {}).items():
+        streams.append((extra, {field: np.asarray(arr, dtype=float).reshape(len(series), -1)}))
+    writer = Writer(path, version=9, storage_plugin=plugin)
+    if storage == "mcap":
+        writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+    for key, value in series.meta.items():
+        writer.set_custom_data(META_PREFIX + key, repr(float(value)))
+    with writer:
+        conns = [(writer.add_connection(name, JOINT_STATE, typestore=ts), fields) for name, fields in streams]
+        for k, ns in enumerate(stamps):
+            ns = int(ns)
+            header = Header(stamp=Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000), frame_id="")
+            for conn, fields in conns:
+                row = {f: (empty if a is None else np.ascontiguousarray(a[k], dtype=np.float64))
+                       for f, a in fields.items()}
+                msg = JointState(header=header, name=names, position=row.get("position", empty),
+                                 velocity=row.get("velocity", empty), effort=row.get("effort", empty))
+                writer.write(conn, ns, ts.serialize_cdr(msg, JOINT_STATE))
+    return path

@@ -1,0 +1,75 @@
+"""Sanity checks shared by every loader: finite samples, ordered unique stamps."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from frictionid_core.errors import InputError
+from frictionid_core.timeseries import JointSeries
+
+MIN_SAMPLES = 3
+
+
+def check_series(series: JointSeries, *, strict_time: bool = False) -> JointSeries:
+    """Validate ``series``; repair stamp order/duplicates unless ``strict_time``.
+
+    Repairs are recorded in ``series.notes`` and issued as a ``UserWarning``.
+    """
+    src = series.source
+    if len(series) < MIN_SAMPLES:
+        raise InputError(f"{src}: only {len(series)} samples; at least {MIN_SAMPLES} are needed")
+    if not np.all(np.isfinite(series.t)):
+        bad = np.flatnonzero(~np.isfinite(series.t))
+        raise InputError(f"{src}: {bad.size} non-finite time stamps (first at sample {bad[0]})")
+    for name in ("position", "effort", "velocity"):
+        arr = getattr(series, name)
+        if arr is None:
+            continue
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            col = int(np.flatnonzero(bad.any(axis=0))[0])
+            rows = np.flatnonzero(bad[:, col])
+            raise InputError(
+                f"{src}: {int(bad.sum())} NaN/inf samples in field '{name}' "
+                f"(joint '{series.joints[col]}': {rows.size}, first at t = {series.t[rows[0]]:.6g} s)"
+            )
+    return _order_stamps(series, strict_time)
+
+
+def _order_stamps(series: JointSeries, strict: bool) -> JointSeries:
+    dt = np.diff(series.t)
+    n_back = int(np.count_nonzero(dt < 0))
+    n_dup = int(np.count_nonzero(dt == 0))
+    if n_back == 0 and n_dup == 0:
+        return series
+    src = series.source
+    if strict:
+        raise InputError(
+            f"{src}: time stamps not strictly increasing: {n_back} go backwards, {n_dup} duplicated"
+        )
+    order = np.argsort(series.t, kind="stable")
+    t_sorted = series.t[order]
+    keep = np.concatenate(([True], np.diff(t_sorted) > 0))
+    idx = order[keep]
+    n_dropped = len(series) - idx.size
+    out = _take(series, idx)
+    msgs = []
+    if n_back:
+        msgs.append(f"{n_back} out-of-order time stamps: samples re-sorted by time")
+    if n_dropped:
+        msgs.append(f"{n_dropped} samples with duplicated time stamps dropped (first kept)")
+    for m in msgs:
+        note = f"{src}: {m}"
+        out.notes.append(note)
+        warnings.warn(note, stacklevel=3)
+    if len(out) < MIN_SAMPLES:
+        raise InputError(f"{src}: only {len(out)} samples left after removing duplicated stamps")
+    return out
+
+
+def _take(s: JointSeries, idx: np.ndarray) -> JointSeries:
+    pick = lambda a: None if a is None else a[idx]  # noqa: E731
+    return JointSeries(s.t[idx], list(s.joints), s.position[idx], s.effort[idx], pick(s.velocity),
+                       s.source, {k: v[idx] for k, v in s.extras.items()}, dict(s.meta), list(s.notes))

@@ -1,0 +1,83 @@
+"""Decimated observation data shared by every inverse dynamic model.
+
+An inverse dynamic model contributes *rigid* columns (terms linear in the rigid-body
+parameters, e.g. q̈ for a mass); friction contributes columns built from the velocity. Every
+column that depends on measured signals only (q̈, q̇, sign(q̇), their asymmetric masks, 1) is
+computed at full rate and then decimated with the torque (SPEC §5.1 step 6). Terms of
+nonlinear friction models that depend on searched parameters (the Stribeck/Threlfall dip) are
+evaluated at the decimated velocity.
+
+Rows are stacked joint-major: rows ``j·Nd … (j+1)·Nd − 1`` belong to joint j.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from frictionid_core.preprocess import Prepared, Preprocessing, decimate, decimation_indices
+
+VELOCITY_COLUMNS = ("V", "S", "V_pos", "S_pos", "V_neg", "S_neg", "one")
+
+
+@dataclass
+class Observation:
+    """Identification data after decimation.
+
+    Attributes:
+        joints: joint names (J).
+        y: measured torque/force rows, (J·Nd,).
+        rigid: rigid-body columns, (J·Nd, R).
+        rigid_names: names of the rigid-body parameters (R).
+        velocity: decimated velocity, (Nd, J).
+        columns: per joint, decimated velocity columns: V = q̇, S = sign(q̇), and the
+            asymmetric V_pos = q̇·O⁺, S_pos = sign(q̇)·O⁺, V_neg, S_neg, and the constant
+            ``one`` (decimated like the others: the anti-alias filter's DC gain is 0.989); each (Nd,).
+        t: decimated sample times, s (Nd,).
+    """
+
+    joints: list[str]
+    y: np.ndarray
+    rigid: np.ndarray
+    rigid_names: list[str]
+    velocity: np.ndarray
+    columns: list[dict[str, np.ndarray]]
+    t: np.ndarray
+
+    @property
+    def n_samples(self) -> int:
+        """Decimated samples per joint (Nd)."""
+        return self.velocity.shape[0]
+
+
+def velocity_columns(qd: np.ndarray) -> np.ndarray:
+    """(N, 7) full-rate columns in VELOCITY_COLUMNS order for one joint's velocity (N,)."""
+    s = np.sign(qd)
+    pos = (1.0 + s) / 2.0
+    neg = (1.0 - s) / 2.0
+    return np.column_stack([qd, s, qd * pos, s * pos, qd * neg, s * neg, np.ones_like(qd)])
+
+
+def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndarray,
+                      rigid_names: list[str], settings: Preprocessing) -> Observation:
+    """Decimate torque, rigid columns (J·N, R) and velocity columns in one pass per joint.
+
+    ``rigid_full`` rows are joint-major over the full-rate prepared samples.
+    """
+    n, nj = prepared.qd.shape
+    r = rigid_full.shape[1]
+    blocks, ys, cols, vels = [], [], [], []
+    for j in range(nj):
+        full = np.column_stack([
+            prepared.tau[:, j], prepared.qd[:, j], rigid_full[j * n : (j + 1) * n],
+            velocity_columns(prepared.qd[:, j])])
+        dec = decimate(full, settings.decimate)
+        ys.append(dec[:, 0])
+        vels.append(dec[:, 1])
+        blocks.append(dec[:, 2 : 2 + r])
+        cols.append(dict(zip(VELOCITY_COLUMNS, dec[:, 2 + r :].T)))
+    t = prepared.t[decimation_indices(n, settings.decimate)]
+    return Observation(list(joints), np.concatenate(ys), np.vstack(blocks), list(rigid_names),
+                       np.column_stack(vels), cols, t)
+
