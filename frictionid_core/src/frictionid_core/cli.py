@@ -50,7 +50,24 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("validate", help="cross-test identified parameters on other data")
     _add_source_args(p)
     p.add_argument("--params", type=Path, required=True, help="JSON written by 'frictionid identify'")
+    _add_plugin_commands(sub)
     return parser
+
+
+PLUGIN_GROUP = "frictionid.commands"
+
+
+def _add_plugin_commands(sub) -> None:
+    """Sub-commands other packages register under the entry-point group ``frictionid.commands``
+    (e.g. ``replay`` from frictionid_ros). Each entry point is a function
+    ``register(subparsers) -> handler`` where ``handler(args) -> exit code``."""
+    from importlib.metadata import entry_points
+
+    for ep in entry_points(group=PLUGIN_GROUP):
+        try:
+            COMMANDS[ep.name] = ep.load()(sub)
+        except Exception as exc:  # a broken plugin must not break the core commands
+            print(f"frictionid: warning: command '{ep.name}' unavailable ({exc})", file=sys.stderr)
 
 
 def _load(args):
@@ -122,6 +139,9 @@ COMMANDS = {"identify": cmd_identify, "validate": cmd_validate}
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.command not in COMMANDS:
+        print(f"frictionid: error: command '{args.command}' is not available", file=sys.stderr)
+        return EXIT_INPUT
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
         try:
