@@ -66,7 +66,7 @@ def load_bag(path: Path, *, topic: str | None = None, effort_topic: str | None =
                 raise InputError(f"{path}: topic '{name}' not in the bag. Topics: {listing}")
             if want and topics[name] != want:
                 raise InputError(f"{path}: topic '{name}' is {topics[name]}, not {want}")
-        series, t0_ns = _read_joint_states(reader, path, topic, need_effort=effort_topic is None)
+        series, t0_ns = _read_joint_states(reader, path, topic, need=("position", "effort") if effort_topic is None else ("position",))
         if effort_topic is not None:
             t_eff, eff = _read_effort(reader, path, effort_topic, topics[effort_topic], series.joints)
             series = _attach_effort(series, (t_eff - t0_ns) * 1e-9, eff, effort_topic)
@@ -92,7 +92,25 @@ def _stamp(msg, bag_ns: int) -> int:
     return ns if ns else bag_ns
 
 
-def _read_joint_states(reader, path: Path, topic: str, *, need_effort: bool) -> tuple[JointSeries, int]:
+def read_field(path: Path, topic: str, field: str) -> tuple[np.ndarray, list[str], np.ndarray]:
+    """One field ("position", "velocity" or "effort") of a JointState topic.
+
+    Returns (t, joints, values): t in s relative to the topic's first stamp, values (N, J).
+    Used for side signals such as a set-point topic.
+    """
+    reader = _open_reader(Path(path))
+    try:
+        topics = {name: info.msgtype for name, info in reader.topics.items()}
+        if topics.get(topic) != JOINT_STATE:
+            listing = ", ".join(f"{n} [{t}]" for n, t in sorted(topics.items()))
+            raise InputError(f"{path}: no {JOINT_STATE} topic '{topic}'. Topics: {listing}")
+        series, _ = _read_joint_states(reader, Path(path), topic, need=(field,))
+    finally:
+        reader.close()
+    return series.t, series.joints, getattr(series, field)
+
+
+def _read_joint_states(reader, path: Path, topic: str, *, need: tuple[str, ...]) -> tuple[JointSeries, int]:
     """The topic's samples (time relative to the first stamp) and that first stamp, ns."""
     conns = [c for c in reader.connections if c.topic == topic]
     n_msgs = sum(c.msgcount for c in conns)
@@ -129,15 +147,14 @@ def _read_joint_states(reader, path: Path, topic: str, *, need_effort: bool) -> 
             else:
                 short[field] += 1
         k += 1
-    if short["position"]:
-        raise InputError(
-            f"{path}: topic '{topic}': field 'position' is empty or shorter than 'name' in {short['position']} of {n_msgs} messages"
-        )
-    if need_effort and short["effort"]:
-        raise InputError(
-            f"{path}: topic '{topic}': field 'effort' is empty or shorter than 'name' in {short['effort']} of {n_msgs} "
-            "messages; record effort in the JointState or give a separate effort topic (--effort-topic)"
-        )
+    for field in need:
+        if short[field]:
+            hint = ("; record effort in the JointState or give a separate effort topic (--effort-topic)"
+                    if field == "effort" else "")
+            raise InputError(
+                f"{path}: topic '{topic}': field '{field}' is empty or shorter than 'name' in "
+                f"{short[field]} of {n_msgs} messages{hint}"
+            )
     velocity = vel if short["velocity"] == 0 else None
     series = JointSeries(t=(stamps - stamps[0]) * 1e-9, joints=joints, position=pos, effort=eff,
                          velocity=velocity, source=f"{path}:{topic}")
