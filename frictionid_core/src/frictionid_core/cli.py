@@ -82,8 +82,9 @@ def _fmt(x: float) -> str:
     return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.6g}"
 
 
-def print_table(result: dict, out=sys.stdout) -> None:
-    """A readable table of parameters (± σ) and metrics."""
+def print_table(result: dict, out=None) -> None:
+    """A readable table of parameters (± σ) and metrics (to ``out``, default stdout)."""
+    out = sys.stdout if out is None else out
     head = f"{result['system']} · {result['friction']}{' (asymmetric)' if result['asymmetric'] else ''} · solver {result['solver']}"
     print(head, file=out)
     print(f"source: {result['source']}", file=out)
@@ -148,7 +149,7 @@ def main(argv: list[str] | None = None) -> int:
             code = COMMANDS[args.command](args)
         except FrictionIdError as exc:
             code = EXIT_INPUT
-            print(f"frictionid: error: {exc}", file=sys.stderr)
+            print(f"frictionid: error: {' '.join(str(exc).split())}", file=sys.stderr)
         for w in caught:
             if issubclass(w.category, UserWarning):
                 print(f"frictionid: warning: {w.message}", file=sys.stderr)

@@ -7,6 +7,7 @@ optionally ``<joint>.velocity``. A single joint may use bare ``position``/``effo
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,8 @@ from frictionid_core.timeseries import JointSeries
 def load_csv(path: Path) -> JointSeries:
     """Load a CSV file written in the layout above."""
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open(path, encoding="utf-8") as fh, warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "input contained no data": reported below
             header = fh.readline().strip()
             data = np.loadtxt(fh, delimiter=",", ndmin=2)
     except (OSError, UnicodeDecodeError, ValueError) as exc:
