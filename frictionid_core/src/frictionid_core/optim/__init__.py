@@ -1,0 +1,131 @@
+"""The optimiser suite: one module per method behind one call, :func:`minimize`.
+
+    >>> result = minimize(problem, "de", seed=1)            # thesis defaults
+    >>> result = minimize(problem, "pso", pop=30, generations=60, topology="ring")
+
+Methods (SPEC §3; thesis settings are each module's defaults):
+
+=========  ============================================================  ==============
+id         method                                                        budget
+=========  ============================================================  ==============
+ga         real-coded genetic algorithm                                  pop, generations
+aco        ant colony optimisation for continuous domains (ACO_R)       pop, generations
+bbo        biogeography-based optimisation                               pop, generations
+de         differential evolution rand/1/bin                             pop, generations
+pso        particle swarm, local neighbourhood                           pop, generations
+lm         bounded nonlinear least squares (trust-region reflective)     calls
+bo         Bayesian optimisation, Gaussian process (skopt gp_minimize)   calls
+dt         sequential decision trees (skopt forest_minimize, ET)         calls
+hybrid     a global method (default de) then an lm polish                pop, generations, calls
+=========  ============================================================  ==============
+
+Every method is seeded through one ``numpy.random.Generator`` (same seed -> identical
+result), keeps every point inside the bounds, treats NaN/inf costs as the worst cost
+(counted in ``n_nan``) and records f_min / dist_mean histories (thesis eq. 2-17, 2-18).
+Population methods evaluate each generation with a single ``batch_cost`` call.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+
+import numpy as np
+
+from frictionid_core.errors import OptimError
+from frictionid_core.optim import aco, bbo, bo, de, dt, ga, hybrid, lm, pso
+from frictionid_core.optim.problem import OptimResult, Problem
+
+METHODS: dict[str, Callable[..., OptimResult]] = {
+    "ga": ga.solve,
+    "aco": aco.solve,
+    "bbo": bbo.solve,
+    "de": de.solve,
+    "pso": pso.solve,
+    "lm": lm.solve,
+    "bo": bo.solve,
+    "dt": dt.solve,
+    "hybrid": hybrid.solve,
+}
+
+POPULATION_METHODS = ("ga", "aco", "bbo", "de", "pso")
+BUDGETS = ("pop", "generations", "calls")
+
+__all__ = ["METHODS", "POPULATION_METHODS", "OptimResult", "Problem", "minimize"]
+
+
+def _keyword_options(solve: Callable) -> frozenset[str]:
+    return frozenset(
+        name for name, p in inspect.signature(solve).parameters.items() if p.kind is p.KEYWORD_ONLY
+    )
+
+
+def call_method(
+    problem: Problem,
+    method: str,
+    rng: np.random.Generator,
+    *,
+    pop: int | None,
+    generations: int | None,
+    calls: int | None,
+    options: dict,
+) -> OptimResult:
+    """Run METHODS[method] with the budgets it uses; unused budgets are noted in the message."""
+    solve = METHODS[method]
+    accepted = _keyword_options(solve)
+    unknown = sorted(set(options) - accepted)
+    if unknown:
+        raise OptimError(
+            f"{method}: unknown option(s) {unknown}; it accepts {sorted(accepted)}"
+        )
+    kwargs = dict(options)
+    ignored = []
+    for name, value in (("pop", pop), ("generations", generations), ("calls", calls)):
+        if value is None:
+            continue
+        if name not in accepted:
+            ignored.append(name)
+            continue
+        if name in kwargs:
+            raise OptimError(f"{method}: {name} given twice (as a budget and in the options)")
+        kwargs[name] = value
+    result = solve(problem, rng, **kwargs)
+    if ignored:
+        result.message += f"; ignored {', '.join(ignored)} (not used by {method})"
+    return result
+
+
+def minimize(
+    problem: Problem,
+    method: str,
+    *,
+    seed: int | np.random.Generator | None = 0,
+    pop: int | None = None,
+    generations: int | None = None,
+    calls: int | None = None,
+    **options,
+) -> OptimResult:
+    """Minimise ``problem.batch_cost`` within the bounds with ``method``.
+
+    Args:
+        problem: parameters, bounds and cost (validated again here).
+        method: one of :data:`METHODS` (ga, aco, bbo, de, pso, lm, bo, dt, hybrid).
+        seed: integer seed (or a Generator) for ``numpy.random.default_rng``.
+        pop: population size of population methods (default 50).
+        generations: generations of population methods, the initial one included (default 100).
+        calls: cost calls of bo/dt (default 100) or evaluation budget of lm / the hybrid polish.
+        **options: method-specific settings (see each module's ``solve``), e.g. F=0.5 for de.
+
+    Budgets a method does not use are ignored and mentioned in the result's message.
+
+    Raises:
+        OptimError: unknown method or option, bad bounds, bad budget, or every
+            evaluation returned NaN/inf.
+    """
+    if method not in METHODS:
+        raise OptimError(f"unknown optimiser {method!r}; available: {', '.join(METHODS)}")
+    if not isinstance(problem, Problem):
+        raise OptimError(f"minimize needs a Problem, got {type(problem).__name__}")
+    problem.check()
+    rng = np.random.default_rng(seed)
+    return call_method(problem, method, rng, pop=pop, generations=generations, calls=calls, options=options)

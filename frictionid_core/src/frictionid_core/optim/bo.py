@@ -1,0 +1,46 @@
+"""Bayesian optimisation with a Gaussian process (thesis §3.3.1; scikit-optimize ``gp_minimize``).
+
+Thesis settings (§6.4.2): 10 initial points, 100 cost calls, acquisition LCB (lower
+confidence bound, mu - kappa * sigma, kappa = 1.96 by default). One (1, k) ``batch_cost``
+call per point. Histories have one entry per call: best cost so far, and the mean pairwise
+bound-normalised distance of all points evaluated so far (NaN after the first call).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from frictionid_core.errors import OptimError
+from frictionid_core.optim._engine import check_fraction
+from frictionid_core.optim._skopt import run_skopt
+from frictionid_core.optim.problem import OptimResult, Problem
+
+ACQUISITIONS = ("LCB", "EI", "PI", "gp_hedge")
+
+
+def solve(
+    problem: Problem,
+    rng: np.random.Generator,
+    *,
+    calls: int = 100,
+    n_initial_points: int = 10,
+    acq_func: str = "LCB",
+    kappa: float = 1.96,
+) -> OptimResult:
+    """Minimise ``problem`` with ``skopt.gp_minimize``.
+
+    Args:
+        calls: total cost evaluations (initial points included).
+        n_initial_points: random points evaluated before the GP guides the search.
+        acq_func: scikit-optimize acquisition ("LCB", "EI", "PI", "gp_hedge").
+        kappa: LCB exploration weight.
+    """
+    from skopt import gp_minimize  # heavy import (scikit-learn): only when used
+
+    if acq_func not in ACQUISITIONS:
+        raise OptimError(f"bo: acq_func must be one of {ACQUISITIONS}, got {acq_func!r}")
+    kappa = check_fraction(kappa, "kappa", "bo", 0.0, 1e6)
+    return run_skopt(
+        problem, rng, "bo", gp_minimize, calls, n_initial_points,
+        f"gp_minimize, acquisition {acq_func}", acq_func=acq_func, kappa=kappa,
+    )

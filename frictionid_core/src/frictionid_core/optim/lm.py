@@ -1,0 +1,110 @@
+"""Bounded nonlinear least squares (the thesis used MATLAB ``lsqnonlin``).
+
+With ``problem.residuals``: ``scipy.optimize.least_squares`` (trust-region reflective,
+'trf', which handles bounds; Jacobian by 2-point finite differences) minimising
+sum(r^2). Without residuals: ``scipy.optimize.minimize`` L-BFGS-B on ``batch_cost``
+evaluated one (1, k) row at a time.
+
+Start: the ``x0`` option, else ``problem.x0``, else the middle of the box.
+``history_fmin`` has one entry per residual/cost evaluation (finite-difference Jacobian
+evaluations included): best sum(r^2) so far (residual mode) or best cost so far
+(fallback). ``history_dist_mean`` is empty (no population). ``fun`` is ``batch_cost`` at
+the solution (one extra evaluation, counted in nfev), so it compares with other methods.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy.optimize import least_squares, minimize
+
+from frictionid_core.errors import OptimError
+from frictionid_core.optim._engine import CallLog, all_nan_error, check_count, nan_note
+from frictionid_core.optim.problem import OptimResult, Problem
+
+
+def solve(
+    problem: Problem,
+    rng: np.random.Generator,
+    *,
+    calls: int | None = None,
+    x0: np.ndarray | None = None,
+    ftol: float = 1e-10,
+    xtol: float = 1e-10,
+    gtol: float = 1e-10,
+) -> OptimResult:
+    """Minimise ``problem`` locally from ``x0``.
+
+    Args:
+        rng: unused (deterministic method); accepted for the common interface.
+        calls: evaluation budget: scipy's ``max_nfev`` (trf; finite-difference Jacobian
+            evaluations not counted, scipy default 100 k) or ``maxfun`` (L-BFGS-B; default 15000).
+        x0: start point (k,); overrides ``problem.x0``.
+        ftol, xtol, gtol: scipy termination tolerances.
+    """
+    t_start = time.perf_counter()
+    if calls is not None:
+        calls = check_count(calls, "calls", "lm")
+    lower, upper = problem.lower, problem.upper
+    if x0 is None:
+        x0 = problem.x0 if problem.x0 is not None else 0.5 * (lower + upper)
+    x0 = np.asarray(x0, dtype=float)
+    if x0.shape != (problem.k,) or not np.all(np.isfinite(x0)):
+        raise OptimError(f"lm: start point x0 must be {problem.k} finite values, got {x0!r}")
+    x0 = np.clip(x0, lower, upper)
+    log = CallLog(problem, "lm", track_spread=False)
+
+    if problem.residuals is not None:
+        n_resid: list[int] = []
+
+        def residuals(x: np.ndarray) -> np.ndarray:
+            r = np.asarray(problem.residuals(x), dtype=float).ravel()
+            n_resid.append(r.size)
+            log.add(x, float(r @ r) if r.size else 0.0)
+            return r
+
+        first = residuals(x0)
+        if not np.all(np.isfinite(first)):
+            raise OptimError(
+                f"lm: residuals are NaN/inf at the start point x0 = {x0.tolist()} "
+                f"({int(np.count_nonzero(~np.isfinite(first)))} of {first.size} values)"
+            )
+        sol = least_squares(
+            residuals, x0, bounds=(lower, upper), method="trf", max_nfev=calls,
+            ftol=ftol, xtol=xtol, gtol=gtol,
+        )
+        x = np.clip(sol.x, lower, upper)
+        stage = f"least_squares trf ({sol.nfev} steps, {sol.njev} Jacobians): {sol.message}"
+    else:
+
+        def cost(x: np.ndarray) -> float:
+            c = float(np.asarray(problem.batch_cost(np.asarray(x, dtype=float)[None, :]), dtype=float).ravel()[0])
+            return log.add(x, c)
+
+        sol = minimize(
+            cost, x0, method="L-BFGS-B", bounds=list(zip(lower, upper)),
+            options={"maxfun": calls if calls is not None else 15000, "ftol": ftol, "gtol": gtol},
+        )
+        x = np.clip(sol.x, lower, upper)
+        stage = f"no residuals, L-BFGS-B on batch_cost ({sol.nit} iterations): {sol.message}"
+
+    if log.best_x is None:
+        raise all_nan_error("lm", log.nfev)
+    fun = float(np.asarray(problem.batch_cost(x[None, :]), dtype=float).ravel()[0])
+    nfev = log.nfev + 1
+    n_nan = log.n_nan + (0 if np.isfinite(fun) else 1)
+    if not np.isfinite(fun):
+        fun = np.inf
+    return OptimResult(
+        method="lm",
+        x=x,
+        fun=fun,
+        nfev=nfev,
+        wall_s=time.perf_counter() - t_start,
+        history_fmin=np.asarray(log.fmin, dtype=float),
+        history_dist_mean=np.empty(0),
+        n_nan=n_nan,
+        message=f"lm: {stage}; {nfev} evaluations{nan_note(n_nan, nfev)}",
+        names=list(problem.names),
+    )
