@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import warnings
 from pathlib import Path
@@ -19,8 +20,9 @@ from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import KINDS
 
 EXIT_INPUT = 2
+EXIT_INTERNAL = 1
 SOLVERS = ("ls", "lm", "ga", "aco", "bbo", "de", "pso", "bo", "dt", "hybrid")
-CALL_SOLVERS = ("bo", "dt")
+CALL_SOLVERS = ("bo", "dt", "lm")
 
 
 def _add_source_args(p: argparse.ArgumentParser) -> None:
@@ -46,6 +48,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="random seed of stochastic solvers (default 0)")
     p.add_argument("--budget", type=int, help="generations (population solvers) or calls (bo, dt)")
     p.add_argument("--pop", type=int, help="population size of population solvers")
+    p.add_argument("--varpro", action="store_true",
+                   help="variable projection: search only vs/delta/v0, solve the linear parameters in closed form")
 
     p = sub.add_parser("validate", help="cross-test identified parameters on other data")
     _add_source_args(p)
@@ -112,7 +116,7 @@ def cmd_identify(args) -> int:
         opts["pop"] = args.pop
     series = _load(args)
     result = identify(series, system=args.system, friction=args.friction, asymmetric=args.asymmetric,
-                      solver=args.solver, seed=args.seed, **opts).to_dict()
+                      solver=args.solver, seed=args.seed, varpro=args.varpro, **opts).to_dict()
     print_table(result)
     _write_json(args.json, result)
     return 0
@@ -150,6 +154,12 @@ def main(argv: list[str] | None = None) -> int:
         except FrictionIdError as exc:
             code = EXIT_INPUT
             print(f"frictionid: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        except Exception as exc:  # a bug, not bad input: one line unless debugging
+            if os.environ.get("FRICTIONID_DEBUG"):
+                raise
+            code = EXIT_INTERNAL
+            print(f"frictionid: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} "
+                  "(set FRICTIONID_DEBUG=1 for the traceback)", file=sys.stderr)
         for w in caught:
             if issubclass(w.category, UserWarning):
                 print(f"frictionid: warning: {w.message}", file=sys.stderr)

@@ -47,43 +47,101 @@ def build_model(series: JointSeries, system: str, friction: str, asymmetric: boo
 
 
 def identify(series: JointSeries, *, system: str = "emps", friction: str = "coulomb",
-             asymmetric: bool = False, solver: str = "ls", seed: int = 0, **solver_options) -> Identification:
+             asymmetric: bool = False, solver: str = "ls", seed: int = 0, varpro: bool = False,
+             **solver_options) -> Identification:
     """Identify the parameters of ``system`` with ``friction`` from ``series``.
 
-    ``solver`` is ``ls`` (linear models only) or any method of :mod:`frictionid_core.optim`.
+    Args:
+        solver: ``ls`` (models linear in their parameters) or any method of
+            :mod:`frictionid_core.optim` (lm, ga, aco, bbo, de, pso, bo, dt, hybrid).
+        seed: seed of stochastic solvers.
+        varpro: variable projection: the solver searches only the nonlinear friction
+            parameters (vs, delta, v0); every other parameter is solved in closed form for each
+            candidate. Linear models are then solved by ``ls``.
+        **solver_options: budgets (pop, generations, calls) and method options.
     """
     t0 = time.perf_counter()
     model = build_model(series, system, friction, asymmetric)
-    std: dict[str, float] = {}
     extra: dict = {}
-    if solver == "ls":
+    if solver == "ls" or (varpro and model.is_linear):
         if not model.is_linear:
             raise FrictionIdError(
                 f"solver 'ls' needs a model linear in its parameters; '{model.friction.label}' has nonlinear "
                 f"parameter(s) {[model.names[i] for i in model.nonlinear_index]}: use lm, de, pso, ga, … instead"
             )
-        X = model.design()
-        fit = least_squares(X, model.obs.y, [model.names[i] for i in model.linear_index])
+        fit = least_squares(model.design(), model.obs.y, [model.names[i] for i in model.linear_index])
         x = np.empty(model.k)
         x[model.linear_index] = fit.coef
         std = {model.names[i]: float(s) for i, s in zip(model.linear_index, fit.std)}
         cond = fit.cond
     else:
         from frictionid_core.optim import minimize
-        from frictionid_core.optim.problem import Problem
 
-        lo, hi = model.bounds()
-        problem = Problem(names=list(model.names), lower=lo, upper=hi, batch_cost=model.batch_cost,
-                          residuals=model.residuals)
+        problem = _varpro_problem(model) if varpro else _full_problem(model)
         res = minimize(problem, solver, seed=seed, **solver_options)
-        x = res.x
+        x = model.solve_linear(_embed(model, res.x))[0][0] if varpro else res.x
         extra["optimizer"] = res.to_dict()
-        cond = float(np.linalg.cond(model.design(x[None])[0] if not model.is_linear else model.design()))
+        extra["varpro"] = varpro
+        std = _jacobian_std(model, x)
+        cond = float(np.linalg.cond(model.design(x[None])[0]))
     metrics = fit_metrics(model.obs.y, model.predict(x))
+    metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
     metrics["samples"] = int(model.obs.y.size)
     return Identification(system, friction, asymmetric, solver, series.source, list(series.joints),
                           dict(zip(model.names, map(float, x))), std, metrics, time.perf_counter() - t0, extra)
+
+
+def _full_problem(model: IdentificationModel):
+    from frictionid_core.optim.problem import Problem
+
+    lo, hi = model.bounds()
+    return Problem(names=list(model.names), lower=lo, upper=hi, batch_cost=model.batch_cost,
+                   residuals=model.residuals)
+
+
+def _embed(model: IdentificationModel, theta_nl: np.ndarray) -> np.ndarray:
+    """Full parameter rows (P, k) holding the nonlinear parameters ``theta_nl`` (P, m)."""
+    theta_nl = np.atleast_2d(theta_nl)
+    full = np.zeros((theta_nl.shape[0], model.k))
+    full[:, model.nonlinear_index] = theta_nl
+    return full
+
+
+def _varpro_problem(model: IdentificationModel):
+    """The reduced problem over the nonlinear parameters only."""
+    from frictionid_core.optim.problem import Problem
+
+    lo, hi = model.bounds()
+    nl = model.nonlinear_index
+
+    def cost(theta_nl: np.ndarray) -> np.ndarray:
+        return model.solve_linear(_embed(model, theta_nl))[1]
+
+    def residuals(theta_nl: np.ndarray) -> np.ndarray:
+        return model.residuals(model.solve_linear(_embed(model, theta_nl))[0][0])
+
+    return Problem(names=[model.names[i] for i in nl], lower=lo[nl], upper=hi[nl], batch_cost=cost,
+                   residuals=residuals)
+
+
+def _jacobian_std(model: IdentificationModel, x: np.ndarray) -> dict[str, float]:
+    """σ of each estimate from the residual Jacobian at x: std(e)·sqrt(diag((JᵀJ)⁻¹)).
+
+    Central differences, all 2k perturbed predictions in one batched call. NaN where J is
+    rank-deficient (a parameter without influence, e.g. a dip that vanished).
+    """
+    h = 1e-6 * np.maximum(np.abs(x), 1e-3)
+    steps = np.diag(h)
+    pred = model.predict(np.vstack([x + steps, x - steps]))
+    J = (pred[: model.k] - pred[model.k :]).T / (2.0 * h)
+    e = model.residuals(x)
+    try:
+        cov = np.linalg.inv(J.T @ J)
+        sd = np.std(e, ddof=1) * np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    except np.linalg.LinAlgError:
+        sd = np.full(model.k, np.nan)
+    return {n: float(v) for n, v in zip(model.names, sd)}
 
 
 def validate(series: JointSeries, params: dict) -> dict[str, float]:

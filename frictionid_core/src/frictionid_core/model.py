@@ -106,6 +106,24 @@ class IdentificationModel:
         # Fixed design columns of every linear term (R, L); zero column for pure-dip terms.
         self._fixed = np.column_stack([t.fixed if t.fixed is not None else np.zeros(rows) for t in terms])
         self._rows, self._nd = rows, nd
+        self._kernel_args = self._pack_kernel_args()
+
+    def _pack_kernel_args(self) -> tuple:
+        """Flat arrays describing the model for :func:`frictionid_core.kernels.batch_sse`;
+        each dip is compacted to the rows where its branch is active."""
+        nd = self._nd
+        active = [np.flatnonzero(d.mask) for d in self._dips]
+        self._active_speed = [d.speed[i] for d, i in zip(self._dips, active)]
+        i64 = lambda a: np.ascontiguousarray(a, dtype=np.int64)  # noqa: E731
+        cat = lambda parts: np.concatenate(parts) if parts else np.empty(0)  # noqa: E731
+        return (
+            np.ascontiguousarray(self.obs.y), np.ascontiguousarray(self._fixed), i64(self.linear_index),
+            i64([-1 if t.dip_branch is None else t.dip_branch for t in self._terms]),
+            np.array([t.dip_sign for t in self._terms]),
+            i64(np.cumsum([0] + [i.size for i in active])),
+            i64(cat([d.joint * nd + i for d, i in zip(self._dips, active)])),
+            np.ascontiguousarray(cat([d.mask[i] for d, i in zip(self._dips, active)]), dtype=float),
+        )
 
     # ----------------------------------------------------------------- structure
     @property
@@ -160,9 +178,18 @@ class IdentificationModel:
         return pred[0] if single else pred
 
     def batch_cost(self, params: np.ndarray) -> np.ndarray:
-        """Sum of squared torque residuals for a population (P, k) → (P,)."""
-        r = self.obs.y[None, :] - self.predict(np.atleast_2d(params))
-        return np.einsum("pr,pr->p", r, r)
+        """Sum of squared torque residuals for a population (P, k) → (P,) (compiled kernel)."""
+        from frictionid_core.kernels import batch_sse
+
+        p = np.ascontiguousarray(np.atleast_2d(params), dtype=float)
+        if p.shape[1] != self.k:
+            raise FrictionIdError(f"model takes {self.k} parameters {self.names}, got {p.shape[1]}")
+        if self._dips:
+            dip_values = np.concatenate(
+                [self.friction.dip(p[:, d.nl_index], s) for d, s in zip(self._dips, self._active_speed)], axis=1)
+        else:
+            dip_values = np.empty((p.shape[0], 0))
+        return batch_sse(p, *self._kernel_args, dip_values)
 
     def residuals(self, params: np.ndarray) -> np.ndarray:
         """y − ŷ for one parameter vector (k,) → (R,)."""
@@ -170,9 +197,11 @@ class IdentificationModel:
 
     # ------------------------------------------------------- separable structure
     def design(self, theta: np.ndarray | None = None) -> np.ndarray:
-        """Design matrix of the linear parameters: (R, L) for a linear model, else (P, R, L)
-        for the nonlinear parameters held in ``theta`` (P, k) (other entries ignored)."""
-        if self.is_linear:
+        """Design matrix of the linear parameters: (R, L) when ``theta`` is None (linear models),
+        else (P, R, L) for the nonlinear parameters held in ``theta`` (P, k) (other entries ignored)."""
+        if theta is None:
+            if not self.is_linear:
+                raise FrictionIdError(f"{self.friction.label}: the design matrix depends on the nonlinear parameters")
             return self._fixed
         p = np.atleast_2d(theta)
         X = np.broadcast_to(self._fixed, (p.shape[0],) + self._fixed.shape).copy()
@@ -186,18 +215,34 @@ class IdentificationModel:
 
     def solve_linear(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Variable projection: for each row of ``theta`` (P, k) keep its nonlinear entries and
-        solve the linear ones in closed form. Returns (full parameters (P, k), costs (P,))."""
+        solve the linear ones in closed form. Returns (full parameters (P, k), costs (P,)).
+
+        The normal equations are updated from the constant FᵀF with the few dip columns only
+        (dips act on disjoint rows), so a population costs O(P·active rows·L).
+        """
         p = np.array(np.atleast_2d(theta), dtype=float)
-        X = self.design(p)
-        y = self.obs.y
-        if X.ndim == 2:
-            X = X[None]
-        G = np.einsum("prl,prm->plm", X, X)
-        b = np.einsum("prl,r->pl", X, y)
-        coef = np.einsum("plm,pm->pl", np.linalg.pinv(G, rcond=1e-12, hermitian=True), b)
+        F, y = self._fixed, self.obs.y
+        n_pop, n_lin = p.shape[0], F.shape[1]
+        G = np.broadcast_to(F.T @ F, (n_pop, n_lin, n_lin)).copy()
+        b = np.broadcast_to(F.T @ y, (n_pop, n_lin)).copy()
+        signs = np.array([[t.dip_sign if t.dip_branch == k else 0.0 for t in self._terms]
+                          for k in range(len(self._dips))]).reshape(len(self._dips), n_lin)
+        rows = self._kernel_args[6]
+        start = self._kernel_args[5]
+        mask = self._kernel_args[7]
+        for k, (d, speed) in enumerate(zip(self._dips, self._active_speed)):
+            sl = slice(start[k], start[k + 1])
+            v = mask[sl] * self.friction.dip(p[:, d.nl_index], speed)  # (P, n_k) dip column values
+            a = v @ F[rows[sl]]  # Fᵀ·dip, (P, L)
+            outer = a[:, :, None] * signs[k][None, None, :]
+            G += outer + outer.transpose(0, 2, 1) + np.einsum("pn,pn->p", v, v)[:, None, None] * np.outer(signs[k], signs[k])
+            b += (v @ y[rows[sl]])[:, None] * signs[k]
+        scale = 1.0 / np.sqrt(np.maximum(np.einsum("pll->pl", G), np.finfo(float).tiny))
+        Gs = G * scale[:, :, None] * scale[:, None, :] + 1e-12 * np.eye(n_lin)
+        coef = np.linalg.solve(Gs, (b * scale)[..., None])[..., 0] * scale
         p[:, self.linear_index] = coef
-        r = y[None, :] - np.einsum("prl,pl->pr", X, coef)
-        return p, np.einsum("pr,pr->p", r, r)
+        cost = y @ y - 2.0 * np.einsum("pl,pl->p", coef, b) + np.einsum("pl,plm,pm->p", coef, G, coef)
+        return p, np.maximum(cost, 0.0)
 
 
 def _place(col: np.ndarray, j: int, nj: int, nd: int) -> np.ndarray:
