@@ -36,13 +36,14 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import numba
-from numba import njit, prange
+from numba import njit
 
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import KINDS, FrictionModel, get_model
@@ -176,8 +177,7 @@ def _as_data(data) -> EmpsData:
 # -------------------------------------------------------------------------- kernel
 # Members of the population sit in the innermost loops (structure of arrays) so that the
 # compiler vectorises across them; chunks of members run in parallel threads.
-@njit(cache=True, inline="always")
-def _friction_into(kind, asym, eps, th, off, v, sg, out):
+def _friction_py(kind, asym, eps, th, off, v, sg, out):
     """out[i] = τ_f(v[i]; th[:, i]) + off[i]: friction of member i (same formulas and
     parameter order as friction.py; th is (kf, m), the ``_neg`` block in its lower half).
     sg is scratch for sign(v) (or tanh(v/eps)). One loop per kind, branch-free in the
@@ -223,6 +223,10 @@ def _friction_into(kind, asym, eps, th, off, v, sg, out):
             out[i] = th[o, i] * vi + level * sg[i] + off[i]
 
 
+_friction_into = njit(cache=True)(_friction_py)
+_friction_inline = njit(cache=True, inline="always")(_friction_py)
+
+
 @njit(cache=True)
 def friction_batch(kind, asym, eps, theta, v):
     """The kernel's friction for checks: (P, kf) parameters × (N,) velocities → (P, N)."""
@@ -240,92 +244,102 @@ def friction_batch(kind, asym, eps, theta, v):
     return out
 
 
-@njit(cache=True, parallel=True)
-def _simulate(kind, asym, eps, theta_t, mass, offset, gtau, kp, kv, sat, periods, t_ctrl, qg, ext, pulse_k,
-              q0, v0, q_prev0, qf_prev0, u0, nsub, chunk, full, out_q, out_v, out_a, out_u):
-    """Simulate every member (columns of theta_t (kf, P), mass (P,), offset (P,)).
+@njit(cache=True, nogil=True)
+def _simulate_chunk(kind, asym, eps, th, mass, off, gtau, kp, kv, sat, periods, t_ctrl, qg, ext, pulse_k,
+                    q0, v0, q_prev0, qf_prev0, u0, nsub, full, out_q, out_v, out_a, out_u):
+    """Simulate m members (columns of th (kf, m), mass (m,), off (m,)) over the N samples.
 
     ext: (N−1, 2·nsub+1) external voltage at the half sub-steps of each period, or (0, 0);
-    pulse_k: (N,) external voltage at the samples. Writes q (and, if full, v, a, u) at the N
-    samples; a diverging member gets NaN from then on.
+    pulse_k: (N,) external voltage at the samples. Writes q (m, N) and, if full, v, a, u;
+    a diverging member (|q| ≥ 1e6 m or NaN) gets NaN from then on.
     """
-    P = mass.shape[0]
+    m = mass.shape[0]
     n = qg.shape[0]
     has_ext = ext.shape[0] > 0
-    for c in prange((P + chunk - 1) // chunk):
-        lo = c * chunk
-        hi = min(P, lo + chunk)
-        m = hi - lo
-        th = np.ascontiguousarray(theta_t[:, lo:hi])
-        inv_m = 1.0 / mass[lo:hi]
-        off = offset[lo:hi].copy()
-        q = np.full(m, q0)
-        v = np.full(m, v0)
-        q_prev = np.full(m, q_prev0)
-        qf_prev = np.full(m, qf_prev0)
-        uc = np.full(m, u0)
-        u_now = np.empty(m)
-        sg = np.empty(m)
-        fu = np.empty(m)
-        f = np.empty(m)
-        a1 = np.empty(m)
-        a2 = np.empty(m)
-        a3 = np.empty(m)
-        v2 = np.empty(m)
-        v3 = np.empty(m)
-        v4 = np.empty(m)
-        for k in range(n):
-            alive = 0
-            for i in range(m):
-                if not abs(q[i]) < 1e6:  # diverged or NaN: stays NaN
-                    q[i] = np.nan
-                    v[i] = np.nan
-                else:
-                    alive += 1
-                out_q[lo + i, k] = q[i]
-                u_now[i] = min(max(uc[i], -sat), sat)
-                fu[i] = gtau * u_now[i]
-                qf = 0.5 * q[i] + 0.5 * q_prev[i]
-                uc[i] = kv * (kp * (qg[k] - q[i]) - (qf - qf_prev[i]) / t_ctrl)
-                q_prev[i] = q[i]
-                qf_prev[i] = qf
+    inv_m = 1.0 / mass
+    q = np.full(m, q0)
+    v = np.full(m, v0)
+    q_prev = np.full(m, q_prev0)
+    qf_prev = np.full(m, qf_prev0)
+    uc = np.full(m, u0)
+    u_now = np.empty(m)
+    fu = np.empty(m)
+    f = np.empty(m)
+    sg = np.empty(m)
+    V = np.empty((4, m))  # RK4 stage velocities
+    A = np.empty((4, m))  # RK4 stage accelerations
+    for k in range(n):
+        alive = 0
+        for i in range(m):
+            if not abs(q[i]) < 1e6:
+                q[i] = np.nan
+                v[i] = np.nan
+            else:
+                alive += 1
+            out_q[i, k] = q[i]
+            u_now[i] = min(max(uc[i], -sat), sat)
+            fu[i] = gtau * u_now[i]
+            qf = 0.5 * q[i] + 0.5 * q_prev[i]
+            uc[i] = kv * (kp * (qg[k] - q[i]) - (qf - qf_prev[i]) / t_ctrl)
+            q_prev[i] = q[i]
+            qf_prev[i] = qf
+        if k == n - 1:
             if full:
                 _friction_into(kind, asym, eps, th, off, v, sg, f)
                 for i in range(m):
-                    out_v[lo + i, k] = v[i]
-                    out_u[lo + i, k] = u_now[i]
-                    out_a[lo + i, k] = (fu[i] + gtau * pulse_k[k] - f[i]) * inv_m[i]
-            if k == n - 1:
-                break
-            if alive == 0:
-                out_q[lo:hi, k + 1 :] = np.nan
-                if full:
-                    out_v[lo:hi, k + 1 :] = np.nan
-                    out_a[lo:hi, k + 1 :] = np.nan
-                    out_u[lo:hi, k + 1 :] = np.nan
-                break
-            h = periods[k] / nsub
-            for s in range(nsub):
-                e1 = gtau * ext[k, 2 * s] if has_ext else 0.0
-                e2 = gtau * ext[k, 2 * s + 1] if has_ext else 0.0
-                e4 = gtau * ext[k, 2 * s + 2] if has_ext else 0.0
-                _friction_into(kind, asym, eps, th, off, v, sg, f)
+                    out_v[i, k] = v[i]
+                    out_u[i, k] = u_now[i]
+                    out_a[i, k] = (fu[i] + gtau * pulse_k[k] - f[i]) * inv_m[i]
+            break
+        if alive == 0:
+            out_q[:, k + 1 :] = np.nan
+            if full:
+                out_v[:, k:] = np.nan
+                out_a[:, k:] = np.nan
+                out_u[:, k:] = np.nan
+            break
+        h = periods[k] / nsub
+        for s in range(nsub):
+            V[0, :] = v
+            for st in range(4):
+                e = gtau * ext[k, 2 * s + (st + 1) // 2] if has_ext else 0.0
+                _friction_inline(kind, asym, eps, th, off, V[st], sg, f)
                 for i in range(m):
-                    a1[i] = (fu[i] + e1 - f[i]) * inv_m[i]
-                    v2[i] = v[i] + 0.5 * h * a1[i]
-                _friction_into(kind, asym, eps, th, off, v2, sg, f)
+                    A[st, i] = (fu[i] + e - f[i]) * inv_m[i]
+                if st < 3:
+                    c = h if st == 2 else 0.5 * h
+                    for i in range(m):
+                        V[st + 1, i] = v[i] + c * A[st, i]
+            if full and s == 0:  # outputs at the sample: state, held input, acceleration
                 for i in range(m):
-                    a2[i] = (fu[i] + e2 - f[i]) * inv_m[i]
-                    v3[i] = v[i] + 0.5 * h * a2[i]
-                _friction_into(kind, asym, eps, th, off, v3, sg, f)
-                for i in range(m):
-                    a3[i] = (fu[i] + e2 - f[i]) * inv_m[i]
-                    v4[i] = v[i] + h * a3[i]
-                _friction_into(kind, asym, eps, th, off, v4, sg, f)
-                for i in range(m):
-                    a4 = (fu[i] + e4 - f[i]) * inv_m[i]
-                    q[i] += h / 6.0 * (v[i] + 2.0 * v2[i] + 2.0 * v3[i] + v4[i])
-                    v[i] += h / 6.0 * (a1[i] + 2.0 * a2[i] + 2.0 * a3[i] + a4)
+                    out_v[i, k] = v[i]
+                    out_u[i, k] = u_now[i]
+                    out_a[i, k] = A[0, i]
+            for i in range(m):
+                q[i] += h / 6.0 * (V[0, i] + 2.0 * V[1, i] + 2.0 * V[2, i] + V[3, i])
+                v[i] += h / 6.0 * (A[0, i] + 2.0 * A[1, i] + 2.0 * A[2, i] + A[3, i])
+
+
+_POOL: ThreadPoolExecutor | None = None
+
+
+def _workers() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _map_chunks(fn, chunks: list) -> None:
+    """Run fn(lo, hi) for every chunk, in threads when there are several (the kernel drops the GIL)."""
+    global _POOL
+    if len(chunks) == 1:
+        fn(*chunks[0])
+        return
+    if _POOL is None:
+        _POOL = ThreadPoolExecutor(max_workers=_workers(), thread_name_prefix="frictionid-sim")
+    for fut in [_POOL.submit(fn, lo, hi) for lo, hi in chunks]:
+        fut.result()
 
 
 # ----------------------------------------------------------------------- simulator
@@ -460,19 +474,26 @@ class EmpsSimulator:
     def _run(self, p: np.ndarray, full: bool):
         P, n = p.shape[0], self.t.size
         nf = len(self.friction.names)
-        theta_t = np.ascontiguousarray(p[:, 1 : 1 + nf].T)
-        off = p[:, -1].copy() if self.offset else np.zeros(P)
-        # one chunk of members per thread, at least 8 members per chunk (vector width)
-        chunks = max(1, min(numba.get_num_threads(), P // 8))
-        chunk = -(-P // chunks)
+        theta_t = p[:, 1 : 1 + nf].T
+        off = p[:, -1] if self.offset else np.zeros(P)
         out_q = np.empty((P, n))
         shape = (P, n) if full else (0, 0)
         out_v, out_a, out_u = np.empty(shape), np.empty(shape), np.empty(shape)
         d = self.data
+        kind = KINDS.index(self.friction.kind)
+        # one chunk per core, at least 8 members each (the kernel vectorises across members)
+        n_chunks = max(1, min(_workers(), P // 8))
+        bounds = np.linspace(0, P, n_chunks + 1).round().astype(int)
+
+        def run(lo: int, hi: int) -> None:
+            rows = slice(lo, hi) if full else slice(0, 0)
+            _simulate_chunk(kind, self.friction.asymmetric, self.eps, np.ascontiguousarray(theta_t[:, lo:hi]),
+                            p[lo:hi, 0].copy(), off[lo:hi].copy(), d.gtau, d.kp, d.kv, self.saturation,
+                            self.periods, self.t_ctrl, self.qg, self.ext, self.pulse_at_samples, *self.initial,
+                            self.substeps, full, out_q[lo:hi], out_v[rows], out_a[rows], out_u[rows])
+
         with np.errstate(all="ignore"):
-            _simulate(KINDS.index(self.friction.kind), self.friction.asymmetric, self.eps, theta_t,
-                      p[:, 0].copy(), off, d.gtau, d.kp, d.kv, self.saturation, self.periods, self.t_ctrl,
-                      self.qg, self.ext, self.pulse_at_samples, *self.initial, self.substeps, chunk, full, out_q, out_v, out_a, out_u)
+            _map_chunks(run, list(zip(bounds[:-1], bounds[1:])))
         return out_q, out_v, out_a, out_u
 
     def simulate(self, params) -> EmpsSimulation:

@@ -9,16 +9,19 @@ Thesis settings (tables 6.11, 6.16): population 50, 100 generations, 2 elites
   and gives NaN/inf costs the lowest probability; ``selection="tournament"`` uses binary
   tournaments instead;
 * crossover: with probability ``crossover_rate`` (0.8, MATLAB's default crossover
-  fraction; not given in the thesis) the two parents swap all genes after one random cut
-  point (single-point crossover; needs k >= 2);
+  fraction; not given in the thesis) single-point crossover at a random gene c: the genes
+  after c are swapped and, with ``crossover="blend"`` (default; the continuous single-point
+  crossover of Haupt & Haupt, *Practical Genetic Algorithms*, §3.2.4), gene c itself becomes
+  m_c − β(m_c − f_c) and f_c + β(m_c − f_c) with β ~ U(0, 1), so crossover also creates new
+  values; ``crossover="swap"`` only swaps (cut point drawn in 1…k−1);
 * mutation: each gene of each child mutates with probability ``mutation_rate``.
   ``mutation="gaussian"`` (default) adds N(0, sigma_g) with sigma_g shrinking linearly from
   ``mutation_scale`` (fraction of the bound range) at generation 1 to 0 at the last one
   (MATLAB ``mutationgaussian`` with shrink 1); ``mutation="uniform"`` redraws the gene
   uniformly in its bounds (MATLAB ``mutationuniform``). Single-point crossover only
   reshuffles existing gene values, so the mutation operator is the GA's only source of
-  new values: uniform redraws make it a random search per gene, the shrinking Gaussian
-  lets it refine.
+  new values with ``crossover="swap"``: uniform redraws then make it a random search per
+  gene, the shrinking Gaussian lets it refine.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from frictionid_core.optim._engine import PopulationRun, check_count, check_frac
 from frictionid_core.optim.problem import OptimResult, Problem
 
 SELECTIONS = ("roulette", "tournament")
+CROSSOVERS = ("blend", "swap")
 MUTATIONS = ("gaussian", "uniform")
 
 
@@ -45,6 +49,7 @@ def solve(
     selection: str = "roulette",
     mutation: str = "gaussian",
     mutation_scale: float = 0.1,
+    crossover: str = "blend",
 ) -> OptimResult:
     """Minimise ``problem`` with a real-coded GA.
 
@@ -58,6 +63,7 @@ def solve(
         selection: "roulette" (rank-scaled fitness) or "tournament" (binary).
         mutation: "gaussian" (shrinking, default) or "uniform" (redraw in bounds).
         mutation_scale: initial Gaussian sigma as a fraction of each bound range.
+        crossover: "blend" (single-point with a blended cut gene, default) or "swap".
     """
     pop = check_count(pop, "pop", "ga", minimum=2)
     generations = check_count(generations, "generations", "ga")
@@ -68,6 +74,8 @@ def solve(
     mutation_scale = check_fraction(mutation_scale, "mutation_scale", "ga", 0.0, 10.0)
     if selection not in SELECTIONS:
         raise OptimError(f"ga: selection must be one of {SELECTIONS}, got {selection!r}")
+    if crossover not in CROSSOVERS:
+        raise OptimError(f"ga: crossover must be one of {CROSSOVERS}, got {crossover!r}")
     if mutation not in MUTATIONS:
         raise OptimError(f"ga: mutation must be one of {MUTATIONS}, got {mutation!r}")
     k = problem.k
@@ -90,12 +98,19 @@ def solve(
             contenders = rng.integers(0, pop, size=(2 * n_pairs, 2))
             parents = contenders.min(axis=1)  # sorted population: lower index = better
         mother, father = u[parents[0::2]], u[parents[1::2]]
-        if k > 1:
-            cut = rng.integers(1, k, size=n_pairs)
-            swap = (genes[None, :] >= cut[:, None]) & (rng.random(n_pairs) < crossover_rate)[:, None]
+        crossing = (rng.random(n_pairs) < crossover_rate)[:, None]
+        if crossover == "blend":
+            cut = rng.integers(0, k, size=n_pairs)
+            beta = rng.random(n_pairs)[:, None]
+            swap = (genes[None, :] > cut[:, None]) & crossing
+            at_cut = (genes[None, :] == cut[:, None]) & crossing
+            spread = beta * (mother - father)
+            first = np.where(swap, father, np.where(at_cut, mother - spread, mother))
+            second = np.where(swap, mother, np.where(at_cut, father + spread, father))
         else:
-            swap = np.zeros((n_pairs, 1), dtype=bool)
-        children = np.concatenate((np.where(swap, father, mother), np.where(swap, mother, father)))[:n_children]
+            swap = (genes[None, :] >= rng.integers(1, max(k, 2), size=n_pairs)[:, None]) & crossing & (k > 1)
+            first, second = np.where(swap, father, mother), np.where(swap, mother, father)
+        children = np.concatenate((first, second))[:n_children]
         mutate = rng.random((n_children, k)) < mutation_rate
         if mutation == "gaussian":
             sigma = mutation_scale * (1.0 - (g - 1) / max(generations - 1, 1))
@@ -108,6 +123,6 @@ def solve(
         f = np.concatenate((f[:elites], f_children))
         run.record(u)
     return run.result(
-        f"{selection} selection, single-point crossover {crossover_rate:g}, {mutation} mutation "
+        f"{selection} selection, single-point {crossover} crossover {crossover_rate:g}, {mutation} mutation "
         f"{mutation_rate:g}, {elites} elites, {generations} generations x {pop} population"
     )

@@ -1,0 +1,88 @@
+"""Identification with optimisers on the EMPS bag: the fused cost, variable projection,
+global methods reaching the linear optimum, and the nesting rule."""
+
+import json
+
+import numpy as np
+import pytest
+
+from conftest import EMPS_ESTIMATION
+from frictionid_core.cli import main
+from frictionid_core.friction import all_models
+from frictionid_core.identify import build_model, identify
+
+MODELS = [(m.kind, m.asymmetric) for m in all_models()]
+
+
+@pytest.fixture(scope="module")
+def coulomb_ls(emps_estimation):
+    return identify(emps_estimation, friction="coulomb", solver="ls")
+
+
+@pytest.mark.parametrize("kind,asym", MODELS)
+def test_fused_cost_equals_numpy_prediction(emps_estimation, kind, asym):
+    model = build_model(emps_estimation, "emps", kind, asym)
+    lo, hi = model.bounds()
+    pop = lo + (hi - lo) * np.random.default_rng(3).random((17, model.k))
+    r = model.obs.y[None, :] - model.predict(pop)
+    # Same sums in another order: agreement to a few ulps of the cost.
+    np.testing.assert_allclose(model.batch_cost(pop), np.einsum("pr,pr->p", r, r), rtol=1e-12)
+
+
+@pytest.mark.parametrize("kind,asym", MODELS)
+def test_variable_projection_is_the_least_squares_optimum(emps_estimation, kind, asym):
+    model = build_model(emps_estimation, "emps", kind, asym)
+    lo, hi = model.bounds()
+    pop = lo + (hi - lo) * np.random.default_rng(4).random((5, model.k))
+    full, cost = model.solve_linear(pop)
+    np.testing.assert_array_equal(full[:, model.nonlinear_index], pop[:, model.nonlinear_index])
+    # The returned cost is the cost of the returned parameters ...
+    np.testing.assert_allclose(cost, model.batch_cost(full), rtol=1e-9)
+    # ... and no other choice of the linear parameters does better (dense lstsq per candidate).
+    for i in range(len(pop)):
+        X = model.design(full[i : i + 1])[0]
+        coef = np.linalg.lstsq(X, model.obs.y, rcond=None)[0]
+        best = np.sum((model.obs.y - X @ coef) ** 2)
+        assert cost[i] <= best * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("solver,options", [("de", {}), ("pso", {}), ("ga", {"mutation_rate": 0.2})])
+def test_global_methods_reach_the_ls_optimum_on_coulomb(emps_estimation, coulomb_ls, solver, options):
+    """Issue target: DE, PSO and GA at the thesis budget (50 × 100) reach the LS cost within 0.1 %.
+
+    The GA needs a per-gene mutation rate of 0.2: with the thesis's 0.02 it stalls 0.5–70 %
+    above the optimum (8 seeds), since only mutation and the blended cut gene create new values.
+    """
+    res = identify(emps_estimation, friction="coulomb", solver=solver, seed=1, **options)
+    assert res.metrics["cost"] <= coulomb_ls.metrics["cost"] * 1.001
+    assert res.extra["optimizer"]["nfev"] >= 50 + 99 * 48  # 50 × 100 (ga does not re-evaluate its 2 elites)
+    assert len(res.extra["optimizer"]["history_fmin"]) == 100
+
+
+def test_tustin_asymmetric_by_local_search_beats_the_thesis(emps_estimation, coulomb_ls):
+    """Thesis Table 6.3: Tustin-asymmetric OSA relative error 3.0276 %; ours ≤ 3.03 %, and never
+    worse than the nested linear model (Coulomb-asymmetric, 3.1117 %)."""
+    res = identify(emps_estimation, friction="tustin", asymmetric=True, solver="lm", varpro=True)
+    assert res.metrics["relerr_pct"] <= 3.03
+    nested = identify(emps_estimation, friction="coulomb", asymmetric=True, solver="ls")
+    assert res.metrics["cost"] <= nested.metrics["cost"]
+    assert np.isfinite(list(res.std.values())).all()
+
+
+@pytest.mark.parametrize("kind", ["threlfall", "tustin", "stribeck"])
+def test_nonlinear_models_never_worse_than_the_nested_linear_optimum(emps_estimation, coulomb_ls, kind):
+    res = identify(emps_estimation, friction=kind, solver="hybrid", varpro=True, seed=0, pop=20, generations=20)
+    assert res.metrics["cost"] <= coulomb_ls.metrics["cost"] * (1 + 1e-9)
+
+
+def test_cli_writes_optimiser_histories(tmp_path, capsys):
+    out = tmp_path / "r.json"
+    code = main(["identify", str(EMPS_ESTIMATION), "--friction", "tustin", "--solver", "de",
+                 "--varpro", "--pop", "10", "--budget", "15", "--seed", "2", "--json", str(out)])
+    assert code == 0
+    d = json.loads(out.read_text())
+    opt = d["optimizer"]
+    assert opt["method"] == "de" and d["varpro"] is True
+    assert len(opt["history_fmin"]) == 15 and len(opt["history_dist_mean"]) == 15
+    assert np.all(np.diff(opt["history_fmin"]) <= 0)
+    assert d["wall_s"] > 0 and set(d["params"]) == {"M", "Fv", "Fc", "Fs", "vs", "offset"}
