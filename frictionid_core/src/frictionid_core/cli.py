@@ -48,6 +48,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="random seed of stochastic solvers (default 0)")
     p.add_argument("--budget", type=int, help="generations (population solvers) or calls (bo, dt)")
     p.add_argument("--pop", type=int, help="population size of population solvers")
+    p.add_argument("--bounds", action="append", default=[], metavar="NAME=LO:HI",
+                   help="search bounds of a parameter or family (e.g. vs=1e-4:1); repeatable")
+    p.add_argument("--cutoff", type=float, help="Butterworth cut-off on position, Hz (default: the system's)")
+    p.add_argument("--decimate", type=int, help="decimation factor (default: the system's)")
+    p.add_argument("--trim", type=int, help="samples dropped at the start (default: the system's)")
     p.add_argument("--varpro", action="store_true",
                    help="variable projection: search only vs/delta/v0, solve the linear parameters in closed form")
 
@@ -106,6 +111,32 @@ def _write_json(path: Path | None, data: dict) -> None:
     tmp.replace(path)
 
 
+def _parse_bounds(items: list[str]) -> dict[str, tuple[float, float]]:
+    out = {}
+    for item in items:
+        name, _, rng = item.partition("=")
+        lo, _, hi = rng.partition(":")
+        try:
+            out[name.strip()] = (float(lo), float(hi))
+        except ValueError:
+            raise FrictionIdError(f"--bounds '{item}': expected NAME=LO:HI, e.g. vs=1e-4:1") from None
+    return out
+
+
+def _preprocessing(args):
+    from dataclasses import replace
+
+    from frictionid_core.systems import get_system
+
+    changes = {k: v for k, v in (("cutoff_hz", args.cutoff), ("decimate", args.decimate),
+                                 ("trim_start", args.trim)) if v is not None}
+    if not changes:
+        return None
+    if changes.get("decimate", 1) < 1 or changes.get("trim_start", 0) < 0:
+        raise FrictionIdError("--decimate must be ≥ 1 and --trim ≥ 0")
+    return replace(get_system(args.system).preprocessing, **changes)
+
+
 def cmd_identify(args) -> int:
     from frictionid_core.identify import identify
 
@@ -116,7 +147,8 @@ def cmd_identify(args) -> int:
         opts["pop"] = args.pop
     series = _load(args)
     result = identify(series, system=args.system, friction=args.friction, asymmetric=args.asymmetric,
-                      solver=args.solver, seed=args.seed, varpro=args.varpro, **opts).to_dict()
+                      solver=args.solver, seed=args.seed, varpro=args.varpro, bounds=_parse_bounds(args.bounds),
+                      preprocessing=_preprocessing(args), **opts).to_dict()
     print_table(result)
     _write_json(args.json, result)
     return 0

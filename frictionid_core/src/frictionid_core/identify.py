@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -12,6 +12,7 @@ from frictionid_core.friction import get_model
 from frictionid_core.linear import least_squares
 from frictionid_core.metrics import fit_metrics
 from frictionid_core.model import IdentificationModel
+from frictionid_core.preprocess import Preprocessing
 from frictionid_core.systems import get_system, observe
 from frictionid_core.timeseries import JointSeries
 
@@ -39,15 +40,22 @@ class Identification:
         return d
 
 
-def build_model(series: JointSeries, system: str, friction: str, asymmetric: bool) -> IdentificationModel:
-    """The identification model of ``system`` + ``friction`` on the data of ``series``."""
+def build_model(series: JointSeries, system: str, friction: str, asymmetric: bool,
+                preprocessing: Preprocessing | None = None,
+                bounds: dict[str, tuple[float, float]] | None = None) -> IdentificationModel:
+    """The identification model of ``system`` + ``friction`` on the data of ``series``.
+
+    ``preprocessing`` overrides the system's default; ``bounds`` overrides search bounds.
+    """
     sys_ = get_system(system)
-    obs = observe(series, sys_)
-    return IdentificationModel(obs, get_model(friction, asymmetric), rigid_bounds=dict(sys_.rigid_bounds))
+    obs = observe(series, sys_, preprocessing)
+    return IdentificationModel(obs, get_model(friction, asymmetric), rigid_bounds=dict(sys_.rigid_bounds),
+                               bound_overrides=dict(bounds or {}))
 
 
 def identify(series: JointSeries, *, system: str = "emps", friction: str = "coulomb",
              asymmetric: bool = False, solver: str = "ls", seed: int = 0, varpro: bool = False,
+             preprocessing: Preprocessing | None = None, bounds: dict[str, tuple[float, float]] | None = None,
              **solver_options) -> Identification:
     """Identify the parameters of ``system`` with ``friction`` from ``series``.
 
@@ -58,11 +66,14 @@ def identify(series: JointSeries, *, system: str = "emps", friction: str = "coul
         varpro: variable projection: the solver searches only the nonlinear friction
             parameters (vs, delta, v0); every other parameter is solved in closed form for each
             candidate. Linear models are then solved by ``ls``.
+        preprocessing: filter/decimation settings (default: the system's).
+        bounds: {name: (lo, hi)} search-bound overrides (see ``IdentificationModel``).
         **solver_options: budgets (pop, generations, calls) and method options.
     """
     t0 = time.perf_counter()
-    model = build_model(series, system, friction, asymmetric)
-    extra: dict = {}
+    settings = preprocessing or get_system(system).preprocessing
+    model = build_model(series, system, friction, asymmetric, settings, bounds)
+    extra: dict = {"preprocessing": asdict(settings)}
     if solver == "ls" or (varpro and model.is_linear):
         if not model.is_linear:
             raise FrictionIdError(
@@ -145,9 +156,11 @@ def _jacobian_std(model: IdentificationModel, x: np.ndarray) -> dict[str, float]
 
 
 def validate(series: JointSeries, params: dict) -> dict[str, float]:
-    """Cross-test: metrics of the identified ``params`` (an :meth:`Identification.to_dict`) on ``series``."""
+    """Cross-test: metrics of the identified ``params`` (an :meth:`Identification.to_dict`) on ``series``,
+    pre-processed as in the identification."""
     try:
-        model = build_model(series, params["system"], params["friction"], bool(params["asymmetric"]))
+        settings = Preprocessing(**params["preprocessing"]) if "preprocessing" in params else None
+        model = build_model(series, params["system"], params["friction"], bool(params["asymmetric"]), settings)
         values = params["params"]
         x = np.array([values[n] for n in model.names], dtype=float)
     except KeyError as exc:

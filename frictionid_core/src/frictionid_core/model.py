@@ -51,12 +51,15 @@ class IdentificationModel:
         friction: the friction model, applied to every joint.
         offset: include a constant offset per joint (default: symmetric models only).
         rigid_bounds: {rigid name: (lo, hi)} search bounds of the rigid-body parameters.
+        bound_overrides: {name: (lo, hi)} replacing default bounds; a name may be a full
+            parameter name (``joint_2/vs_pos``), a base name (``vs_pos``) or a family (``vs``).
     """
 
     obs: Observation
     friction: FrictionModel
     offset: bool | None = None
     rigid_bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
+    bound_overrides: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.offset is None:
@@ -147,6 +150,16 @@ class IdentificationModel:
         if self.offset:
             scale = float(np.max(np.abs(self.obs.y))) if self.obs.y.size else 1.0
             lo[-len(self.obs.joints):], hi[-len(self.obs.joints):] = -0.5 * scale, 0.5 * scale
+        unknown = set(self.bound_overrides)
+        for i, name in enumerate(self.names):
+            base = name.rsplit("/", 1)[-1]
+            for key in (name, base, base.removesuffix("_pos").removesuffix("_neg")):
+                if key in self.bound_overrides:
+                    lo[i], hi[i] = self.bound_overrides[key]
+                    unknown.discard(key)
+                    break
+        if unknown:
+            raise FrictionIdError(f"bounds given for unknown parameter(s) {sorted(unknown)}; parameters: {self.names}")
         return lo, hi
 
     # --------------------------------------------------------------- prediction
