@@ -244,6 +244,8 @@ def test_emps_estimation_bag_facts(emps_estimation):
     # 1 kHz: mean period 1 ms and no stamp far from it (no resampling would be triggered).
     assert s.dt == pytest.approx(1e-3, abs=1e-12)
     assert np.max(np.abs(np.diff(s.t) - 1e-3)) < 1e-6
+    tec = s.meta.pop("tec")  # t(10) − t(9) of the MAT file: the benchmark clock period
+    assert tec == pytest.approx(0.999983961e-3, abs=1e-12)
     assert s.meta == {"gtau": 35.15065188248547, "kp": 160.18, "kv": 243.45}
     assert s.velocity is None and s.notes == []
     assert s.source == f"{EMPS_ESTIMATION}:/joint_states"

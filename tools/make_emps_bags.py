@@ -5,7 +5,8 @@ Usage: python tools/make_emps_bags.py [EMPS_DATA_DIR] [OUT_DIR]
   /joint_states     sensor_msgs/JointState  position = qm (m), effort = gtau·vir (N)
   /joint_reference  sensor_msgs/JointState  position = qg (m), the position set-point
   /drive_pulses     sensor_msgs/JointState  effort = pulses_N (V) added after saturation (validation only)
-Bag custom data holds gtau (N/V), kp (1/s) and kv (V·s/m).
+Bag custom data holds gtau (N/V), kp (1/s), kv (V·s/m) and tec (s), the period t(10) − t(9)
+the benchmark's Simulink model runs at.
 """
 
 import shutil
@@ -23,6 +24,7 @@ def main() -> None:
     out_dir = Path(sys.argv[2]) if len(sys.argv) > 2 else ROOT / "bags"
     for mat, name in (("DATA_EMPS.mat", "emps_estimation"), ("DATA_EMPS_PULSES.mat", "emps_validation")):
         series = load_emps_mat(data_dir / mat)
+        series.meta["tec"] = float(series.t[9] - series.t[8])  # the benchmark clock period, s
         extra = {"/joint_reference": ("position", series.extras["qg"])}
         if "pulses" in series.extras:
             extra["/drive_pulses"] = ("effort", series.extras["pulses"])

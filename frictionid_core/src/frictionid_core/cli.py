@@ -2,6 +2,7 @@
 
     frictionid identify SOURCE --system emps --friction coulomb [--asymmetric] --solver ls --json OUT
     frictionid validate SOURCE --params OUT.json [--json V.json]
+    frictionid simulate emps --params OUT.json --data FILE [--clock true|benchmark] [--json S.json]
 
 Errors in the input are reported as one line on stderr with exit code 2.
 """
@@ -59,6 +60,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("validate", help="cross-test identified parameters on other data")
     _add_source_args(p)
     p.add_argument("--params", type=Path, required=True, help="JSON written by 'frictionid identify'")
+
+    from frictionid_core import simulation
+
+    COMMANDS["simulate"] = simulation.register(sub)
     _add_plugin_commands(sub)
     return parser
 

@@ -1,8 +1,8 @@
 """Closed-loop simulation of the EMPS, the benchmark's reference model (SPEC §5.3).
 
-Discrete P/PD-on-velocity position controller with period T, unit delay, ±10 V saturation,
-plant M·q̈ = gtau·(u + pulses) − τ_f(q̇) − offset integrated by RK4 with ``substeps`` steps
-per period (the benchmark's Simulink run: ode45, MaxStep T/10)::
+Discrete position controller (period T) with velocity feedback, one-sample delay and ±10 V
+saturation; plant M·q̈ = gtau·(u + pulses) − τ_f(q̇) − offset integrated by RK4 with
+``substeps`` steps per period (the benchmark's Simulink run: ode45, MaxStep T/10)::
 
     qf(k)    = 0.5·q(k) + 0.5·q(k−1)
     q̇_est(k) = (qf(k) − qf(k−1)) / T
@@ -29,7 +29,7 @@ are the plant's own; force = gtau·(u + pulses) against the recorded gtau·vir.
 
 Parameter vector: ``M`` (kg), the friction model's parameters, then ``offset`` (N;
 symmetric models only), as written by ``frictionid identify``. A population (P, k) is
-simulated in one call by a numba kernel (members in parallel).
+simulated in one call by a numba kernel (vectorised across members, chunks in threads).
 """
 
 from __future__ import annotations
@@ -74,6 +74,8 @@ class EmpsData:
         force: recorded drive force gtau·vir, N (vir includes the pulses when there are any).
         pulses: voltage added after saturation, V, or None.
         gtau: drive gain, N/V. kp: position gain, 1/s. kv: velocity gain, V·s/m.
+        tec: the benchmark clock's period, s, when known better than the stamps tell
+            (meta ``tec``; default t(10) − t(9)).
     """
 
     t: np.ndarray
@@ -85,12 +87,16 @@ class EmpsData:
     kv: float
     pulses: np.ndarray | None = None
     source: str = ""
+    tec: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("t", "qm", "qg", "force") + (("pulses",) if self.pulses is not None else ()):
             arr = np.asarray(getattr(self, name), dtype=float).ravel()
             if arr.size != np.size(self.t):
-                raise InputError(f"{self.source}: EMPS signal '{name}' has {arr.size} samples for {np.size(self.t)} stamps")
+                raise InputError(f"{self.source}: EMPS signal '{name}' has {arr.size} samples "
+                                 f"for {np.size(self.t)} stamps")
+            if not np.all(np.isfinite(arr)):
+                raise InputError(f"{self.source}: EMPS signal '{name}' has NaN/inf samples")
             setattr(self, name, arr)
         if self.t.size < 10:
             raise InputError(f"{self.source}: {self.t.size} samples are too few to simulate the EMPS")
@@ -107,7 +113,7 @@ class EmpsData:
         pulses = series.extras.get("pulses")
         return cls(series.t, series.position[:, 0], np.ravel(series.extras["qg"]), series.effort[:, 0],
                    float(series.meta["gtau"]), float(series.meta["kp"]), float(series.meta["kv"]),
-                   None if pulses is None else np.ravel(pulses), series.source)
+                   None if pulses is None else np.ravel(pulses), series.source, series.meta.get("tec"))
 
 
 def load_emps(source: str | Path) -> EmpsData:
@@ -120,50 +126,16 @@ def load_emps(source: str | Path) -> EmpsData:
         from frictionid_core.io.mat import load_emps_mat
 
         return EmpsData.from_series(load_emps_mat(path))
-    from frictionid_core.io.bag import load_bag
+    from frictionid_core.io.bag import list_topics, load_bag
+    from frictionid_core.io.checks import check_series
 
-    series = load_bag(path)
-    signals = _read_bag_signals(path, {REFERENCE_TOPIC: "position", PULSES_TOPIC: "effort"})
-    if REFERENCE_TOPIC not in signals:
+    topics = list_topics(path)
+    if REFERENCE_TOPIC not in topics:
         raise InputError(f"{path}: no {REFERENCE_TOPIC} topic (the position set-point qg)")
-    for name, topic in (("qg", REFERENCE_TOPIC), ("pulses", PULSES_TOPIC)):
-        if topic in signals:
-            stamps, values = signals[topic]
-            t = (stamps - signals["t0"]) * 1e-9
-            same = t.size == series.t.size and np.max(np.abs(t - series.t)) < 1e-6
-            series.extras[name] = values if same else np.interp(series.t, t, values)
-    return EmpsData.from_series(series)
-
-
-def _read_bag_signals(path: Path, wanted: dict[str, str]) -> dict:
-    """{topic: (stamps ns, first-joint values of one field)} of JointState side topics, plus
-    "t0" (first /joint_states stamp, ns). Reads fields the JointState loader rejects as empty."""
-    from rosbags.highlevel import AnyReader
-    from rosbags.typesys import Stores, get_typestore
-
-    out: dict = {}
-    with AnyReader([path], default_typestore=get_typestore(Stores.ROS2_KILTED)) as reader:
-        for topic in list(wanted) + ["/joint_states"]:
-            conns = [c for c in reader.connections if c.topic == topic]
-            if not conns:
-                continue
-            stamps, values = [], []
-            for conn, bag_ns, raw in reader.messages(connections=conns):
-                msg = reader.deserialize(raw, conn.msgtype)
-                st = int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
-                stamps.append(st or bag_ns)
-                if topic != "/joint_states":
-                    arr = getattr(msg, wanted[topic])
-                    if len(arr) < 1:
-                        raise InputError(f"{path}: topic '{topic}': field '{wanted[topic]}' is empty")
-                    values.append(float(arr[0]))
-            stamps = np.asarray(stamps, dtype=np.int64)
-            if topic == "/joint_states":
-                out["t0"] = int(stamps.min())
-            else:
-                order = np.argsort(stamps, kind="stable")
-                out[topic] = (stamps[order], np.asarray(values)[order])
-    return out
+    extras = {"qg": (REFERENCE_TOPIC, "position")}
+    if PULSES_TOPIC in topics:
+        extras["pulses"] = (PULSES_TOPIC, "effort")
+    return EmpsData.from_series(check_series(load_bag(path, extras=extras)))
 
 
 def _as_data(data) -> EmpsData:
@@ -177,11 +149,12 @@ def _as_data(data) -> EmpsData:
 # -------------------------------------------------------------------------- kernel
 # Members of the population sit in the innermost loops (structure of arrays) so that the
 # compiler vectorises across them; chunks of members run in parallel threads.
-def _friction_py(kind, asym, eps, th, off, v, sg, out):
+@njit(cache=True)
+def _friction_into(kind, asym, eps, th, off, cut, v, sg, out):
     """out[i] = τ_f(v[i]; th[:, i]) + off[i]: friction of member i (same formulas and
     parameter order as friction.py; th is (kf, m), the ``_neg`` block in its lower half).
-    sg is scratch for sign(v) (or tanh(v/eps)). One loop per kind, branch-free in the
-    members, so that it vectorises."""
+    cut (2, m): speeds (v > 0, v < 0) above which the Stribeck term is below e^−40 of
+    (Fs − Fc) and skipped (see _stribeck_cutoffs). sg is scratch for sign(v) or tanh(v/eps)."""
     nb = th.shape[0] // 2 if asym else 0
     m = v.shape[0]
     if eps > 0.0:
@@ -197,34 +170,50 @@ def _friction_py(kind, asym, eps, th, off, v, sg, out):
             fv = th[nb, i] if neg else th[0, i]
             fc = th[nb + 1, i] if neg else th[1, i]
             out[i] = fv * vi + fc * sg[i] + off[i]
-    elif kind == 1:
-        for i in range(m):
-            vi = v[i]
-            neg = vi < 0.0
-            o = nb if neg else 0
-            a = abs(vi)
-            fc = th[o + 1, i]
+        return
+    for i in range(m):
+        vi = v[i]
+        neg = vi < 0.0
+        o = nb if neg else 0
+        a = abs(vi)
+        fc = th[o + 1, i]
+        level = fc
+        if kind == 1:
             v0 = th[o + 2, i]
-            level = fc * (1.0 - math.exp(-3.0 * a / v0)) / _E3 if a <= v0 else fc
-            out[i] = th[o, i] * vi + level * sg[i] + off[i]
-    elif kind == 2:
-        for i in range(m):
-            vi = v[i]
-            o = nb if vi < 0.0 else 0
-            fc = th[o + 1, i]
-            level = fc + (th[o + 2, i] - fc) * math.exp(-abs(vi) / th[o + 3, i])
-            out[i] = th[o, i] * vi + level * sg[i] + off[i]
-    else:
-        for i in range(m):
-            vi = v[i]
-            o = nb if vi < 0.0 else 0
-            fc = th[o + 1, i]
-            level = fc + (th[o + 2, i] - fc) * math.exp(-((abs(vi) / th[o + 3, i]) ** th[o + 4, i]))
-            out[i] = th[o, i] * vi + level * sg[i] + off[i]
+            if a <= v0:
+                level = fc * (1.0 - math.exp(-3.0 * a / v0)) / _E3
+        elif a < cut[1 if neg else 0, i]:
+            if kind == 2:
+                level = fc + (th[o + 2, i] - fc) * math.exp(-a / th[o + 3, i])
+            else:
+                level = fc + (th[o + 2, i] - fc) * math.exp(-((a / th[o + 3, i]) ** th[o + 4, i]))
+        out[i] = th[o, i] * vi + level * sg[i] + off[i]
 
 
-_friction_into = njit(cache=True)(_friction_py)
-_friction_inline = njit(cache=True, inline="always")(_friction_py)
+@njit(cache=True)
+def _stribeck_cutoffs(kind, asym, th):
+    """(2, m) speeds (v > 0, v < 0) where the Stribeck exponent reaches 40: vs·40^(1/δ)."""
+    m = th.shape[1]
+    cut = np.full((2, m), np.inf)
+    if kind >= 2:
+        nb = th.shape[0] // 2 if asym else 0
+        for b in range(2):
+            o = nb * b
+            for i in range(m):
+                cut[b, i] = th[o + 3, i] * (40.0 if kind == 2 else 40.0 ** (1.0 / th[o + 4, i]))
+    return cut
+
+
+@njit(cache=True, inline="always")
+def _coulomb_into(asym, th, off, v, out):
+    """The Coulomb + viscous case of _friction_into with a hard sign, inlined into the kernel."""
+    nb = th.shape[0] // 2 if asym else 0
+    for i in range(v.shape[0]):
+        vi = v[i]
+        neg = vi < 0.0
+        fv = th[nb, i] if neg else th[0, i]
+        fc = th[nb + 1, i] if neg else th[1, i]
+        out[i] = fv * vi + fc * ((1.0 if vi > 0.0 else 0.0) - (1.0 if neg else 0.0)) + off[i]
 
 
 @njit(cache=True)
@@ -237,9 +226,10 @@ def friction_batch(kind, asym, eps, theta, v):
     col = np.empty(P)
     sg = np.empty(P)
     vv = np.empty(P)
+    cut = _stribeck_cutoffs(kind, asym, th)
     for j in range(v.shape[0]):
         vv[:] = v[j]
-        _friction_into(kind, asym, eps, th, zero, vv, sg, col)
+        _friction_into(kind, asym, eps, th, zero, cut, vv, sg, col)
         out[:, j] = col
     return out
 
@@ -256,6 +246,8 @@ def _simulate_chunk(kind, asym, eps, th, mass, off, gtau, kp, kv, sat, periods, 
     m = mass.shape[0]
     n = qg.shape[0]
     has_ext = ext.shape[0] > 0
+    fast = kind == 0 and eps == 0.0
+    cut = _stribeck_cutoffs(kind, asym, th)
     inv_m = 1.0 / mass
     q = np.full(m, q0)
     v = np.full(m, v0)
@@ -266,8 +258,12 @@ def _simulate_chunk(kind, asym, eps, th, mass, off, gtau, kp, kv, sat, periods, 
     fu = np.empty(m)
     f = np.empty(m)
     sg = np.empty(m)
-    V = np.empty((4, m))  # RK4 stage velocities
-    A = np.empty((4, m))  # RK4 stage accelerations
+    a1 = np.empty(m)  # RK4 stages
+    a2 = np.empty(m)
+    a3 = np.empty(m)
+    v2 = np.empty(m)
+    v3 = np.empty(m)
+    v4 = np.empty(m)
     for k in range(n):
         alive = 0
         for i in range(m):
@@ -285,7 +281,7 @@ def _simulate_chunk(kind, asym, eps, th, mass, off, gtau, kp, kv, sat, periods, 
             qf_prev[i] = qf
         if k == n - 1:
             if full:
-                _friction_into(kind, asym, eps, th, off, v, sg, f)
+                _friction_into(kind, asym, eps, th, off, cut, v, sg, f)
                 for i in range(m):
                     out_v[i, k] = v[i]
                     out_u[i, k] = u_now[i]
@@ -300,24 +296,44 @@ def _simulate_chunk(kind, asym, eps, th, mass, off, gtau, kp, kv, sat, periods, 
             break
         h = periods[k] / nsub
         for s in range(nsub):
-            V[0, :] = v
-            for st in range(4):
-                e = gtau * ext[k, 2 * s + (st + 1) // 2] if has_ext else 0.0
-                _friction_inline(kind, asym, eps, th, off, V[st], sg, f)
-                for i in range(m):
-                    A[st, i] = (fu[i] + e - f[i]) * inv_m[i]
-                if st < 3:
-                    c = h if st == 2 else 0.5 * h
-                    for i in range(m):
-                        V[st + 1, i] = v[i] + c * A[st, i]
+            j = 2 * s
+            e1 = gtau * ext[k, j] if has_ext else 0.0
+            e2 = gtau * ext[k, j + 1] if has_ext else 0.0
+            e4 = gtau * ext[k, j + 2] if has_ext else 0.0
+            if fast:
+                _coulomb_into(asym, th, off, v, f)
+            else:
+                _friction_into(kind, asym, eps, th, off, cut, v, sg, f)
+            for i in range(m):
+                a1[i] = (fu[i] + e1 - f[i]) * inv_m[i]
+                v2[i] = v[i] + 0.5 * h * a1[i]
+            if fast:
+                _coulomb_into(asym, th, off, v2, f)
+            else:
+                _friction_into(kind, asym, eps, th, off, cut, v2, sg, f)
+            for i in range(m):
+                a2[i] = (fu[i] + e2 - f[i]) * inv_m[i]
+                v3[i] = v[i] + 0.5 * h * a2[i]
+            if fast:
+                _coulomb_into(asym, th, off, v3, f)
+            else:
+                _friction_into(kind, asym, eps, th, off, cut, v3, sg, f)
+            for i in range(m):
+                a3[i] = (fu[i] + e2 - f[i]) * inv_m[i]
+                v4[i] = v[i] + h * a3[i]
+            if fast:
+                _coulomb_into(asym, th, off, v4, f)
+            else:
+                _friction_into(kind, asym, eps, th, off, cut, v4, sg, f)
             if full and s == 0:  # outputs at the sample: state, held input, acceleration
                 for i in range(m):
                     out_v[i, k] = v[i]
                     out_u[i, k] = u_now[i]
-                    out_a[i, k] = A[0, i]
+                    out_a[i, k] = a1[i]
             for i in range(m):
-                q[i] += h / 6.0 * (V[0, i] + 2.0 * V[1, i] + 2.0 * V[2, i] + V[3, i])
-                v[i] += h / 6.0 * (A[0, i] + 2.0 * A[1, i] + 2.0 * A[2, i] + A[3, i])
+                a4 = (fu[i] + e4 - f[i]) * inv_m[i]
+                q[i] += h / 6.0 * (v[i] + 2.0 * v2[i] + 2.0 * v3[i] + v4[i])
+                v[i] += h / 6.0 * (a1[i] + 2.0 * a2[i] + 2.0 * a3[i] + a4)
 
 
 _POOL: ThreadPoolExecutor | None = None
@@ -385,7 +401,7 @@ class EmpsSimulator:
         pulses: how the pulses enter the plant: ``linear`` (continuous-time interpolation),
             ``hold`` (pulses(k) held over the period); default linear on the benchmark clock,
             hold on the true clock.
-        tec: benchmark-clock period, s (default t(10) − t(9)).
+        tec: benchmark-clock period, s (default: the data's ``tec``, else t(10) − t(9)).
         skip: samples left out of the metrics and the cost (default 49).
     """
 
@@ -405,12 +421,13 @@ class EmpsSimulator:
         n = d.t.size
         if not 0 <= skip < n - 2:
             raise FrictionIdError(f"skip = {skip} leaves no samples of {n} to compare")
-        self.clock, self.substeps, self.eps, self.skip, self.saturation = clock, int(substeps), float(eps), int(skip), float(saturation)
+        self.clock, self.substeps, self.eps = clock, int(substeps), float(eps)
+        self.skip, self.saturation = int(skip), float(saturation)
         self.offset = (not self.friction.asymmetric) if offset is None else bool(offset)
         self.names = ("M",) + self.friction.names + (("offset",) if self.offset else ())
         period = float((d.t[-1] - d.t[0]) / (n - 1))  # nominal period: the measured signals' step
         if clock == "benchmark":
-            self.tec = float(d.t[9] - d.t[8]) if tec is None else float(tec)
+            self.tec = float(tec if tec is not None else d.tec if d.tec is not None else d.t[9] - d.t[8])
             self.t = d.t[0] + self.tec * np.arange(n)
             self.periods = np.full(n - 1, self.tec)
             self.t_ctrl = self.tec
@@ -547,7 +564,8 @@ def simulate_identification(data, result: dict, *, clock: str = "true", **option
     try:
         system, kind, asym, values = result["system"], result["friction"], bool(result["asymmetric"]), result["params"]
     except (KeyError, TypeError) as exc:
-        raise FrictionIdError(f"parameter file lacks {exc}; expected the JSON written by 'frictionid identify'") from None
+        raise FrictionIdError(f"parameter file lacks {exc}; "
+                              "expected the JSON written by 'frictionid identify'") from None
     if system != "emps":
         raise FrictionIdError(f"only the EMPS can be simulated; the parameters are for system '{system}'")
     sim = EmpsSimulator(data, kind, asym, clock=clock, offset="offset" in values, **options)
@@ -558,7 +576,8 @@ def simulate_identification(data, result: dict, *, clock: str = "true", **option
 def register(subparsers):
     """Add ``simulate`` to the ``frictionid`` sub-commands; returns its handler(args) -> exit code.
 
-        frictionid simulate emps --params r.json --data FILE [--clock true|benchmark] [--json S.json]
+        frictionid simulate emps --params r.json --data FILE [--clock true|benchmark] [--tec S]
+                                 [--substeps N] [--json S.json]
     """
     p = subparsers.add_parser("simulate", help="closed-loop simulation of identified parameters (EMPS)")
     p.add_argument("system", choices=["emps"], help="system to simulate")
@@ -566,6 +585,9 @@ def register(subparsers):
     p.add_argument("--data", type=Path, required=True, help="EMPS run: MAT file or bag with /joint_reference")
     p.add_argument("--clock", choices=CLOCKS, default="true",
                    help="true: recorded stamps (default); benchmark: the benchmark's constant tec = t(10)−t(9)")
+    p.add_argument("--tec", type=float,
+                   help="benchmark-clock period, s (default t(10)−t(9) of the stamps; a bag's stamps are rounded "
+                        "to 1 ns: 9.99983961121758e-4 reproduces the MAT file of the estimation run)")
     p.add_argument("--substeps", type=int, default=10, help="RK4 steps per controller period (default 10)")
     p.add_argument("--json", type=Path, help="write the result as JSON to this file")
     return _cmd_simulate
@@ -577,7 +599,7 @@ def _cmd_simulate(args) -> int:
     except (OSError, json.JSONDecodeError) as exc:
         raise FrictionIdError(f"{args.params}: cannot read parameters ({exc})") from None
     data = load_emps(args.data)
-    sim = simulate_identification(data, result, clock=args.clock, substeps=args.substeps)
+    sim = simulate_identification(data, result, clock=args.clock, substeps=args.substeps, tec=args.tec)
     metrics = dict(sim.metrics, clock=sim.clock)
     out = {"system": "emps", "friction": result.get("friction"), "asymmetric": result.get("asymmetric"),
            "params": dict(zip(sim.names, map(float, sim.params))), "params_file": str(args.params),
@@ -595,8 +617,12 @@ def print_simulation(out: dict, stream=None) -> None:
     """A small table of the simulation metrics, stating the clock."""
     stream = stream or sys.stdout
     m = out["metrics"]
-    clock = out["clock"] + (f" (constant tec = {out['settings']['tec'] * 1e3:.9f} ms)" if out["clock"] == "benchmark" else " (recorded stamps)")
-    print(f"EMPS closed-loop simulation · {out['friction']}{' (asymmetric)' if out['asymmetric'] else ''} · clock {clock}", file=stream)
+    if out["clock"] == "benchmark":
+        clock = f"benchmark (constant tec = {out['settings']['tec'] * 1e3:.9f} ms)"
+    else:
+        clock = "true (recorded stamps)"
+    model = f"{out['friction']}{' (asymmetric)' if out['asymmetric'] else ''}"
+    print(f"EMPS closed-loop simulation · {model} · clock {clock}", file=stream)
     print(f"data: {out['source']}", file=stream)
     print(f"{'relative error':<16}{'%':>14}", file=stream)
     for key in METRIC_KEYS:

@@ -18,6 +18,7 @@ def load(
     joints: list[str] | None = None,
     effort_topic: str | None = None,
     strict_time: bool = False,
+    extras: dict[str, tuple[str, str]] | None = None,
 ) -> JointSeries:
     """Load joint measurements from a MAT (EMPS), CSV, rosbag2 (MCAP/sqlite3) or ROS 1 bag.
 
@@ -28,6 +29,7 @@ def load(
         effort_topic: separate effort topic of a bag (JointState or Float64MultiArray);
             default: the JointState's effort field.
         strict_time: fail on duplicated or out-of-order stamps instead of repairing them.
+        extras: bags only: {name: (topic, field)} side JointState signals kept in ``series.extras``.
 
     Raises:
         InputError: naming the file, topic, joint or field at fault.
@@ -47,7 +49,7 @@ def load(
     elif path.is_dir() or suffix in {".mcap", ".db3", ".bag"}:
         from frictionid_core.io.bag import load_bag
 
-        series = load_bag(path, topic=topic, effort_topic=effort_topic)
+        series = load_bag(path, topic=topic, effort_topic=effort_topic, extras=extras)
     else:
         raise InputError(f"{path}: unknown format '{suffix}'; expected .mat, .csv, .mcap, .db3, .bag or a rosbag2 directory")
     if joints:

@@ -41,10 +41,13 @@ def list_topics(path: Path) -> dict[str, str]:
         reader.close()
 
 
-def load_bag(path: Path, *, topic: str | None = None, effort_topic: str | None = None) -> JointSeries:
+def load_bag(path: Path, *, topic: str | None = None, effort_topic: str | None = None,
+             extras: dict[str, tuple[str, str]] | None = None) -> JointSeries:
     """Read a JointState topic (and an optional separate effort topic) into a JointSeries.
 
     Time is the message header stamp, or the bag's receive time when the stamp is zero.
+    ``extras`` = {name: (topic, field)} adds side JointState signals (e.g. a set-point) as
+    ``series.extras[name]`` (N, J), interpolated at the joint-state times when not simultaneous.
     """
     reader = _open_reader(path)
     try:
@@ -59,7 +62,8 @@ def load_bag(path: Path, *, topic: str | None = None, effort_topic: str | None =
                     f"{path}: {'no' if not js else 'several'} {JOINT_STATE} topics; pick one with --topic. Topics: {listing}"
                 )
             topic = js[0]
-        for name, want in ((topic, JOINT_STATE), (effort_topic, None)):
+        side = [(t, JOINT_STATE) for t, _ in (extras or {}).values()]
+        for name, want in [(topic, JOINT_STATE), (effort_topic, None)] + side:
             if name is None:
                 continue
             if name not in topics:
@@ -70,6 +74,13 @@ def load_bag(path: Path, *, topic: str | None = None, effort_topic: str | None =
         if effort_topic is not None:
             t_eff, eff = _read_effort(reader, path, effort_topic, topics[effort_topic], series.joints)
             series = _attach_effort(series, (t_eff - t0_ns) * 1e-9, eff, effort_topic)
+        for name, (side_topic, field) in (extras or {}).items():
+            side_series, side_t0 = _read_joint_states(reader, path, side_topic, need=(field,))
+            t_side = side_series.t + (side_t0 - t0_ns) * 1e-9
+            values = getattr(side_series, field)
+            if t_side.size != series.t.size or np.max(np.abs(t_side - series.t)) > 1e-9:
+                values = np.column_stack([np.interp(series.t, t_side, c) for c in values.T])
+            series.extras[name] = values
         for key, value in _custom_data(reader).items():
             if key.startswith(META_PREFIX):
                 series.meta[key.removeprefix(META_PREFIX)] = float(value)
@@ -90,24 +101,6 @@ def _stamp(msg, bag_ns: int) -> int:
     st = msg.header.stamp
     ns = int(st.sec) * 1_000_000_000 + int(st.nanosec)
     return ns if ns else bag_ns
-
-
-def read_field(path: Path, topic: str, field: str) -> tuple[np.ndarray, list[str], np.ndarray]:
-    """One field ("position", "velocity" or "effort") of a JointState topic.
-
-    Returns (t, joints, values): t in s relative to the topic's first stamp, values (N, J).
-    Used for side signals such as a set-point topic.
-    """
-    reader = _open_reader(Path(path))
-    try:
-        topics = {name: info.msgtype for name, info in reader.topics.items()}
-        if topics.get(topic) != JOINT_STATE:
-            listing = ", ".join(f"{n} [{t}]" for n, t in sorted(topics.items()))
-            raise InputError(f"{path}: no {JOINT_STATE} topic '{topic}'. Topics: {listing}")
-        series, _ = _read_joint_states(reader, Path(path), topic, need=(field,))
-    finally:
-        reader.close()
-    return series.t, series.joints, getattr(series, field)
 
 
 def _read_joint_states(reader, path: Path, topic: str, *, need: tuple[str, ...]) -> tuple[JointSeries, int]:
