@@ -54,6 +54,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cutoff", type=float, help="Butterworth cut-off on position, Hz (default: the system's)")
     p.add_argument("--decimate", type=int, help="decimation factor (default: the system's)")
     p.add_argument("--trim", type=int, help="samples dropped at the start (default: the system's)")
+    p.add_argument("--output-error", action="store_true",
+                   help="EMPS: minimise the closed-loop simulated position error, starting from the IDM result")
+    p.add_argument("--clock", choices=("true", "benchmark"), default="true",
+                   help="simulation clock of --output-error (default true)")
     p.add_argument("--varpro", action="store_true",
                    help="variable projection: search only vs/delta/v0, solve the linear parameters in closed form")
 
@@ -92,8 +96,10 @@ def _load(args):
                 strict_time=args.strict_time)
 
 
-def _fmt(x: float) -> str:
-    return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.6g}"
+def _fmt(x) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "—"
+    return f"{x:.6g}" if isinstance(x, (int, float)) else str(x)
 
 
 def print_table(result: dict, out=None) -> None:
@@ -150,6 +156,17 @@ def cmd_identify(args) -> int:
         opts["calls" if args.solver in CALL_SOLVERS else "generations"] = args.budget
     if args.pop is not None:
         opts["pop"] = args.pop
+    if args.output_error:
+        from frictionid_core.output_error import identify_output_error
+
+        if args.system != "emps":
+            raise FrictionIdError(f"--output-error needs the EMPS closed-loop model; got system '{args.system}'")
+        result = identify_output_error(args.source, friction=args.friction, asymmetric=args.asymmetric,
+                                       solver=args.solver if args.solver != "ls" else "lm", seed=args.seed,
+                                       clock=args.clock, bounds=_parse_bounds(args.bounds), **opts).to_dict()
+        print_table(result)
+        _write_json(args.json, result)
+        return 0
     series = _load(args)
     result = identify(series, system=args.system, friction=args.friction, asymmetric=args.asymmetric,
                       solver=args.solver, seed=args.seed, varpro=args.varpro, bounds=_parse_bounds(args.bounds),
@@ -191,6 +208,9 @@ def main(argv: list[str] | None = None) -> int:
         except FrictionIdError as exc:
             code = EXIT_INPUT
             print(f"frictionid: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        except BrokenPipeError:  # output piped into head & co.
+            sys.stderr.close()
+            code = 0
         except Exception as exc:  # a bug, not bad input: one line unless debugging
             if os.environ.get("FRICTIONID_DEBUG"):
                 raise
