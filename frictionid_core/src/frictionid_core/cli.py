@@ -65,9 +65,10 @@ def build_parser() -> argparse.ArgumentParser:
     _add_source_args(p)
     p.add_argument("--params", type=Path, required=True, help="JSON written by 'frictionid identify'")
 
-    from frictionid_core import simulation
+    from frictionid_core import simulation, study
 
     COMMANDS["simulate"] = simulation.register(sub)
+    COMMANDS["study"] = study.register(sub)
     _add_plugin_commands(sub)
     return parser
 
