@@ -65,10 +65,11 @@ def build_parser() -> argparse.ArgumentParser:
     _add_source_args(p)
     p.add_argument("--params", type=Path, required=True, help="JSON written by 'frictionid identify'")
 
-    from frictionid_core import simulation, study
+    from frictionid_core import report, simulation, study
 
     COMMANDS["simulate"] = simulation.register(sub)
     COMMANDS["study"] = study.register(sub)
+    COMMANDS["report"] = report.register(sub)
     _add_plugin_commands(sub)
     return parser
 

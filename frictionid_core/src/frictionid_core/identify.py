@@ -89,6 +89,9 @@ def identify(series: JointSeries, *, system: str = "emps", friction: str = "coul
         from frictionid_core.optim import minimize
 
         problem = _varpro_problem(model) if varpro else _full_problem(model)
+        if model.nonlinear_index.size:
+            start = _start_point(model, np.random.default_rng(seed))
+            problem.x0 = start[model.nonlinear_index] if varpro else start
         res = minimize(problem, solver, seed=seed, **solver_options)
         x = model.solve_linear(_embed(model, res.x))[0][0] if varpro else res.x
         extra["optimizer"] = res.to_dict()
@@ -101,6 +104,18 @@ def identify(series: JointSeries, *, system: str = "emps", friction: str = "coul
     metrics["samples"] = int(model.obs.y.size)
     return Identification(system, friction, asymmetric, solver, series.source, list(series.joints),
                           dict(zip(model.names, map(float, x))), std, metrics, time.perf_counter() - t0, extra)
+
+
+def _start_point(model: IdentificationModel, rng: np.random.Generator, samples: int = 64) -> np.ndarray:
+    """Best of ``samples`` random nonlinear parameter sets (plus the lower corner, where the
+    Stribeck/Threlfall dip vanishes and the model is the nested Coulomb one), each with its
+    linear parameters solved in closed form: the start of local solvers (lm)."""
+    lo, hi = model.bounds()
+    nl = model.nonlinear_index
+    theta = np.zeros((samples + 1, model.k))
+    theta[:, nl] = np.vstack([lo[nl], lo[nl] + (hi[nl] - lo[nl]) * rng.random((samples, nl.size))])
+    full, cost = model.solve_linear(theta)
+    return np.clip(full[int(np.argmin(cost))], lo, hi)
 
 
 def _full_problem(model: IdentificationModel):
