@@ -109,6 +109,7 @@ class IdentificationModel:
         # Fixed design columns of every linear term (R, L); zero column for pure-dip terms.
         self._fixed = np.column_stack([t.fixed if t.fixed is not None else np.zeros(rows) for t in terms])
         self._rows, self._nd = rows, nd
+        self._fixed_t = np.ascontiguousarray(self._fixed.T)
         self._kernel_args = self._pack_kernel_args()
 
     def _pack_kernel_args(self) -> tuple:
@@ -117,10 +118,11 @@ class IdentificationModel:
         nd = self._nd
         active = [np.flatnonzero(d.mask) for d in self._dips]
         self._active_speed = [d.speed[i] for d, i in zip(self._dips, active)]
+        self._active_log_speed = [np.log(np.maximum(s, 1e-300)) for s in self._active_speed]  # masked rows: v ≠ 0
         i64 = lambda a: np.ascontiguousarray(a, dtype=np.int64)  # noqa: E731
         cat = lambda parts: np.concatenate(parts) if parts else np.empty(0)  # noqa: E731
         return (
-            np.ascontiguousarray(self.obs.y), np.ascontiguousarray(self._fixed), i64(self.linear_index),
+            np.ascontiguousarray(self.obs.y),
             i64([-1 if t.dip_branch is None else t.dip_branch for t in self._terms]),
             np.array([t.dip_sign for t in self._terms]),
             i64(np.cumsum([0] + [i.size for i in active])),
@@ -199,10 +201,12 @@ class IdentificationModel:
             raise FrictionIdError(f"model takes {self.k} parameters {self.names}, got {p.shape[1]}")
         if self._dips:
             dip_values = np.concatenate(
-                [self.friction.dip(p[:, d.nl_index], s) for d, s in zip(self._dips, self._active_speed)], axis=1)
+                [self.friction.dip(p[:, d.nl_index], s, ls)
+                 for d, s, ls in zip(self._dips, self._active_speed, self._active_log_speed)], axis=1)
         else:
             dip_values = np.empty((p.shape[0], 0))
-        return batch_sse(p, *self._kernel_args, dip_values)
+        coef = np.ascontiguousarray(p[:, self.linear_index])
+        return batch_sse(coef @ self._fixed_t, self._kernel_args[0], coef, *self._kernel_args[1:], dip_values)
 
     def residuals(self, params: np.ndarray) -> np.ndarray:
         """y − ŷ for one parameter vector (k,) → (R,)."""
@@ -226,6 +230,21 @@ class IdentificationModel:
                 X[:, d.joint * nd : (d.joint + 1) * nd, col] += t.dip_sign * dipcols[t.dip_branch]
         return X
 
+    def _projection_terms(self) -> tuple:
+        """Constant pieces of :meth:`solve_linear`, computed once: FᵀF, Fᵀy, yᵀy and per dip its
+        active rows of F and y, its mask and the ± signs of the terms it enters."""
+        if getattr(self, "_vp", None) is None:
+            F, y = self._fixed, self.obs.y
+            _, _, _, start, rows, mask = self._kernel_args
+            dips = []
+            for k, (d, speed, log_speed) in enumerate(zip(self._dips, self._active_speed, self._active_log_speed)):
+                sl = slice(start[k], start[k + 1])
+                sign = np.array([t.dip_sign if t.dip_branch == k else 0.0 for t in self._terms])
+                dips.append((d.nl_index, speed, log_speed, mask[sl], np.ascontiguousarray(F[rows[sl]]), y[rows[sl]],
+                             sign, np.outer(sign, sign)))
+            self._vp = (F.T @ F, F.T @ y, float(y @ y), dips)
+        return self._vp
+
     def solve_linear(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Variable projection: for each row of ``theta`` (P, k) keep its nonlinear entries and
         solve the linear ones in closed form. Returns (full parameters (P, k), costs (P,)).
@@ -234,27 +253,20 @@ class IdentificationModel:
         (dips act on disjoint rows), so a population costs O(P·active rows·L).
         """
         p = np.array(np.atleast_2d(theta), dtype=float)
-        F, y = self._fixed, self.obs.y
-        n_pop, n_lin = p.shape[0], F.shape[1]
-        G = np.broadcast_to(F.T @ F, (n_pop, n_lin, n_lin)).copy()
-        b = np.broadcast_to(F.T @ y, (n_pop, n_lin)).copy()
-        signs = np.array([[t.dip_sign if t.dip_branch == k else 0.0 for t in self._terms]
-                          for k in range(len(self._dips))]).reshape(len(self._dips), n_lin)
-        rows = self._kernel_args[6]
-        start = self._kernel_args[5]
-        mask = self._kernel_args[7]
-        for k, (d, speed) in enumerate(zip(self._dips, self._active_speed)):
-            sl = slice(start[k], start[k + 1])
-            v = mask[sl] * self.friction.dip(p[:, d.nl_index], speed)  # (P, n_k) dip column values
-            a = v @ F[rows[sl]]  # Fᵀ·dip, (P, L)
-            outer = a[:, :, None] * signs[k][None, None, :]
-            G += outer + outer.transpose(0, 2, 1) + np.einsum("pn,pn->p", v, v)[:, None, None] * np.outer(signs[k], signs[k])
-            b += (v @ y[rows[sl]])[:, None] * signs[k]
+        FtF, Fty, yty, dips = self._projection_terms()
+        n_pop, n_lin = p.shape[0], FtF.shape[0]
+        G = np.repeat(FtF[None], n_pop, axis=0)
+        b = np.repeat(Fty[None], n_pop, axis=0)
+        for nl_index, speed, log_speed, mask, F_rows, y_rows, sign, sign2 in dips:
+            v = mask * self.friction.dip(p[:, nl_index], speed, log_speed)  # (P, n) dip column values
+            outer = (v @ F_rows)[:, :, None] * sign[None, None, :]  # Fᵀ·dip ⊗ signs
+            G += outer + outer.transpose(0, 2, 1) + np.einsum("pn,pn->p", v, v)[:, None, None] * sign2
+            b += (v @ y_rows)[:, None] * sign
         scale = 1.0 / np.sqrt(np.maximum(np.einsum("pll->pl", G), np.finfo(float).tiny))
         Gs = G * scale[:, :, None] * scale[:, None, :] + 1e-12 * np.eye(n_lin)
         coef = np.linalg.solve(Gs, (b * scale)[..., None])[..., 0] * scale
         p[:, self.linear_index] = coef
-        cost = y @ y - 2.0 * np.einsum("pl,pl->p", coef, b) + np.einsum("pl,plm,pm->p", coef, G, coef)
+        cost = yty - 2.0 * np.einsum("pl,pl->p", coef, b) + np.einsum("pl,plm,pm->p", coef, G, coef)
         return p, np.maximum(cost, 0.0)
 
 

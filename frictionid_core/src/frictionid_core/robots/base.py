@@ -1,0 +1,145 @@
+"""Base (identifiable) parameters by QR decomposition with column pivoting.
+
+The standard regressor W (stacked over samples) has numerical rank r < P: some parameters
+never act (zero columns) and others only act in fixed combinations. QR with column pivoting
+W·Π = Q·R on random samples gives the rank r and an independent column set (the first r
+pivots); the other columns satisfy W_d = W_b·K with K = R₁₁⁻¹R₁₂, so that
+
+    W·π = W_b·(π_b + K·π_d)           base parameters β = π_b + K·π_d
+
+The same K turns known standard parameters (a model, a ground truth) into base parameters.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg
+
+from frictionid_core.errors import InputError
+
+# |R_kk| / |R_00| below this is numerically zero (structural rank on random samples).
+RANK_TOL = 1e-9
+# Entries of K smaller than this are set to 0 (round-off of exact structural zeros).
+K_TOL = 1e-10
+# Rank test on data: a column whose normalised pivot |R_kk|/|R_00| falls below this is not excited.
+DATA_RANK_TOL = 1e-6
+
+
+@dataclass
+class BaseParameters:
+    """The base parameter set of a standard parameter vector.
+
+    Attributes:
+        names: standard parameter names (P).
+        base_index: indices of the independent standard columns, in pivot order (r).
+        dependent_index: the other columns (P − r).
+        K: (r, P − r), β = π[base_index] + K·π[dependent_index].
+    """
+
+    names: list[str]
+    base_index: np.ndarray
+    dependent_index: np.ndarray
+    K: np.ndarray
+
+    @property
+    def rank(self) -> int:
+        return int(self.base_index.size)
+
+    @property
+    def base_names(self) -> list[str]:
+        """A base parameter is named after its independent standard parameter."""
+        return [self.names[i] for i in self.base_index]
+
+    def reduce(self, W: np.ndarray) -> np.ndarray:
+        """Base columns of a standard regressor (…, P) → (…, r)."""
+        return W[..., self.base_index]
+
+    def from_standard(self, pi: np.ndarray) -> np.ndarray:
+        """β = π_b + K·π_d."""
+        pi = np.asarray(pi, dtype=float)
+        return pi[self.base_index] + self.K @ pi[self.dependent_index]
+
+    def combination_matrix(self) -> np.ndarray:
+        """(r, P) matrix A with β = A·π."""
+        A = np.zeros((self.rank, len(self.names)))
+        A[np.arange(self.rank), self.base_index] = 1.0
+        A[:, self.dependent_index] = self.K
+        return A
+
+    def describe(self) -> dict[str, str]:
+        """{base name: 'a + 1·b − 0.225·c …'} (the regrouped standard parameters)."""
+        out = {}
+        for r, i in enumerate(self.base_index):
+            terms = [self.names[i]]
+            for c, d in zip(self.K[r], self.dependent_index):
+                if c != 0.0:
+                    terms.append(f"{'+' if c > 0 else '−'} {abs(c):.6g}·{self.names[d]}")
+            out[self.names[i]] = " ".join(terms)
+        return out
+
+    def unidentifiable(self) -> list[str]:
+        """Standard parameters with no effect on any torque (zero column: zero row of K too)."""
+        return [self.names[d] for k, d in enumerate(self.dependent_index) if not np.any(self.K[:, k])]
+
+
+def base_parameters(W: np.ndarray, names: list[str], tol: float = RANK_TOL) -> BaseParameters:
+    """Base parameters of the stacked standard regressor W (rows, P) (see the module doc)."""
+    W = np.asarray(W, dtype=float)
+    if W.shape[0] < W.shape[1]:
+        raise ValueError(f"need at least as many regressor rows as parameters ({W.shape[1]}), got {W.shape[0]}")
+    _, R, piv = linalg.qr(W, mode="economic", pivoting=True)
+    d = np.abs(np.diag(R))
+    r = int(np.sum(d > tol * d[0])) if d.size and d[0] > 0 else 0
+    K = linalg.solve_triangular(R[:r, :r], R[:r, r:]) if r else np.zeros((0, W.shape[1]))
+    K[np.abs(K) < K_TOL] = 0.0
+    return BaseParameters(list(names), piv[:r].copy(), piv[r:].copy(), K)
+
+
+def random_samples(robot, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """n random (q, q̇, q̈) within the robot's limits (finite stand-ins for unlimited ones)."""
+    rng = np.random.default_rng(seed)
+    lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi)
+    hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi)
+    vmax = np.where(np.isfinite(robot.velocity_limit), robot.velocity_limit, 3.0)
+    amax = np.where(np.isfinite(robot.acceleration_limit), robot.acceleration_limit, 10.0)
+    q = rng.uniform(lo, hi, (n, robot.nv))
+    qd = rng.uniform(-vmax, vmax, (n, robot.nv))
+    qdd = rng.uniform(-amax, amax, (n, robot.nv))
+    return q, qd, qdd
+
+
+def robot_base_parameters(robot, samples: int | None = None, seed: int = 0) -> BaseParameters:
+    """Base parameters of ``robot`` (standard parameters + rotor inertias) from random samples."""
+    names = robot.parameter_names()
+    n = samples or max(50, 4 * len(names) // robot.nv + 10)
+    q, qd, qdd = random_samples(robot, n, seed)
+    Y = robot.regressor(q, qd, qdd)  # (n, nv, P)
+    return base_parameters(Y.reshape(-1, Y.shape[-1]), names)
+
+
+def check_excitation(columns: np.ndarray, names: list[str], what: str, tol: float = DATA_RANK_TOL) -> None:
+    """Raise InputError when the observation columns (rows, C) are rank-deficient, naming the
+    parameters the data cannot separate from the others (the pivot tail of a QR with column
+    pivoting on unit-norm columns)."""
+    norms = np.linalg.norm(columns, axis=0)
+    zero = [names[i] for i in np.flatnonzero(norms == 0.0)]
+    keep = np.flatnonzero(norms > 0.0)
+    msgs = []
+    if zero:
+        msgs.append(f"no effect at all on the data: {', '.join(zero)}")
+    if keep.size:
+        A = columns[:, keep] / norms[keep]
+        _, R, piv = linalg.qr(A, mode="economic", pivoting=True)
+        d = np.abs(np.diag(R))
+        r = int(np.sum(d > tol * d[0]))
+        if r < keep.size:
+            tail = [names[keep[i]] for i in piv[r:]]
+            msgs.append(f"linearly dependent on the others (rank {r} of {keep.size}): {', '.join(tail)}")
+    if msgs:
+        raise InputError(
+            f"{what}: the observation matrix is rank-deficient — the motion does not excite every parameter; "
+            + "; ".join(msgs)
+            + ". Record a richer excitation ('frictionid excite') or use a smaller model (e.g. --system tx40-j2)"
+        )

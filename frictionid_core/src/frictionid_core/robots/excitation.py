@@ -1,0 +1,386 @@
+"""Excitation trajectories: finite Fourier series optimised for the observation matrix.
+
+Joint j follows (Swevers et al.)
+
+    q_j(t) = q0_j + Σ_l  a_jl/(ω_f·l)·sin(ω_f·l·t) − b_jl/(ω_f·l)·cos(ω_f·l·t),   l = 1…L
+
+so q̇ and q̈ are finite Fourier series too and the motion is periodic with period 2π/ω_f.
+Limits are met by construction: q − q0, q̇ and q̈ are linear in (a, b), so each joint's
+coefficients are scaled by the largest factor that keeps its position (with a margin),
+velocity and acceleration inside the limits on a dense grid of one period. The optimiser
+then only chooses the *shape* (and q0): it minimises log10 of the condition number of the
+observation matrix — the system's rigid (base) columns plus the viscous and Coulomb
+columns q̇_j, sign(q̇_j) of every moving joint, each column scaled to unit norm (the
+criterion is then independent of parameter units) — sampled over one period.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from frictionid_core.errors import FrictionIdError, InputError
+
+_GRID_PER_PERIOD = 2000  # limit-check grid (per period, at least 40 points per top harmonic)
+
+
+@dataclass
+class FourierTrajectory:
+    """A finite Fourier series per joint (see the module doc). Arrays: q0 (J,), a, b (J, L)."""
+
+    joints: list[str]
+    q0: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    wf: float
+    duration: float
+
+    @property
+    def harmonics(self) -> int:
+        return self.a.shape[1]
+
+    @property
+    def period(self) -> float:
+        return 2.0 * np.pi / self.wf
+
+    def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """q, q̇, q̈ at times t (N,), each (N, J)."""
+        t = np.asarray(t, dtype=float)[:, None, None]
+        wl = self.wf * np.arange(1, self.harmonics + 1)  # (L,)
+        s, c = np.sin(wl * t), np.cos(wl * t)  # (N, 1, L)
+        a, b = self.a[None], self.b[None]  # (1, J, L)
+        q = self.q0 + np.sum(a / wl * s - b / wl * c, axis=-1)
+        qd = np.sum(a * c + b * s, axis=-1)
+        qdd = np.sum(wl * (b * c - a * s), axis=-1)
+        return q, qd, qdd
+
+    def sample(self, rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        t = np.arange(int(round(self.duration * rate)) + 1) / rate
+        return (t, *self.evaluate(t))
+
+    # ------------------------------------------------------------------ files
+    def save(self, path: Path, rate: float = 1000.0) -> Path:
+        """``.npz``: the coefficients; ``.csv``: t and q/qd/qdd per joint sampled at ``rate``."""
+        path = Path(path)
+        if path.suffix.lower() == ".npz":
+            np.savez(path, kind="fourier", joints=np.array(self.joints), q0=self.q0, a=self.a, b=self.b,
+                     wf=self.wf, duration=self.duration)
+        elif path.suffix.lower() == ".csv":
+            t, q, qd, qdd = self.sample(rate)
+            head = ["t"] + [f"{p}:{j}" for p in ("q", "qd", "qdd") for j in self.joints]
+            np.savetxt(path, np.column_stack([t, q, qd, qdd]), delimiter=",", header=",".join(head), comments="",
+                       fmt="%.12g")
+        else:
+            raise FrictionIdError(f"{path}: trajectory files are .npz (coefficients) or .csv (samples)")
+        return path
+
+
+@dataclass
+class SampledTrajectory:
+    """A trajectory given by samples (from CSV): t (N,), q, q̇, q̈ (N, J)."""
+
+    joints: list[str]
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+
+    def sample(self, rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        t = self.t[0] + np.arange(int(np.floor((self.t[-1] - self.t[0]) * rate + 1e-9)) + 1) / rate
+        if t.size == self.t.size and np.allclose(t, self.t, atol=1e-9):
+            return self.t - self.t[0], self.q, self.qd, self.qdd
+        interp = lambda a: np.column_stack([np.interp(t, self.t, c) for c in a.T])  # noqa: E731
+        return t - t[0], interp(self.q), interp(self.qd), interp(self.qdd)
+
+
+def load_trajectory(path: str | Path) -> FourierTrajectory | SampledTrajectory:
+    """Read a trajectory written by ``frictionid excite`` (.npz) or a CSV with columns ``t``,
+    ``q:<joint>`` and optionally ``qd:<joint>``, ``qdd:<joint>`` (else cubic-spline derivatives)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such trajectory file")
+    if path.suffix.lower() == ".npz":
+        try:
+            z = np.load(path, allow_pickle=False)
+            return FourierTrajectory([str(j) for j in z["joints"]], np.array(z["q0"], float), np.array(z["a"], float),
+                                     np.array(z["b"], float), float(z["wf"]), float(z["duration"]))
+        except (KeyError, ValueError, OSError) as exc:
+            raise InputError(f"{path}: not a Fourier trajectory written by 'frictionid excite' ({exc})") from None
+    if path.suffix.lower() != ".csv":
+        raise InputError(f"{path}: trajectory files are .npz or .csv")
+    with path.open() as f:
+        head = [h.strip() for h in f.readline().split(",")]
+    try:
+        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    except ValueError as exc:
+        raise InputError(f"{path}: unreadable CSV trajectory ({exc})") from None
+    if not head or head[0] != "t" or data.shape[1] != len(head):
+        raise InputError(f"{path}: expected a header 't,q:<joint>,…' with one value per column")
+    joints = [h[2:] for h in head if h.startswith("q:")]
+    if not joints:
+        raise InputError(f"{path}: no 'q:<joint>' column")
+    t = data[:, 0]
+    if t.size < 4 or np.any(np.diff(t) <= 0):
+        raise InputError(f"{path}: time column must be strictly increasing with at least 4 samples")
+    col = lambda p, j: data[:, head.index(f"{p}:{j}")] if f"{p}:{j}" in head else None  # noqa: E731
+    q = np.column_stack([col("q", j) for j in joints])
+    from scipy.interpolate import CubicSpline
+
+    spline = CubicSpline(t, q, axis=0)
+    qd = np.column_stack([col("qd", j) if col("qd", j) is not None else spline(t, 1)[:, k] for k, j in enumerate(joints)])
+    qdd = np.column_stack([col("qdd", j) if col("qdd", j) is not None else spline(t, 2)[:, k]
+                           for k, j in enumerate(joints)])
+    if not np.all(np.isfinite(np.column_stack([q, qd, qdd]))):
+        raise InputError(f"{path}: NaN/inf in the trajectory")
+    return SampledTrajectory(joints, t, q, qd, qdd)
+
+
+# ---------------------------------------------------------------- limits
+def _finite_limits(robot) -> tuple[np.ndarray, np.ndarray]:
+    lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi)
+    hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi)
+    return lo, hi
+
+
+def fit_to_limits(robot, traj: FourierTrajectory, margin: float = 0.05) -> FourierTrajectory:
+    """Scale each joint's (a, b) by the largest factor keeping it within (1 − margin) of its
+    velocity and acceleration limits and ``margin``·range inside its position limits, on a
+    dense grid over one period. Joints with a = b = 0 are left alone."""
+    lo, hi = _finite_limits(robot)
+    m = margin * (hi - lo)
+    n = max(_GRID_PER_PERIOD, 40 * traj.harmonics)
+    t = np.arange(n) * traj.period / n
+    zero = FourierTrajectory(traj.joints, np.zeros_like(traj.q0), traj.a, traj.b, traj.wf, traj.duration)
+    p, qd, qdd = zero.evaluate(t)
+    s = np.full(len(traj.joints), np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pmax, pmin = p.max(axis=0), p.min(axis=0)
+        s = np.minimum(s, np.where(pmax > 0, (hi - m - traj.q0) / pmax, np.inf))
+        s = np.minimum(s, np.where(pmin < 0, (traj.q0 - lo - m) / -pmin, np.inf))
+        s = np.minimum(s, (1 - margin) * robot.velocity_limit / np.abs(qd).max(axis=0))
+        s = np.minimum(s, (1 - margin) * robot.acceleration_limit / np.abs(qdd).max(axis=0))
+    s = np.where(np.isfinite(s), np.maximum(s, 0.0), 1.0)
+    return FourierTrajectory(traj.joints, traj.q0.copy(), traj.a * s[:, None], traj.b * s[:, None], traj.wf,
+                             traj.duration)
+
+
+def check_trajectory(robot, traj, rate: float = 1000.0, what: str | None = None) -> None:
+    """Raise InputError if the trajectory (sampled at ``rate``) leaves the robot's limits or
+    names joints the robot does not have."""
+    missing = [j for j in robot.joints if j not in traj.joints]
+    extra = [j for j in traj.joints if j not in robot.joints]
+    if missing or extra:
+        raise InputError(f"trajectory joints {traj.joints} do not match the joints of {robot.name} {robot.joints}"
+                         + (f"; missing {missing}" if missing else "") + (f"; unknown {extra}" if extra else ""))
+    t, q, qd, qdd = traj.sample(rate)
+    order = [traj.joints.index(j) for j in robot.joints]
+    robot.check_limits(q[:, order], qd[:, order], qdd[:, order], t, what or "trajectory")
+
+
+# ------------------------------------------------------------ criterion
+def observation_matrix(system, robot, traj: FourierTrajectory, moving: list[str], samples: int = 200) -> np.ndarray:
+    """Unit-norm columns: the system's rigid columns and q̇_j, sign(q̇_j) of the moving joints,
+    over one period at ``samples`` points."""
+    from frictionid_core.robots.system import RobotInfo
+
+    t = np.arange(samples) * traj.period / samples
+    q, qd, qdd = traj.evaluate(t)
+    if isinstance(system.info, RobotInfo):
+        rows_joints = list(robot.joints)
+        W = system.info.base_columns(q, qd, qdd, rows_joints)
+        sel = list(range(len(rows_joints)))
+    else:
+        from frictionid_core.preprocess import Prepared
+
+        sel = [robot.joints.index(j) for j in moving]
+        rows_joints = moving
+        W = system.columns(Prepared(t, q[:, sel], qd[:, sel], qdd[:, sel], qd[:, sel], t[1] - t[0]), moving)
+    fric = np.zeros((W.shape[0], 2 * len(moving)))
+    for k, j in enumerate(moving):
+        r = rows_joints.index(j) if j in rows_joints else None
+        if r is None:
+            continue
+        v = qd[:, robot.joints.index(j)]
+        fric[r * samples : (r + 1) * samples, 2 * k] = v
+        fric[r * samples : (r + 1) * samples, 2 * k + 1] = np.sign(v)
+    A = np.hstack([W, fric])
+    norms = np.linalg.norm(A, axis=0)
+    return A / np.where(norms > 0, norms, 1.0)
+
+
+def criterion(A: np.ndarray) -> float:
+    """log10 of the condition number (inf → 20)."""
+    sv = np.linalg.svd(A, compute_uv=False)
+    if sv[-1] <= sv[0] * 1e-20:
+        return 20.0
+    return float(np.log10(sv[0] / sv[-1]))
+
+
+class _BudgetSpent(Exception):
+    pass
+
+
+@dataclass
+class ExcitationResult:
+    trajectory: FourierTrajectory
+    cond: float
+    cond_initial: float
+    evaluations: int
+
+    def to_dict(self) -> dict:
+        return {"cond": self.cond, "cond_initial": self.cond_initial, "evaluations": self.evaluations,
+                "joints": self.trajectory.joints, "harmonics": self.trajectory.harmonics,
+                "wf": self.trajectory.wf, "period": self.trajectory.period, "duration": self.trajectory.duration}
+
+
+def optimise_excitation(system, robot, *, moving: list[str] | None = None, hold: dict[str, float] | None = None,
+                        harmonics: int = 5, period: float = 10.0, duration: float = 20.0, evals: int = 1500,
+                        starts: int = 20, seed: int = 0, margin: float = 0.05, samples: int = 200) -> ExcitationResult:
+    """Optimise a Fourier excitation for ``system`` (its rigid columns + friction columns).
+
+    Args:
+        system: a System from :func:`~frictionid_core.systems.get_system` (robot systems or tx40-j2).
+        robot: the RobotModel whose limits bound the motion.
+        moving: joints that move (default: all); the others stay at ``hold`` (default 0 or the
+            middle of the limits).
+        harmonics, period: L and 2π/ω_f, s.
+        duration: trajectory length, s (several periods if longer than ``period``).
+        evals: criterion evaluations of the local search (L-BFGS-B, finite differences).
+        starts: random shapes tried first; the best one starts the local search.
+    """
+    from scipy.optimize import minimize
+
+    moving = list(robot.joints) if moving is None else list(moving)
+    unknown = [j for j in moving + list(hold or {}) if j not in robot.joints]
+    if unknown:
+        raise InputError(f"joint(s) {unknown} not in {robot.name}; joints: {robot.joints}")
+    if not moving:
+        raise InputError("no joint to move")
+    if harmonics < 1 or period <= 0 or duration <= 0:
+        raise InputError("harmonics must be ≥ 1, period and duration > 0")
+    lo, hi = _finite_limits(robot)
+    centre = np.clip(0.0, lo, hi)
+    q_hold = np.array([(hold or {}).get(j, centre[k]) for k, j in enumerate(robot.joints)], dtype=float)
+    bad = [j for k, j in enumerate(robot.joints) if not lo[k] <= q_hold[k] <= hi[k]]
+    if bad:
+        raise InputError(f"hold position of {bad} outside the position limits")
+    mi = np.array([robot.joints.index(j) for j in moving])
+    nm, L = mi.size, harmonics
+    wf = 2.0 * np.pi / period
+    lo_m, hi_m = lo[mi] + margin * (hi[mi] - lo[mi]), hi[mi] - margin * (hi[mi] - lo[mi])
+
+    def build(x: np.ndarray) -> FourierTrajectory:
+        a = np.zeros((robot.nv, L))
+        b = np.zeros((robot.nv, L))
+        a[mi] = x[: nm * L].reshape(nm, L)
+        b[mi] = x[nm * L : 2 * nm * L].reshape(nm, L)
+        q0 = q_hold.copy()
+        q0[mi] = lo_m + np.clip(x[2 * nm * L :], 0, 1) * (hi_m - lo_m)
+        return fit_to_limits(robot, FourierTrajectory(list(robot.joints), q0, a, b, wf, duration), margin)
+
+    count = [0]
+    seen = {"f": np.inf, "x": None}
+
+    def cost(x: np.ndarray) -> float:
+        if count[0] >= evals and seen["x"] is not None:
+            raise _BudgetSpent
+        count[0] += 1
+        f = criterion(observation_matrix(system, robot, build(x), moving, samples))
+        if f < seen["f"]:
+            seen["f"], seen["x"] = f, np.array(x, copy=True)
+        return f
+
+    rng = np.random.default_rng(seed)
+    x0_q = (np.clip(q_hold[mi], lo_m, hi_m) - lo_m) / np.where(hi_m > lo_m, hi_m - lo_m, 1.0)
+    cands = [np.concatenate([rng.uniform(-1, 1, 2 * nm * L) / np.tile(np.arange(1, L + 1), 2 * nm), x0_q])]
+    for _ in range(max(0, starts - 1)):
+        cands.append(np.concatenate([rng.uniform(-1, 1, 2 * nm * L), rng.uniform(0.2, 0.8, nm)]))
+    evals = max(evals, len(cands))
+    scores = [cost(x) for x in cands]
+    initial = scores[0]
+    x = cands[int(np.argmin(scores))]
+    if evals - len(cands) > 2 * x.size:
+        bounds = [(-1.0, 1.0)] * (2 * nm * L) + [(0.0, 1.0)] * nm
+        try:
+            minimize(cost, x, method="L-BFGS-B", bounds=bounds, options={"maxfun": evals, "eps": 1e-4})
+        except _BudgetSpent:
+            pass
+    traj = build(seen["x"])
+    final = criterion(observation_matrix(system, robot, traj, moving, samples))
+    check_trajectory(robot, traj, what="optimised trajectory")
+    return ExcitationResult(traj, float(10**final), float(10**initial), count[0])
+
+
+# --------------------------------------------------------------------- CLI
+def robot_of(system, system_name: str):
+    """The RobotModel behind a system (robot systems, tx40-j2), and its default moving joints."""
+    from frictionid_core.robots.system import RobotInfo
+
+    if isinstance(system.info, RobotInfo):
+        return system.info.robot, None
+    if system_name == "tx40-j2":
+        from frictionid_core.robots.tx40 import build_tx40
+
+        return build_tx40(), ["joint_2"]
+    raise FrictionIdError(f"system '{system_name}' has no robot model; use tx40, tx40-j2 or urdf:PATH")
+
+
+def _parse_hold(text: str | None) -> dict[str, float]:
+    out = {}
+    for item in filter(None, (s.strip() for s in (text or "").split(","))):
+        j, sep, v = item.partition("=")
+        try:
+            out[j.strip()] = float(v)
+        except ValueError:
+            raise FrictionIdError(f"--hold item '{item}': expected JOINT=RAD") from None
+        if not sep:
+            raise FrictionIdError(f"--hold item '{item}': expected JOINT=RAD")
+    return out
+
+
+def register(subparsers):
+    """Add ``excite``: optimise a Fourier excitation trajectory and write it (.npz or .csv).
+
+        frictionid excite --system tx40 --out traj.npz [--joints J,…] [--hold J=RAD,…]
+                          [--harmonics 5] [--period 10] [--duration 20] [--evals 1500] [--seed 0]
+    """
+    p = subparsers.add_parser("excite", help="optimise a Fourier excitation trajectory within the joint limits")
+    p.add_argument("--system", required=True, help="tx40 | tx40-j2 | urdf:PATH (the model whose columns are conditioned)")
+    p.add_argument("--out", type=Path, required=True, help="trajectory file: .npz (coefficients) or .csv (samples)")
+    p.add_argument("--joints", help="joints that move (default: all; tx40-j2: joint_2)")
+    p.add_argument("--hold", help="positions of the joints that do not move, JOINT=RAD,… (default 0)")
+    p.add_argument("--harmonics", type=int, default=5, help="Fourier harmonics L (default 5)")
+    p.add_argument("--period", type=float, default=10.0, help="fundamental period 2π/ω_f, s (default 10)")
+    p.add_argument("--duration", type=float, default=20.0, help="trajectory length, s (default 20)")
+    p.add_argument("--evals", type=int, default=1500, help="criterion evaluations (default 1500)")
+    p.add_argument("--starts", type=int, default=20, help="random starting shapes (default 20)")
+    p.add_argument("--margin", type=float, default=0.05, help="safety margin on the limits, fraction (default 0.05)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--rate", type=float, default=1000.0, help="sample rate of a .csv output, Hz (default 1000)")
+    p.add_argument("--json", type=Path, help="write a report as JSON to this file")
+    return _cmd_excite
+
+
+def _cmd_excite(args) -> int:
+    from frictionid_core.systems import get_system
+
+    system = get_system(args.system)
+    robot, default_moving = robot_of(system, args.system)
+    moving = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else default_moving
+    res = optimise_excitation(system, robot, moving=moving, hold=_parse_hold(args.hold), harmonics=args.harmonics,
+                              period=args.period, duration=args.duration, evals=args.evals, starts=args.starts,
+                              seed=args.seed, margin=args.margin)
+    res.trajectory.save(args.out, args.rate)
+    t, q, qd, qdd = res.trajectory.sample(args.rate)
+    print(f"excitation for {args.system} ({robot.name}): cond {res.cond_initial:.4g} → {res.cond:.4g} "
+          f"after {res.evaluations} evaluations; written to {args.out}")
+    print(f"{'joint':<14}{'q min':>10}{'q max':>10}{'|q̇| max':>10}{'lim':>8}{'|q̈| max':>10}{'lim':>8}")
+    for k, j in enumerate(robot.joints):
+        print(f"{j:<14}{q[:, k].min():>10.4g}{q[:, k].max():>10.4g}{np.abs(qd[:, k]).max():>10.4g}"
+              f"{robot.velocity_limit[k]:>8.3g}{np.abs(qdd[:, k]).max():>10.4g}{robot.acceleration_limit[k]:>8.3g}")
+    if args.json is not None:
+        args.json.write_text(json.dumps(dict(res.to_dict(), system=args.system, out=str(args.out)), indent=2) + "\n")
+    return 0

@@ -1,0 +1,217 @@
+"""Rigid-body manipulator models on Pinocchio: inverse dynamics, regressor, limits.
+
+A :class:`RobotModel` wraps a fixed-base ``pinocchio.Model`` whose movable joints each
+have one degree of freedom (revolute, prismatic, or continuous). Everything robot-specific
+(kinematics, masses, inertias) lives in the Pinocchio model; nothing here knows a robot.
+
+Standard parameters, per body (Pinocchio's ``Inertia.toDynamicParameters`` order, inertia
+about the joint frame origin, in the joint frame):
+``m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz``; then one rotor (armature) inertia ``Ia``
+per joint, entering τ_j as Ia_j·q̈_j. Parameter names are ``<joint>.<name>``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from frictionid_core.errors import InputError
+
+BODY_PARAMS = ("m", "mx", "my", "mz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz")
+ROTOR_PARAM = "Ia"
+
+# Used when a model gives no acceleration limit (URDF has none), rad/s² or m/s².
+DEFAULT_ACCELERATION_LIMIT = 10.0
+
+
+def _pin():
+    try:
+        import pinocchio
+    except ImportError as exc:  # pragma: no cover - pinocchio is a pinned requirement
+        raise InputError(f"robot models need Pinocchio ('pip install pin'): {exc}") from None
+    return pinocchio
+
+
+def param_name(joint: str, p: str) -> str:
+    return f"{joint.replace('/', '_')}.{p}"
+
+
+@dataclass
+class RobotModel:
+    """A fixed-base manipulator.
+
+    Attributes:
+        name: model name (``tx40``, URDF robot name, …).
+        model: the Pinocchio model (its ``armature`` holds the rotor inertias).
+        joints: movable joint names, in velocity order (nv).
+        lower, upper: position limits (nv,) (±inf when unlimited).
+        velocity_limit, acceleration_limit: (nv,) magnitudes.
+        source: where the model came from (file or table).
+    """
+
+    name: str
+    model: object
+    joints: list[str]
+    lower: np.ndarray
+    upper: np.ndarray
+    velocity_limit: np.ndarray
+    acceleration_limit: np.ndarray
+    source: str = ""
+    _data: object = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        self._data = self.model.createData()
+        self._unit = self.model.nq != self.model.nv  # continuous joints: (cos, sin) configuration
+
+    # --------------------------------------------------------------- structure
+    @property
+    def nv(self) -> int:
+        return self.model.nv
+
+    @property
+    def armature(self) -> np.ndarray:
+        return np.array(self.model.armature, dtype=float)
+
+    def parameter_names(self) -> list[str]:
+        """Standard parameters: 10 per body then one Ia per joint."""
+        names = [param_name(j, p) for j in self.joints for p in BODY_PARAMS]
+        return names + [param_name(j, ROTOR_PARAM) for j in self.joints]
+
+    def parameters(self) -> np.ndarray:
+        """Standard parameter values of the model (the ground truth of synthetic data)."""
+        pi = [self.model.inertias[i].toDynamicParameters() for i in range(1, self.model.njoints)]
+        return np.concatenate(pi + [self.armature])
+
+    def limits_table(self) -> dict[str, dict[str, float]]:
+        return {j: {"lower": float(self.lower[k]), "upper": float(self.upper[k]),
+                    "velocity": float(self.velocity_limit[k]), "acceleration": float(self.acceleration_limit[k])}
+                for k, j in enumerate(self.joints)}
+
+    # ------------------------------------------------------------- kinematics
+    def configuration(self, q: np.ndarray) -> np.ndarray:
+        """Pinocchio configuration of joint coordinates q (nv,)."""
+        q = np.asarray(q, dtype=float)
+        if not self._unit:
+            return q
+        pin = _pin()
+        return pin.integrate(self.model, pin.neutral(self.model), q)
+
+    def inverse_dynamics(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """τ = M(q)q̈ + C(q,q̇)q̇ + g(q) + Ia·q̈ for samples (N, nv) → (N, nv) (Pinocchio rnea)."""
+        pin = _pin()
+        q, qd, qdd = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (q, qd, qdd))
+        out = np.empty_like(qd)
+        m, d = self.model, self._data
+        for k in range(q.shape[0]):
+            out[k] = pin.rnea(m, d, self.configuration(q[k]), qd[k], qdd[k])
+        return out
+
+    def gravity(self, q: np.ndarray) -> np.ndarray:
+        """g(q) for samples (N, nv) → (N, nv)."""
+        pin = _pin()
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        return np.array([pin.computeGeneralizedGravity(self.model, self._data, self.configuration(x)) for x in q])
+
+    def mass_matrix(self, q: np.ndarray) -> np.ndarray:
+        """M(q) (rigid bodies + armature) at one configuration → (nv, nv)."""
+        pin = _pin()
+        M = pin.crba(self.model, self._data, self.configuration(np.asarray(q, dtype=float)))
+        return np.triu(M) + np.triu(M, 1).T
+
+    def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """Standard-parameter regressor for samples (N, nv) → (N, nv, 10·nb + nv).
+
+        τ_k = Y_k · :meth:`parameters` (Pinocchio's joint torque regressor plus one q̈_j column
+        per rotor inertia).
+        """
+        pin = _pin()
+        q, qd, qdd = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (q, qd, qdd))
+        n, nv = qd.shape
+        nb = self.model.njoints - 1
+        out = np.zeros((n, nv, 10 * nb + nv))
+        m, d = self.model, self._data
+        for k in range(n):
+            out[k, :, : 10 * nb] = pin.computeJointTorqueRegressor(m, d, self.configuration(q[k]), qd[k], qdd[k])
+        idx = np.arange(nv)
+        out[:, idx, 10 * nb + idx] = qdd
+        return out
+
+    def check_limits(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, t: np.ndarray | None = None,
+                     what: str = "trajectory", tol: float = 1e-9) -> None:
+        """Raise InputError naming the first joint/limit a trajectory (N, nv) violates."""
+        t = np.arange(q.shape[0]) if t is None else t
+        problems = []
+        for k, j in enumerate(self.joints):
+            checks = (
+                ("position", q[:, k] < self.lower[k] - tol, q[:, k], f"[{self.lower[k]:.6g}, {self.upper[k]:.6g}]"),
+                ("position", q[:, k] > self.upper[k] + tol, q[:, k], f"[{self.lower[k]:.6g}, {self.upper[k]:.6g}]"),
+                ("velocity", np.abs(qd[:, k]) > self.velocity_limit[k] * (1 + tol), qd[:, k],
+                 f"±{self.velocity_limit[k]:.6g}"),
+                ("acceleration", np.abs(qdd[:, k]) > self.acceleration_limit[k] * (1 + tol), qdd[:, k],
+                 f"±{self.acceleration_limit[k]:.6g}"),
+            )
+            for kind, bad, x, lim in checks:
+                if bad.any():
+                    i = int(np.flatnonzero(bad)[0])
+                    worst = float(x[bad][np.argmax(np.abs(x[bad]))])
+                    problems.append(f"joint '{j}' {kind} {worst:.6g} outside {lim} (first at t = {t[i]:.6g} s)")
+        if problems:
+            raise InputError(f"{what} violates the limits of {self.name}: " + "; ".join(dict.fromkeys(problems)))
+
+
+def from_pinocchio(pmodel, name: str, source: str = "",
+                   acceleration_limit: np.ndarray | float | None = None) -> RobotModel:
+    """Wrap a Pinocchio model; checks it is a fixed-base chain of 1-DOF joints."""
+    joints = []
+    for i in range(1, pmodel.njoints):
+        jm = pmodel.joints[i]
+        if jm.nv != 1:
+            raise InputError(f"{source or name}: joint '{pmodel.names[i]}' ({jm.shortname()}) has {jm.nv} degrees of "
+                             "freedom; only fixed-base robots with 1-DOF joints are supported")
+        joints.append(pmodel.names[i])
+    if not joints:
+        raise InputError(f"{source or name}: the model has no movable joint")
+    nv = pmodel.nv
+    lower = np.full(nv, -np.inf)
+    upper = np.full(nv, np.inf)
+    for i in range(1, pmodel.njoints):
+        jm = pmodel.joints[i]
+        if jm.nq == 1:  # revolute/prismatic: a position limit; continuous joints stay unlimited
+            lo, hi = pmodel.lowerPositionLimit[jm.idx_q], pmodel.upperPositionLimit[jm.idx_q]
+            if np.isfinite(lo) and np.isfinite(hi) and hi > lo:
+                lower[jm.idx_v], upper[jm.idx_v] = lo, hi
+    vel = np.array(pmodel.velocityLimit, dtype=float)
+    vel = np.where((vel > 0) & np.isfinite(vel), vel, np.inf)
+    if acceleration_limit is None:
+        acceleration_limit = DEFAULT_ACCELERATION_LIMIT
+    acc = np.broadcast_to(np.asarray(acceleration_limit, dtype=float), (nv,)).copy()
+    return RobotModel(name, pmodel, joints, lower, upper, vel, acc, source)
+
+
+def load_urdf(path: str | Path, acceleration_limit: np.ndarray | float | None = None) -> RobotModel:
+    """A :class:`RobotModel` from a URDF file (``pinocchio.buildModelFromUrdf``, fixed base)."""
+    pin = _pin()
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such URDF file")
+    try:
+        pmodel = pin.buildModelFromUrdf(str(path))
+    except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with the parser's message
+        msg = " ".join(str(exc).split())
+        raise InputError(f"{path}: not a valid URDF model ({msg[:300]})") from None
+    return from_pinocchio(pmodel, pmodel.name or path.stem, str(path), acceleration_limit)
+
+
+def example_robot_data_dir() -> Path:
+    """The ``robots`` directory of the ``example-robot-data`` package (URDFs, offline)."""
+    import site
+    import sys
+
+    roots = list(site.getsitepackages()) + [site.getusersitepackages()] + list(sys.path)
+    for root in roots:
+        p = Path(root) / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
+        if p.is_dir():
+            return p
+    raise InputError("example-robot-data is not installed ('pip install example-robot-data')")
