@@ -43,6 +43,24 @@ class _Dip:
 
 
 @dataclass
+class _ActiveDip:
+    """A dip restricted to its active rows, with the constant pieces the cost needs."""
+
+    nl_index: list[int]
+    speed: np.ndarray  # |v| on the active rows
+    log_speed: np.ndarray  # log|v| (the rows are active only where v ≠ 0)
+    mask: np.ndarray  # signed branch mask on the active rows
+    F_rows: np.ndarray  # fixed design rows (n, L)
+    y_rows: np.ndarray  # measured torque rows (n,)
+    sign: np.ndarray  # (L,) ±1 for the linear terms the dip enters, 0 elsewhere
+    sign2: np.ndarray  # outer(sign, sign)
+
+    def values(self, friction: FrictionModel, p: np.ndarray) -> np.ndarray:
+        """Signed dip column on the active rows for parameters (P, k) → (P, n)."""
+        return self.mask * friction.dip(p[:, self.nl_index], self.speed, self.log_speed)
+
+
+@dataclass
 class IdentificationModel:
     """Torque prediction and least-squares cost of ``friction`` on ``obs``.
 
@@ -109,26 +127,22 @@ class IdentificationModel:
         # Fixed design columns of every linear term (R, L); zero column for pure-dip terms.
         self._fixed = np.column_stack([t.fixed if t.fixed is not None else np.zeros(rows) for t in terms])
         self._rows, self._nd = rows, nd
-        self._fixed_t = np.ascontiguousarray(self._fixed.T)
-        self._kernel_args = self._pack_kernel_args()
+        self._quadratic = self._quadratic_terms()
 
-    def _pack_kernel_args(self) -> tuple:
-        """Flat arrays describing the model for :func:`frictionid_core.kernels.batch_sse`;
-        each dip is compacted to the rows where its branch is active."""
-        nd = self._nd
-        active = [np.flatnonzero(d.mask) for d in self._dips]
-        self._active_speed = [d.speed[i] for d, i in zip(self._dips, active)]
-        self._active_log_speed = [np.log(np.maximum(s, 1e-300)) for s in self._active_speed]  # masked rows: v ≠ 0
-        i64 = lambda a: np.ascontiguousarray(a, dtype=np.int64)  # noqa: E731
-        cat = lambda parts: np.concatenate(parts) if parts else np.empty(0)  # noqa: E731
-        return (
-            np.ascontiguousarray(self.obs.y),
-            i64([-1 if t.dip_branch is None else t.dip_branch for t in self._terms]),
-            np.array([t.dip_sign for t in self._terms]),
-            i64(np.cumsum([0] + [i.size for i in active])),
-            i64(cat([d.joint * nd + i for d, i in zip(self._dips, active)])),
-            np.ascontiguousarray(cat([d.mask[i] for d, i in zip(self._dips, active)]), dtype=float),
-        )
+    def _quadratic_terms(self) -> tuple:
+        """Constant pieces of the cost and of :meth:`solve_linear`: FᵀF, Fᵀy, yᵀy and, per dip
+        compacted to the rows where its branch is active, its nonlinear-parameter indices, speeds
+        |v| and log|v|, signed mask, rows of F and y, and the ± signs of the terms it enters."""
+        F, y, nd = self._fixed, self.obs.y, self._nd
+        dips = []
+        for k, d in enumerate(self._dips):
+            active = np.flatnonzero(d.mask)
+            rows = d.joint * nd + active
+            speed = d.speed[active]
+            sign = np.array([t.dip_sign if t.dip_branch == k else 0.0 for t in self._terms])
+            dips.append(_ActiveDip(d.nl_index, speed, np.log(np.maximum(speed, 1e-300)), d.mask[active],
+                                   np.ascontiguousarray(F[rows]), y[rows], sign, np.outer(sign, sign)))
+        return F.T @ F, F.T @ y, float(y @ y), dips
 
     # ----------------------------------------------------------------- structure
     @property
@@ -193,20 +207,23 @@ class IdentificationModel:
         return pred[0] if single else pred
 
     def batch_cost(self, params: np.ndarray) -> np.ndarray:
-        """Sum of squared torque residuals for a population (P, k) → (P,) (compiled kernel)."""
-        from frictionid_core.kernels import batch_sse
+        """Sum of squared torque residuals for a population (P, k) → (P,).
 
-        p = np.ascontiguousarray(np.atleast_2d(params), dtype=float)
+        Expanded through the constant normal-equation pieces, ‖y − Fc − Σ_d w_d·D_d‖² =
+        yᵀy − 2cᵀFᵀy + cᵀFᵀFc + Σ_d [w_d²·D_dᵀD_d − 2w_d·D_dᵀ(y − Fc)] (the dips D_d act on
+        disjoint rows), so each candidate costs BLAS products over the dips' active rows only.
+        """
+        p = np.atleast_2d(np.asarray(params, dtype=float))
         if p.shape[1] != self.k:
             raise FrictionIdError(f"model takes {self.k} parameters {self.names}, got {p.shape[1]}")
-        if self._dips:
-            dip_values = np.concatenate(
-                [self.friction.dip(p[:, d.nl_index], s, ls)
-                 for d, s, ls in zip(self._dips, self._active_speed, self._active_log_speed)], axis=1)
-        else:
-            dip_values = np.empty((p.shape[0], 0))
-        coef = np.ascontiguousarray(p[:, self.linear_index])
-        return batch_sse(coef @ self._fixed_t, self._kernel_args[0], coef, *self._kernel_args[1:], dip_values)
+        FtF, Fty, yty, dips = self._quadratic
+        c = p[:, self.linear_index]
+        cost = yty - 2.0 * (c @ Fty) + np.einsum("pl,pl->p", c @ FtF, c)
+        for d in dips:
+            v = d.values(self.friction, p)
+            w = c @ d.sign
+            cost += w * (w * np.einsum("pn,pn->p", v, v) - 2.0 * (v @ d.y_rows - np.einsum("pl,pl->p", v @ d.F_rows, c)))
+        return np.maximum(cost, 0.0)
 
     def residuals(self, params: np.ndarray) -> np.ndarray:
         """y − ŷ for one parameter vector (k,) → (R,)."""
@@ -230,21 +247,6 @@ class IdentificationModel:
                 X[:, d.joint * nd : (d.joint + 1) * nd, col] += t.dip_sign * dipcols[t.dip_branch]
         return X
 
-    def _projection_terms(self) -> tuple:
-        """Constant pieces of :meth:`solve_linear`, computed once: FᵀF, Fᵀy, yᵀy and per dip its
-        active rows of F and y, its mask and the ± signs of the terms it enters."""
-        if getattr(self, "_vp", None) is None:
-            F, y = self._fixed, self.obs.y
-            _, _, _, start, rows, mask = self._kernel_args
-            dips = []
-            for k, (d, speed, log_speed) in enumerate(zip(self._dips, self._active_speed, self._active_log_speed)):
-                sl = slice(start[k], start[k + 1])
-                sign = np.array([t.dip_sign if t.dip_branch == k else 0.0 for t in self._terms])
-                dips.append((d.nl_index, speed, log_speed, mask[sl], np.ascontiguousarray(F[rows[sl]]), y[rows[sl]],
-                             sign, np.outer(sign, sign)))
-            self._vp = (F.T @ F, F.T @ y, float(y @ y), dips)
-        return self._vp
-
     def solve_linear(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Variable projection: for each row of ``theta`` (P, k) keep its nonlinear entries and
         solve the linear ones in closed form. Returns (full parameters (P, k), costs (P,)).
@@ -253,15 +255,15 @@ class IdentificationModel:
         (dips act on disjoint rows), so a population costs O(P·active rows·L).
         """
         p = np.array(np.atleast_2d(theta), dtype=float)
-        FtF, Fty, yty, dips = self._projection_terms()
+        FtF, Fty, yty, dips = self._quadratic
         n_pop, n_lin = p.shape[0], FtF.shape[0]
         G = np.repeat(FtF[None], n_pop, axis=0)
         b = np.repeat(Fty[None], n_pop, axis=0)
-        for nl_index, speed, log_speed, mask, F_rows, y_rows, sign, sign2 in dips:
-            v = mask * self.friction.dip(p[:, nl_index], speed, log_speed)  # (P, n) dip column values
-            outer = (v @ F_rows)[:, :, None] * sign[None, None, :]  # Fᵀ·dip ⊗ signs
-            G += outer + outer.transpose(0, 2, 1) + np.einsum("pn,pn->p", v, v)[:, None, None] * sign2
-            b += (v @ y_rows)[:, None] * sign
+        for d in dips:
+            v = d.values(self.friction, p)
+            outer = (v @ d.F_rows)[:, :, None] * d.sign[None, None, :]  # Fᵀ·dip ⊗ signs
+            G += outer + outer.transpose(0, 2, 1) + np.einsum("pn,pn->p", v, v)[:, None, None] * d.sign2
+            b += (v @ d.y_rows)[:, None] * d.sign
         scale = 1.0 / np.sqrt(np.maximum(np.einsum("pll->pl", G), np.finfo(float).tiny))
         Gs = G * scale[:, :, None] * scale[:, None, :] + 1e-12 * np.eye(n_lin)
         coef = np.linalg.solve(Gs, (b * scale)[..., None])[..., 0] * scale
