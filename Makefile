@@ -34,5 +34,9 @@ test: setup
 bags: setup
 	$(PY) tools/make_emps_bags.py
 
+# Benchmarks (never part of make test). BENCH_ARGS=--quick for a smoke run.
+bench-optim: setup
+	$(PY) bench/optimizers.py $(BENCH_ARGS)
+
 clean:
 	rm -rf $(VENV) build demo_result.json demo_validation.json

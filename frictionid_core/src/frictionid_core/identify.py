@@ -86,14 +86,7 @@ def identify(series: JointSeries, *, system: str = "emps", friction: str = "coul
         std = {model.names[i]: float(s) for i, s in zip(model.linear_index, fit.std)}
         cond = fit.cond
     else:
-        from frictionid_core.optim import minimize
-
-        problem = _varpro_problem(model) if varpro else _full_problem(model)
-        if model.nonlinear_index.size:
-            start = _start_point(model, np.random.default_rng(seed))
-            problem.x0 = start[model.nonlinear_index] if varpro else start
-        res = minimize(problem, solver, seed=seed, **solver_options)
-        x = model.solve_linear(_embed(model, res.x))[0][0] if varpro else res.x
+        x, res = solve_model(model, solver, seed=seed, varpro=varpro, **solver_options)
         extra["optimizer"] = res.to_dict()
         extra["varpro"] = varpro
         std = _jacobian_std(model, x)
@@ -104,6 +97,24 @@ def identify(series: JointSeries, *, system: str = "emps", friction: str = "coul
     metrics["samples"] = int(model.obs.y.size)
     return Identification(system, friction, asymmetric, solver, series.source, list(series.joints),
                           dict(zip(model.names, map(float, x))), std, metrics, time.perf_counter() - t0, extra)
+
+
+def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpro: bool = False,
+                **solver_options):
+    """Minimise the model's cost with ``solver``; returns (parameters (k,), OptimResult).
+
+    Local solvers start from the best of a sample of closed-form solutions (:func:`_start_point`).
+    With ``varpro`` the solver sees only the nonlinear parameters.
+    """
+    from frictionid_core.optim import minimize
+
+    problem = _varpro_problem(model) if varpro else _full_problem(model)
+    if model.nonlinear_index.size:
+        start = _start_point(model, np.random.default_rng(seed))
+        problem.x0 = start[model.nonlinear_index] if varpro else start
+    res = minimize(problem, solver, seed=seed, **solver_options)
+    x = model.solve_linear(_embed(model, res.x))[0][0] if varpro else res.x
+    return x, res
 
 
 def _start_point(model: IdentificationModel, rng: np.random.Generator, samples: int = 64) -> np.ndarray:
