@@ -42,7 +42,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("identify", help="identify friction (and rigid-body) parameters from data")
     _add_source_args(p)
-    p.add_argument("--system", default="emps", help="inverse dynamic model: emps | friction-only (default emps)")
+    p.add_argument("--system", default="emps",
+                   help="inverse dynamic model: emps | friction-only | tx40-j2 | tx40 | urdf:PATH (default emps)")
+    p.add_argument("--joint-map", help="bag joint → model joint names when they differ: a=b,c=d")
     p.add_argument("--friction", default="coulomb", choices=KINDS, help="friction model (default coulomb)")
     p.add_argument("--asymmetric", action="store_true", help="separate parameters for v > 0 and v < 0")
     p.add_argument("--solver", default="ls", choices=SOLVERS, help="optimiser (default ls: linear least squares)")
@@ -65,11 +67,12 @@ def build_parser() -> argparse.ArgumentParser:
     _add_source_args(p)
     p.add_argument("--params", type=Path, required=True, help="JSON written by 'frictionid identify'")
 
-    from frictionid_core import report, simulation, study
+    from frictionid_core import report, robots, simulation, study
 
     COMMANDS["simulate"] = simulation.register(sub)
     COMMANDS["study"] = study.register(sub)
     COMMANDS["report"] = report.register(sub)
+    COMMANDS.update(robots.register_all(sub))
     _add_plugin_commands(sub)
     return parser
 
@@ -152,6 +155,7 @@ def _preprocessing(args):
 
 def cmd_identify(args) -> int:
     from frictionid_core.identify import identify
+    from frictionid_core.systems import system_spec
 
     opts = {}
     if args.budget is not None:
@@ -170,7 +174,8 @@ def cmd_identify(args) -> int:
         _write_json(args.json, result)
         return 0
     series = _load(args)
-    result = identify(series, system=args.system, friction=args.friction, asymmetric=args.asymmetric,
+    result = identify(series, system=system_spec(args.system, args.joint_map), friction=args.friction,
+                      asymmetric=args.asymmetric,
                       solver=args.solver, seed=args.seed, varpro=args.varpro, bounds=_parse_bounds(args.bounds),
                       preprocessing=_preprocessing(args), **opts).to_dict()
     print_table(result)

@@ -76,9 +76,10 @@ SYSTEMS: dict[str, System] = {
     "friction-only": System("friction-only", (), {}, Preprocessing(), _no_columns),
     # TX40 joint 2, thesis §5.2 (SPEC §2.2): τ = ZZ·q̈ + τ_grav(q) + τ_f(q̇) + offset,
     # τ_grav = −g·MX·cos θ + g·MY·sin θ with the DH angle θ = q − π/2. Pre-processing and
-    # slow-row exclusion as the robot systems (see frictionid_core.robots.system).
+    # slow-row exclusion as the robot systems (see frictionid_core.robots.system), except a
+    # decimation by 2 (joint-2 reversals are slow; it halves the rows of the thesis' searches).
     "tx40-j2": System("tx40-j2", ("ZZ", "MX", "MY"), {"ZZ": (0.0, 5.0), "MX": (-10.0, 10.0), "MY": (-10.0, 10.0)},
-                      Preprocessing(cutoff_hz=50.0, order=4, decimate=2, trim_start=50, trim_end=50),
+                      Preprocessing(cutoff_hz=50.0, order=4, decimate=2, trim_start=200, trim_end=200),
                       _tx40_j2_columns, joints=1, min_speed=3e-3),
 }
 

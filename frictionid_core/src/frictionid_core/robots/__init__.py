@@ -1,0 +1,39 @@
+"""Manipulators on Pinocchio: models, base parameters, excitation, synthetic data, checks.
+
+* :mod:`~frictionid_core.robots.model` — :class:`RobotModel` (any fixed-base URDF via
+  :func:`load_urdf`), inverse dynamics, the standard-parameter regressor (+ rotor inertias).
+* :mod:`~frictionid_core.robots.tx40` — the Stäubli TX40 of SPEC §6 (:func:`build_tx40`) and
+  the thesis joint-2 model equivalents.
+* :mod:`~frictionid_core.robots.base` — base parameters by QR with column pivoting, the
+  excitation (rank) test naming unidentifiable parameters.
+* :mod:`~frictionid_core.robots.system` — identification systems ``tx40`` and ``urdf:PATH``
+  (see :func:`frictionid_core.systems.get_system`).
+* :mod:`~frictionid_core.robots.excitation` — Fourier excitation optimised for the condition
+  number (``frictionid excite``).
+* :mod:`~frictionid_core.robots.synth` — synthetic JointState data (``frictionid synth``).
+* :mod:`~frictionid_core.robots.consistency` — physical consistency of identified base
+  parameters (``frictionid consistency``).
+* :mod:`~frictionid_core.robots.compare` — results vs ground truth and the noise floor
+  (``frictionid compare``).
+
+Pinocchio is imported only when a robot model is built.
+"""
+
+from frictionid_core.robots.model import RobotModel, example_robot_data_dir, load_urdf
+
+__all__ = ["RobotModel", "example_robot_data_dir", "load_urdf", "COMMANDS"]
+
+# CLI sub-commands of this package: name → module with register(subparsers) -> handler.
+COMMANDS = {
+    "excite": "frictionid_core.robots.excitation",
+    "synth": "frictionid_core.robots.synth",
+    "consistency": "frictionid_core.robots.consistency",
+    "compare": "frictionid_core.robots.compare",
+}
+
+
+def register_all(subparsers) -> dict:
+    """Register every robot sub-command; returns {name: handler}."""
+    from importlib import import_module
+
+    return {name: import_module(mod).register(subparsers) for name, mod in COMMANDS.items()}

@@ -50,7 +50,8 @@ def friction_torques(kind: str, asymmetric: bool, params: dict[str, dict[str, fl
             raise InputError(f"friction parameters missing for joint '{j}' (given: {sorted(params)})")
         missing = [n for n in model.names if n not in params[j]]
         if missing:
-            raise InputError(f"friction parameters of joint '{j}' lack {missing} for {model.label} ({list(model.names)})")
+            raise InputError(f"friction parameters of joint '{j}' lack {missing} for {model.label} "
+                             f"({list(model.names)})")
         out[:, k] = model.torque(np.array([params[j][n] for n in model.names]), qd[:, k])
     return out
 
@@ -142,8 +143,9 @@ def ground_truth(robot, kind, asymmetric, friction_params, offsets, sigma_q, tor
             eff = joint2_effective_parameters(robot, hold)
             truth["joint2_thesis_model"] = {
                 "ZZ": eff["ZZ"], "MX": eff["MX"], "MY": eff["MY"],
-                "note": "only joint 2 moves, the others are held: τ₂ = ZZ·q̈ − g·MX·cos θ + g·MY·sin θ exactly, "
-                        "θ = q₂ − π/2; ZZ = M₂₂ (links 2…6 + rotor), MX, MY from the Pinocchio gravity torque",
+                "note": "only joint 2 moves, the others are held: τ₂ = ZZ·q̈ − g·MX·cos θ + g·MY·sin θ "
+                        "exactly, θ = q₂ − π/2; ZZ = M₂₂ (links 2…6 + rotor), MX, MY from the Pinocchio "
+                        "gravity torque",
                 "hold": dict(zip(robot.joints, map(float, hold))),
             }
     return truth
@@ -211,8 +213,10 @@ def register(subparsers):
                          [--friction-params F.json] [--offsets J=V,…] [--position-noise RAD[,…]]
                          [--torque-noise 0.05] [--rate 1000] [--seed 0] [--truth T.json] [--names A,B,…]
     """
-    p = subparsers.add_parser("synth", help="synthesise a JointState bag from a trajectory (Pinocchio + friction + noise)")
-    p.add_argument("trajectory", type=Path, help="trajectory from 'frictionid excite' (.npz) or CSV (t, q:<joint>, …)")
+    p = subparsers.add_parser("synth",
+                              help="synthesise a JointState bag from a trajectory (Pinocchio + friction + noise)")
+    p.add_argument("trajectory", type=Path,
+                   help="trajectory from 'frictionid excite' (.npz) or CSV (t, q:<joint>, …)")
     p.add_argument("--system", required=True, help="robot: tx40 | tx40-j2 (the TX40) | urdf:PATH")
     p.add_argument("--out", type=Path, required=True, help="bag directory to create (MCAP)")
     p.add_argument("--friction", default="stribeck", choices=KINDS, help="friction law (default stribeck)")
@@ -220,11 +224,14 @@ def register(subparsers):
     p.add_argument("--friction-params", type=Path,
                    help="JSON {joint: {Fv: …, Fc: …}} or a truth file (default for the TX40: SPEC §6)")
     p.add_argument("--offsets", help="constant torque offsets JOINT=N·m,… (default 0)")
-    p.add_argument("--position-noise", help="1σ position noise, rad: one value or one per joint (default: SPEC for the TX40, else 1e-6)")
-    p.add_argument("--torque-noise", type=float, default=DEFAULT_TORQUE_NOISE, help="1σ torque noise, N·m (default 0.05)")
+    p.add_argument("--position-noise",
+                   help="1σ position noise, rad: one value or one per joint (default: SPEC for the TX40, else 1e-6)")
+    p.add_argument("--torque-noise", type=float, default=DEFAULT_TORQUE_NOISE,
+                   help="1σ torque noise, N·m (default 0.05)")
     p.add_argument("--rate", type=float, default=1000.0, help="sample rate, Hz (default 1000)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    p.add_argument("--names", help="joint names written in the bag, comma-separated in model order (default: model names)")
+    p.add_argument("--names",
+                   help="joint names written in the bag, comma-separated in model order (default: model names)")
     p.add_argument("--truth", type=Path, help="write the ground truth as JSON here")
     return _cmd_synth
 

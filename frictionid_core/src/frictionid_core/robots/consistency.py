@@ -1,0 +1,213 @@
+"""Physical consistency of identified base parameters (no SDP solver).
+
+Base parameters β are combinations of the standard parameters π (β = A·π, A from
+:class:`~frictionid_core.robots.base.BaseParameters`); they alone cannot say whether each body
+is physically realisable. This module asks: *is there a π with A·π = β̂ whose every body is
+physically consistent?* and answers it in two honest steps:
+
+1. the weighted least-squares correction of a prior π₀ (the model's own, e.g. CAD/URDF,
+   parameters; or a generic one) onto {π : A·π = β̂} (closed form);
+2. if a body fails, a small SLSQP search in the null space of A (A·π stays = β̂) for a π
+   meeting the inequalities, as close as possible to step 1.
+
+Checked per body (Wensing et al. 2017 density realisability): mass m > 0 and the 4×4
+pseudo-inertia J = [[½tr(I)·1 − I, h], [hᵀ, m]] positive definite (I: inertia about the joint
+frame origin, h = m·c), which implies the inertia about the centre of mass is positive
+definite and satisfies the triangle inequalities (both reported); and rotor inertias Ia ≥ 0.
+A positive answer proves feasibility (a witness π is returned); a negative answer of step 2
+is strong evidence, not a proof (the search is local).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from frictionid_core.errors import FrictionIdError
+
+EIG_TOL = 1e-9
+
+
+def _basis() -> np.ndarray:
+    """E_i with J(p) = Σ p_i·E_i for p = [m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]."""
+    E = np.zeros((10, 4, 4))
+    E[0, 3, 3] = 1.0
+    for i, a in enumerate((0, 1, 2)):
+        E[1 + i, a, 3] = E[1 + i, 3, a] = 1.0
+    for i, (a, b) in zip((4, 5, 6, 7, 8, 9), ((0, 0), (0, 1), (1, 1), (0, 2), (1, 2), (2, 2))):
+        if a == b:
+            E[i, :3, :3] = 0.5 * np.eye(3)
+            E[i, a, a] -= 1.0
+        else:
+            E[i, a, b] = E[i, b, a] = -1.0
+    return E
+
+
+def body_matrices(p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """(m, h = m·c (3,), I about the origin (3, 3)) of [m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]."""
+    m, hx, hy, hz, xx, xy, yy, xz, yz, zz = p
+    I = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    return float(m), np.array([hx, hy, hz]), I
+
+
+def pseudo_inertia(p: np.ndarray) -> np.ndarray:
+    m, h, I = body_matrices(p)
+    J = np.zeros((4, 4))
+    J[:3, :3] = 0.5 * np.trace(I) * np.eye(3) - I
+    J[:3, 3] = J[3, :3] = h
+    J[3, 3] = m
+    return J
+
+
+_E = _basis()
+
+
+def body_report(p: np.ndarray) -> dict:
+    """Mass, pseudo-inertia smallest eigenvalue, COM inertia eigenvalues, triangle inequalities."""
+    m, h, I = body_matrices(p)
+    lam_j = float(np.linalg.eigvalsh(pseudo_inertia(p))[0])
+    out = {"mass": m, "pseudo_inertia_min_eig": lam_j}
+    if m > 0:
+        c = h / m
+        Ic = I - m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+        ev = np.linalg.eigvalsh(Ic)
+        out["com"] = c.tolist()
+        out["com_inertia_eigs"] = ev.tolist()
+        out["triangle_inequalities"] = bool(ev[0] + ev[1] >= ev[2] - 1e-12)
+    out["consistent"] = bool(m > 0 and lam_j > EIG_TOL * max(1.0, abs(m)))
+    return out
+
+
+@dataclass
+class ConsistencyReport:
+    feasible: bool
+    method: str
+    bodies: dict
+    rotors: dict
+    base_residual: float
+    standard: dict
+
+    def to_dict(self) -> dict:
+        return {"feasible": self.feasible, "method": self.method, "bodies": self.bodies, "rotors": self.rotors,
+                "base_residual_max": self.base_residual, "standard_parameters": self.standard,
+                "checked": ["mass > 0", "pseudo-inertia positive definite (⇒ COM inertia PD + triangle inequalities)",
+                            "rotor inertia Ia ≥ 0", "A·π reproduces the identified base parameters"]}
+
+
+def generic_prior(robot) -> np.ndarray:
+    """A robot-agnostic prior: 1 kg at each joint origin, I = 0.01·1 kg·m², no rotor inertia."""
+    body = np.array([1.0, 0, 0, 0, 0.01, 0, 0.01, 0, 0, 0.01])
+    return np.concatenate([np.tile(body, robot.model.njoints - 1), np.zeros(robot.nv)])
+
+
+def check_consistency(robot, base, beta_hat: np.ndarray, prior: np.ndarray | None = None,
+                      margin: float = 1e-6) -> ConsistencyReport:
+    """Search standard parameters consistent with the identified base parameters ``beta_hat``
+    (module doc). ``prior``: standard parameters to stay close to (default: the model's own)."""
+    from scipy.linalg import null_space
+    from scipy.optimize import minimize
+
+    A = base.combination_matrix()
+    beta_hat = np.asarray(beta_hat, dtype=float)
+    if beta_hat.shape != (A.shape[0],):
+        raise FrictionIdError(f"expected {A.shape[0]} base parameters, got {beta_hat.shape}")
+    pi0 = robot.parameters() if prior is None else np.asarray(prior, dtype=float)
+    nb = robot.model.njoints - 1
+    # Scale of each parameter (kg, kg·m, kg·m²): corrections are measured relative to it.
+    floor = np.concatenate([np.tile([1.0, 0.1, 0.1, 0.1] + [0.01] * 6, nb), np.full(robot.nv, 0.01)])
+    D = np.maximum(np.abs(pi0), floor)
+    AD = A * D
+    pi = pi0 + D * (np.linalg.pinv(AD) @ (beta_hat - A @ pi0))
+    method = "least-squares projection of the " + ("model's parameters" if prior is None else "given prior")
+
+    def margins(x: np.ndarray) -> np.ndarray:
+        eig = [np.linalg.eigvalsh(pseudo_inertia(x[10 * k : 10 * k + 10]))[0] for k in range(nb)]
+        return np.concatenate([np.array(eig) - margin, x[10 * nb :]])
+
+    def margins_jac(x: np.ndarray) -> np.ndarray:
+        """d margins / d π: ∂λ_min(J)/∂p_i = vᵀ·E_i·v (J is linear in p, v its eigenvector)."""
+        G = np.zeros((nb + robot.nv, x.size))
+        for k in range(nb):
+            _, vecs = np.linalg.eigh(pseudo_inertia(x[10 * k : 10 * k + 10]))
+            v = vecs[:, 0]
+            G[k, 10 * k : 10 * k + 10] = np.einsum("i,kij,j->k", v, _E, v)
+        G[nb:, 10 * nb :] = np.eye(robot.nv)
+        return G
+
+    if np.any(margins(pi) < 0):
+        N = D[:, None] * null_space(AD)  # A·(π + N·z) = A·π
+        if N.shape[1]:
+            W = N / D[:, None]
+            H = W.T @ W
+            res = minimize(lambda z: float(z @ H @ z), np.zeros(N.shape[1]), jac=lambda z: 2.0 * H @ z,
+                           method="SLSQP",
+                           constraints=[{"type": "ineq", "fun": lambda z: margins(pi + N @ z),
+                                         "jac": lambda z: margins_jac(pi + N @ z) @ N}],
+                           options={"maxiter": 300, "ftol": 1e-14})
+            cand = pi + N @ res.x
+            if np.sum(np.minimum(margins(cand), 0)) >= np.sum(np.minimum(margins(pi), 0)):
+                pi = cand
+            method += " + SLSQP repair in the null space of the base map"
+    bodies = {j: body_report(pi[10 * k : 10 * k + 10]) for k, j in enumerate(robot.joints[:nb])}
+    rotors = {j: {"Ia": float(pi[10 * nb + k]), "consistent": bool(pi[10 * nb + k] >= -1e-12)}
+              for k, j in enumerate(robot.joints)}
+    feasible = all(b["consistent"] for b in bodies.values()) and all(r["consistent"] for r in rotors.values())
+    names = robot.parameter_names()
+    return ConsistencyReport(feasible, method, bodies, rotors, float(np.max(np.abs(A @ pi - beta_hat))),
+                             dict(zip(names, map(float, pi))))
+
+
+def report_for_result(result: dict, prior: str = "model") -> dict:
+    """Consistency report of an identification result (``Identification.to_dict()``) of a robot system."""
+    from frictionid_core.robots.system import RobotInfo
+    from frictionid_core.systems import get_system
+
+    system = get_system(result["system"])
+    if not isinstance(system.info, RobotInfo):
+        raise FrictionIdError(f"system '{result['system']}' is not a robot system (tx40, urdf:PATH): "
+                              "no body parameters to check")
+    info = system.info
+    try:
+        beta = np.array([result["params"][n] for n in info.base_names()])
+    except KeyError as exc:
+        raise FrictionIdError(f"result lacks base parameter {exc}") from None
+    pri = None if prior == "model" else generic_prior(info.robot)
+    rep = check_consistency(info.robot, info.base, beta, pri)
+    return dict(rep.to_dict(), system=result["system"], prior=prior)
+
+
+def register(subparsers):
+    """Add ``consistency``: physical-consistency report of a robot identification result.
+
+        frictionid consistency RESULT.json [--prior model|generic] [--json OUT]   (exit 3: not found feasible)
+    """
+    from pathlib import Path
+
+    p = subparsers.add_parser("consistency", help="physical consistency of identified robot base parameters")
+    p.add_argument("result", type=Path, help="JSON written by 'frictionid identify --system tx40|urdf:PATH'")
+    p.add_argument("--prior", choices=("model", "generic"), default="model",
+                   help="standard parameters to stay close to: the model's own (default) or generic bodies")
+    p.add_argument("--json", type=Path, help="write the report as JSON to this file")
+    return _cmd_consistency
+
+
+def _cmd_consistency(args) -> int:
+    import json
+
+    try:
+        result = json.loads(args.result.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise FrictionIdError(f"{args.result}: cannot read the result ({exc})") from None
+    rep = report_for_result(result, args.prior)
+    print(f"physical consistency of {args.result} ({rep['system']}): "
+          f"{'FEASIBLE' if rep['feasible'] else 'NOT FOUND FEASIBLE'} — {rep['method']}")
+    print(f"{'body':<14}{'mass':>10}{'λmin(J)':>12}{'triangle':>10}{'ok':>5}")
+    for j, b in rep["bodies"].items():
+        print(f"{j:<14}{b['mass']:>10.4g}{b['pseudo_inertia_min_eig']:>12.3g}"
+              f"{str(b.get('triangle_inequalities', '—')):>10}{'yes' if b['consistent'] else 'NO':>5}")
+    print("rotor Ia:", ", ".join(f"{j} {r['Ia']:.4g}" for j, r in rep["rotors"].items()))
+    print(f"max |A·π − β̂| = {rep['base_residual_max']:.3g}")
+    if args.json is not None:
+        args.json.write_text(json.dumps(rep, indent=2) + "\n")
+    return 0 if rep["feasible"] else 3
