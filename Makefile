@@ -29,7 +29,7 @@ demo: setup
 	$(VENV)/bin/frictionid validate bags/emps_validation --params demo_result.json --json demo_validation.json
 
 test: setup
-	$(PY) -m pytest -q tests
+	$(VENV)/bin/pytest -q tests
 
 bags: setup
 	$(PY) tools/make_emps_bags.py
