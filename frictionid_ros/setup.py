@@ -19,5 +19,8 @@ setup(
     maintainer_email="dev@frictionid.invalid",
     description="ROS 2 node wrapping frictionid_core",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    entry_points={
+        "console_scripts": ["frictionid_node = frictionid_ros.node:main"],
+        "frictionid.commands": ["replay = frictionid_ros.replay:register"],
+    },
 )

@@ -72,9 +72,12 @@ def test_identified_parameters_fields():
         "window_end": "builtin_interfaces/Time",
         "samples": "uint32",
         "joints": "sequence<frictionid_interfaces/JointFriction>",
+        "shared_param_names": "sequence<string>",
+        "shared_param_values": "sequence<double>",
+        "shared_param_std": "sequence<double>",
     }
     m = IdentifiedParameters()
-    assert isinstance(m.header, Header) and m.joints == [] and m.samples == 0
+    assert isinstance(m.header, Header) and m.joints == [] and m.samples == 0 and list(m.shared_param_names) == []
 
 
 def test_identify_request_defaults_mean_node_defaults():

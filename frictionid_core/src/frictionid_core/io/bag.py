@@ -21,7 +21,8 @@ def _typestore():
     return get_typestore(Stores.ROS2_KILTED)
 
 
-def _open_reader(path: Path):
+def open_reader(path: Path):
+    """An opened rosbags AnyReader (rosbag2 MCAP/sqlite3 or ROS 1), or InputError naming the file."""
     from rosbags.highlevel import AnyReader
 
     try:
@@ -32,9 +33,28 @@ def _open_reader(path: Path):
     return reader
 
 
+def joint_state_topic(path: Path, topics: dict[str, str], topic: str | None = None) -> str:
+    """``topic`` if given, else /joint_states or the bag's only JointState topic; InputError
+    listing the topics otherwise. ``topics``: {name: message type} of the bag."""
+    if topic is not None:
+        return topic
+    js = [n for n, t in topics.items() if t == JOINT_STATE]
+    if DEFAULT_TOPIC in js:
+        return DEFAULT_TOPIC
+    if len(js) != 1:
+        raise InputError(f"{path}: {'no' if not js else 'several'} {JOINT_STATE} topics; pick one with --topic. "
+                         f"Topics: {topic_listing(topics)}")
+    return js[0]
+
+
+def topic_listing(topics: dict[str, str]) -> str:
+    """'name [type], …' for error messages."""
+    return ", ".join(f"{n} [{t}]" for n, t in sorted(topics.items())) or "none"
+
+
 def list_topics(path: Path) -> dict[str, str]:
     """{topic: message type} of a bag."""
-    reader = _open_reader(Path(path))
+    reader = open_reader(Path(path))
     try:
         return {name: info.msgtype for name, info in reader.topics.items()}
     finally:
@@ -49,19 +69,11 @@ def load_bag(path: Path, *, topic: str | None = None, effort_topic: str | None =
     ``extras`` = {name: (topic, field)} adds side JointState signals (e.g. a set-point) as
     ``series.extras[name]`` (N, J), interpolated at the joint-state times when not simultaneous.
     """
-    reader = _open_reader(path)
+    reader = open_reader(path)
     try:
         topics = {name: info.msgtype for name, info in reader.topics.items()}
-        listing = ", ".join(f"{n} [{t}]" for n, t in sorted(topics.items())) or "none"
-        if topic is None:
-            js = [n for n, t in topics.items() if t == JOINT_STATE]
-            if DEFAULT_TOPIC in js:
-                js = [DEFAULT_TOPIC]
-            if len(js) != 1:
-                raise InputError(
-                    f"{path}: {'no' if not js else 'several'} {JOINT_STATE} topics; pick one with --topic. Topics: {listing}"
-                )
-            topic = js[0]
+        listing = topic_listing(topics)
+        topic = joint_state_topic(path, topics, topic)
         side = [(t, JOINT_STATE) for t, _ in (extras or {}).values()]
         for name, want in [(topic, JOINT_STATE), (effort_topic, None)] + side:
             if name is None:

@@ -2,8 +2,11 @@
 
 The standard regressor W (stacked over samples) has numerical rank r < P: some parameters
 never act (zero columns) and others only act in fixed combinations. QR with column pivoting
-W·Π = Q·R on random samples gives the rank r and an independent column set (the first r
-pivots); the other columns satisfy W_d = W_b·K with K = R₁₁⁻¹R₁₂, so that
+W·Π = Q·R on random samples gives the rank r. The independent column set is then chosen in
+the standard parameter order (a column is kept when it is not in the span of the columns kept
+before it), not in pivot order: pivoting breaks ties between equal-norm columns by round-off,
+so the base set, and thus the reported names, would depend on the machine's LAPACK. The other
+columns satisfy W_d = W_b·K (least squares, exact up to round-off), so that
 
     W·π = W_b·(π_b + K·π_d)           base parameters β = π_b + K·π_d
 
@@ -33,7 +36,7 @@ class BaseParameters:
 
     Attributes:
         names: standard parameter names (P).
-        base_index: indices of the independent standard columns, in pivot order (r).
+        base_index: indices of the independent standard columns, in standard order (r).
         dependent_index: the other columns (P − r).
         K: (r, P − r), β = π[base_index] + K·π[dependent_index].
     """
@@ -89,12 +92,34 @@ def base_parameters(W: np.ndarray, names: list[str], tol: float = RANK_TOL) -> B
     W = np.asarray(W, dtype=float)
     if W.shape[0] < W.shape[1]:
         raise ValueError(f"need at least as many regressor rows as parameters ({W.shape[1]}), got {W.shape[0]}")
-    _, R, piv = linalg.qr(W, mode="economic", pivoting=True)
+    _, R, _ = linalg.qr(W, mode="economic", pivoting=True)
     d = np.abs(np.diag(R))
-    r = int(np.sum(d > tol * d[0])) if d.size and d[0] > 0 else 0
-    K = linalg.solve_triangular(R[:r, :r], R[:r, r:]) if r else np.zeros((0, W.shape[1]))
+    rank = int(np.sum(d > tol * d[0])) if d.size and d[0] > 0 else 0
+    keep = _independent_in_order(W, rank, tol)
+    dep = np.setdiff1d(np.arange(W.shape[1]), keep)
+    K = linalg.lstsq(W[:, keep], W[:, dep])[0] if keep.size else np.zeros((0, dep.size))
     K[np.abs(K) < K_TOL] = 0.0
-    return BaseParameters(list(names), piv[:r].copy(), piv[r:].copy(), K)
+    return BaseParameters(list(names), keep, dep, K)
+
+
+def _independent_in_order(W: np.ndarray, rank: int, tol: float) -> np.ndarray:
+    """The first ``rank`` columns of W, in column order, that are each independent of those kept
+    before them (Gram–Schmidt with re-orthogonalisation; a column is dependent when its residual
+    is below ``tol`` of the largest column norm)."""
+    scale = np.linalg.norm(W, axis=0).max(initial=0.0)
+    basis = np.zeros((W.shape[0], 0))
+    keep = []
+    for j in range(W.shape[1]):
+        if len(keep) == rank:
+            break
+        v = W[:, j].copy()
+        for _ in range(2):
+            v -= basis @ (basis.T @ v)
+        norm = np.linalg.norm(v)
+        if norm > tol * scale:
+            keep.append(j)
+            basis = np.column_stack([basis, v / norm])
+    return np.array(keep, dtype=int)
 
 
 def random_samples(robot, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -1,0 +1,148 @@
+"""Bounded, preallocated ring buffers of joint samples (no ROS import).
+
+One writer (the subscription callback) appends rows in place, readers take copies of a time
+window under a short lock. Nothing is allocated per message except what numpy needs for
+a fancy-index take into a preallocated row.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+# Row flags: which fields of a message were missing (empty or shorter than ``name``).
+NO_POSITION = 1
+NO_VELOCITY = 2
+NO_EFFORT = 4
+
+
+class NameMap:
+    """Column order of incoming messages → buffer columns, cached per name list.
+
+    :meth:`index` returns None when the message's names are exactly ``joints`` (copy as is),
+    an index array into the message otherwise, or raises KeyError naming missing joints.
+    """
+
+    def __init__(self, joints: list[str]):
+        self.joints = list(joints)
+        self._last_names: list[str] | None = None
+        self._last_index: np.ndarray | None = None
+        self._cache: dict[tuple[str, ...], np.ndarray | None] = {}
+
+    def index(self, names: list[str]) -> np.ndarray | None:
+        if names == self._last_names:  # fast path: same names as the previous message
+            return self._last_index
+        key = tuple(names)
+        if key in self._cache:
+            idx = self._cache[key]
+        else:
+            pos = {n: i for i, n in enumerate(key)}
+            missing = [j for j in self.joints if j not in pos]
+            if missing:
+                raise KeyError(f"message lacks joint(s) {missing} (it has {list(key)})")
+            idx = None if list(key) == self.joints else np.array([pos[j] for j in self.joints], dtype=np.intp)
+            if len(self._cache) > 64:  # pathological publishers: keep the cache bounded
+                self._cache.clear()
+            self._cache[key] = idx
+        self._last_names, self._last_index = list(names), idx
+        return idx
+
+
+def put(row: np.ndarray, src, idx: np.ndarray | None, n_names: int) -> bool:
+    """Copy ``src`` (a message's array.array field) into ``row`` through ``idx``.
+
+    Returns False (row set to NaN) when the field is shorter than the names.
+    """
+    if len(src) < n_names:
+        row.fill(np.nan)
+        return False
+    a = np.frombuffer(src, dtype=np.float64) if len(src) else np.empty(0)
+    if idx is None:
+        row[:] = a[: row.shape[0]]
+    else:
+        np.take(a, idx, out=row)
+    return True
+
+
+@dataclass
+class Window:
+    """Copies of buffered rows, oldest first: stamps and receipt times [ns] (N,), fields (N, J), flags (N,)."""
+
+    t_ns: np.ndarray
+    rx_ns: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    effort: np.ndarray
+    flags: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.t_ns)
+
+    def take(self, keep: np.ndarray) -> Window:
+        return Window(self.t_ns[keep], self.rx_ns[keep], self.position[keep], self.velocity[keep], self.effort[keep],
+                      self.flags[keep])
+
+
+class JointRing:
+    """Ring buffer of ``capacity`` joint samples of J joints.
+
+    Arrays: ``t_ns`` header stamps and ``rx_ns`` middleware receipt times [ns since the epoch]
+    (int64), ``position`` [rad | m],
+    ``velocity`` [rad/s | m/s], ``effort`` [N·m | N], each (capacity, J) float64, ``flags``
+    (:data:`NO_POSITION` | :data:`NO_VELOCITY` | :data:`NO_EFFORT`).
+    """
+
+    def __init__(self, joints: list[str], capacity: int):
+        if capacity < 2:
+            raise ValueError("ring capacity must be >= 2")
+        self.joints = list(joints)
+        self.capacity = int(capacity)
+        nj = len(self.joints)
+        self.t_ns = np.zeros(self.capacity, dtype=np.int64)
+        self.rx_ns = np.zeros(self.capacity, dtype=np.int64)
+        self.position = np.full((self.capacity, nj), np.nan)
+        self.velocity = np.full((self.capacity, nj), np.nan)
+        self.effort = np.full((self.capacity, nj), np.nan)
+        self.flags = np.zeros(self.capacity, dtype=np.uint8)
+        self.lock = threading.Lock()
+        self.head = 0        # next row to write
+        self.count = 0       # valid rows
+        self.total = 0       # rows ever written (since start, survives clear())
+
+    @property
+    def nbytes(self) -> int:
+        return sum(a.nbytes for a in (self.t_ns, self.rx_ns, self.position, self.velocity, self.effort, self.flags))
+
+    def begin(self) -> int:
+        """Row index to fill next; call :meth:`commit` when it is written (under :attr:`lock`)."""
+        return self.head
+
+    def commit(self) -> None:
+        self.head = (self.head + 1) % self.capacity
+        if self.count < self.capacity:
+            self.count += 1
+        self.total += 1
+
+    def last_row(self, back: int = 0) -> int | None:
+        """Index of the newest row (``back`` = 1: the one before), or None."""
+        if back >= self.count:
+            return None
+        return (self.head - 1 - back) % self.capacity
+
+    def clear(self) -> None:
+        with self.lock:
+            self.head = 0
+            self.count = 0
+
+    def snapshot(self) -> Window:
+        """Copy of every valid row, oldest first."""
+        with self.lock:
+            n, h = self.count, self.head
+            if n < self.capacity:
+                order = np.arange(h - n, h)
+            else:
+                order = np.concatenate((np.arange(h, self.capacity), np.arange(0, h)))
+            return Window(self.t_ns[order], self.rx_ns[order], self.position[order], self.velocity[order], self.effort[order],
+                          self.flags[order])

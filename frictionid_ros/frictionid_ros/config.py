@@ -1,0 +1,206 @@
+"""Node parameters: names, defaults, descriptions and validation (no ROS import).
+
+The defaults here are the values of ``config/frictionid.yaml`` (a test checks that they agree).
+The node declares every parameter with a descriptor built from :data:`PARAMETERS` and turns the
+values into a validated :class:`Config`; a bad value is a :class:`~frictionid_core.errors.FrictionIdError`
+with one clear line, reported at startup.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.friction import KINDS
+
+NODE_NAME = "frictionid"
+
+# Every solver id of the core; "ls" is built in, the others live in frictionid_core.optim.
+SOLVERS = ("ls", "lm", "ga", "aco", "bbo", "de", "pso", "bo", "dt", "hybrid")
+# Solvers whose budget is a number of cost calls (the others: generations).
+CALL_SOLVERS = ("lm", "bo", "dt")
+QOS_CHOICES = ("sensor_data", "reliable")
+VELOCITY_SOURCES = ("measured", "reference")
+EFFORT_TYPES = ("joint_state", "float64_multi_array")
+WORKERS = ("process", "thread")
+EXECUTORS = ("events", "single_threaded")
+
+# name: (default, description, read_only). Empty string-array defaults are declared typed.
+PARAMETERS: dict[str, tuple[object, str, bool]] = {
+    "joints": ([], "joint names to buffer, identify and feed forward, in this order "
+                   "(empty: the names of the first joint_states message)", True),
+    "system": ("emps", "inverse dynamic model: emps | friction-only | tx40-j2 | tx40 | urdf:PATH (a URDF file)", True),
+    "friction_model": ("coulomb", f"default friction model: {' | '.join(KINDS)}", False),
+    "asymmetric": (False, "default: separate parameters for v > 0 and v < 0", False),
+    "solver": ("ls", f"default solver: {' | '.join(SOLVERS)}", False),
+    "seed": (0, "default RNG seed of stochastic solvers", False),
+    "input_executor": ("events", "executor of the input callbacks: events (rclpy EventsExecutor, lighter) | "
+                                 "single_threaded (SingleThreadedExecutor: latency measured from middleware receipt)",
+                       True),
+    "identification_worker": ("process", "where identifications run: process (a child process: the input "
+                                         "callbacks keep the GIL) | thread", True),
+    "buffer_seconds": (30.0, "length of the joint-state ring buffer [s]", True),
+    "max_rate_hz": (1000.0, "highest expected joint_states rate [Hz]; sizes the ring buffer "
+                            "(capacity = buffer_seconds * max_rate_hz samples)", True),
+    "window_seconds": (0.0, "default identification window [s]; 0 = the whole buffer", False),
+    "min_samples": (200, "fewest joint-state samples an identification accepts", False),
+    "max_missing_pct": (5.0, "refuse a window whose stamps show more than this share of lost samples [%]", False),
+    "filter_cutoff_hz": (0.0, "Butterworth cut-off on position [Hz]; 0 = the system's default", True),
+    "decimation": (0, "keep 1 sample of n after the anti-alias filter; 0 = the system's default", True),
+    "joint_states_topic": ("joint_states", "sensor_msgs/JointState input topic", True),
+    "qos": ("sensor_data", "QoS of the input topics: sensor_data (best effort) | reliable", True),
+    "qos_depth": (100, "history depth of the input subscriptions [messages]", True),
+    "effort_topic": ("", "separate effort topic; empty = the JointState effort field", True),
+    "effort_topic_type": ("joint_state", f"type of effort_topic: {' | '.join(EFFORT_TYPES)}", True),
+    "velocity_source": ("measured", "feed-forward velocity: measured (joint_states velocity, else finite "
+                                    "difference of positions) | reference (reference_topic)", True),
+    "reference_topic": ("reference_joint_states", "desired/reference sensor_msgs/JointState topic "
+                                                  "(velocity_source = reference)", True),
+    "feedforward_rate_hz": (0.0, "feed-forward publish rate [Hz]; 0 = on every velocity-source message", True),
+    "smoothing_eps": (0.01, "sign smoothing tanh(v/eps) of the feed-forward [rad/s | m/s]; 0 = sign(v)", False),
+    "results_file": ("~/.ros/frictionid/parameters.json", "JSON file of the active parameters: written "
+                                                           "after each identification, read at start", True),
+    "diagnostics_period_s": (1.0, "period of /diagnostics [s]", True),
+}
+
+
+@dataclass(frozen=True)
+class Config:
+    """Validated node settings (units in :data:`PARAMETERS`)."""
+
+    joints: tuple[str, ...]
+    system: str
+    friction_model: str
+    asymmetric: bool
+    solver: str
+    seed: int
+    input_executor: str
+    identification_worker: str
+    buffer_seconds: float
+    max_rate_hz: float
+    window_seconds: float
+    min_samples: int
+    max_missing_pct: float
+    filter_cutoff_hz: float
+    decimation: int
+    joint_states_topic: str
+    qos: str
+    qos_depth: int
+    effort_topic: str
+    effort_topic_type: str
+    velocity_source: str
+    reference_topic: str
+    feedforward_rate_hz: float
+    smoothing_eps: float
+    results_file: Path
+    diagnostics_period_s: float
+
+    @property
+    def capacity(self) -> int:
+        """Ring-buffer capacity [samples]."""
+        return int(math.ceil(self.buffer_seconds * self.max_rate_hz)) + 1
+
+
+def _choice(name: str, value: str, choices, what: str = "") -> str:
+    if value not in choices:
+        raise FrictionIdError(f"parameter '{name}': unknown {what or name} '{value}'; choose one of {', '.join(choices)}")
+    return value
+
+
+def check_system(name: str) -> str:
+    """``name`` if it is an inverse dynamic model of the core (``emps``, ``friction-only``,
+    ``tx40-j2``, ``tx40``, ``urdf:PATH`` — the URDF must load), else a clear error."""
+    from frictionid_core.systems import get_system
+
+    try:
+        get_system(name)
+    except FrictionIdError as exc:
+        raise FrictionIdError(f"parameter 'system': {exc}") from None
+    return name
+
+
+def make_config(values: dict) -> Config:
+    """Validate raw parameter values (name → value) into a :class:`Config`."""
+    v = {name: (default if values.get(name) is None else values[name])
+         for name, (default, _, _) in PARAMETERS.items()}
+    joints = tuple(str(j) for j in v["joints"] if str(j))
+    if len(set(joints)) != len(joints):
+        raise FrictionIdError(f"parameter 'joints': duplicated names in {list(joints)}")
+    for name in ("buffer_seconds", "max_rate_hz", "diagnostics_period_s"):
+        if not float(v[name]) > 0.0:
+            raise FrictionIdError(f"parameter '{name}' must be > 0, got {v[name]}")
+    for name in ("window_seconds", "max_missing_pct", "filter_cutoff_hz", "feedforward_rate_hz", "smoothing_eps"):
+        if not float(v[name]) >= 0.0:
+            raise FrictionIdError(f"parameter '{name}' must be >= 0, got {v[name]}")
+    for name in ("decimation", "min_samples"):
+        if int(v[name]) < 0:
+            raise FrictionIdError(f"parameter '{name}' must be >= 0, got {v[name]}")
+    if not 1 <= int(v["qos_depth"]) <= 100_000:
+        raise FrictionIdError(f"parameter 'qos_depth' must lie in 1..100000, got {v['qos_depth']}")
+    cap = float(v["buffer_seconds"]) * float(v["max_rate_hz"])
+    if cap > 50_000_000:
+        raise FrictionIdError(f"buffer_seconds * max_rate_hz = {cap:.0f} samples is too large (max 5e7)")
+    if v["velocity_source"] == "reference" and not v["reference_topic"]:
+        raise FrictionIdError("velocity_source 'reference' needs a reference_topic")
+    return Config(
+        joints=joints,
+        system=check_system(str(v["system"])),
+        friction_model=_choice("friction_model", v["friction_model"], KINDS, "friction model"),
+        asymmetric=bool(v["asymmetric"]),
+        solver=_choice("solver", v["solver"], SOLVERS, "solver"),
+        seed=int(v["seed"]),
+        input_executor=_choice("input_executor", v["input_executor"], EXECUTORS, "executor"),
+        identification_worker=_choice("identification_worker", v["identification_worker"], WORKERS, "worker"),
+        buffer_seconds=float(v["buffer_seconds"]),
+        max_rate_hz=float(v["max_rate_hz"]),
+        window_seconds=float(v["window_seconds"]),
+        min_samples=int(v["min_samples"]),
+        max_missing_pct=float(v["max_missing_pct"]),
+        filter_cutoff_hz=float(v["filter_cutoff_hz"]),
+        decimation=int(v["decimation"]),
+        joint_states_topic=str(v["joint_states_topic"]),
+        qos=_choice("qos", v["qos"], QOS_CHOICES, "QoS profile"),
+        qos_depth=int(v["qos_depth"]),
+        effort_topic=str(v["effort_topic"]),
+        effort_topic_type=_choice("effort_topic_type", v["effort_topic_type"], EFFORT_TYPES, "effort topic type"),
+        velocity_source=_choice("velocity_source", v["velocity_source"], VELOCITY_SOURCES, "velocity source"),
+        reference_topic=str(v["reference_topic"]),
+        feedforward_rate_hz=float(v["feedforward_rate_hz"]),
+        smoothing_eps=float(v["smoothing_eps"]),
+        results_file=Path(os.path.expanduser(str(v["results_file"]))).absolute(),
+        diagnostics_period_s=float(v["diagnostics_period_s"]),
+    )
+
+
+def preprocessing_override(system: str, cutoff_hz: float, decimation: int):
+    """The system's default pre-processing with the node's overrides, or None if none is set."""
+    if cutoff_hz <= 0.0 and decimation <= 0:
+        return None
+    from dataclasses import replace
+
+    from frictionid_core.systems import get_system
+
+    base = get_system(system).preprocessing
+    changes = {}
+    if cutoff_hz > 0.0:
+        changes["cutoff_hz"] = cutoff_hz
+    if decimation > 0:
+        changes["decimate"] = decimation
+    return replace(base, **changes)
+
+
+def default_config_file() -> Path | None:
+    """``config/frictionid.yaml`` of the installed package (ament index) or of the source tree."""
+    try:
+        from ament_index_python.packages import get_package_share_directory
+
+        p = Path(get_package_share_directory("frictionid_ros")) / "config" / "frictionid.yaml"
+        if p.is_file():
+            return p
+    except Exception:  # not installed through colcon/ament: fall back to the source tree
+        pass
+    p = Path(__file__).resolve().parent.parent / "config" / "frictionid.yaml"
+    return p if p.is_file() else None

@@ -1,0 +1,690 @@
+"""The frictionid ROS 2 node across processes, with real rclpy (no skips).
+
+The node runs as a subprocess (``python -m frictionid_ros.node``) on a ROS domain of its own;
+this process publishes the first 8 s of the EMPS estimation bag into it (replayed with
+``frictionid_ros.replay``), calls its services and listens to its outputs.
+
+Tolerance of "node result ≈ offline result": when every message arrives the node fits the
+very same samples as the offline ``identify()`` (same stamps, same order), so the parameters
+agree to ~1e-9. The test requires ≥ 99 % of the messages and 1 % on M, Fv, Fc (2 % on the
+small offset): measured offline on these 8 s, dropping 1 % of the samples at random moves the
+parameters by ≤ 0.33 % (offset) and cutting 50 samples at each window edge by ≤ 0.31 %.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import threading
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
+    import rclpy
+    from builtin_interfaces.msg import Time
+    from diagnostic_msgs.msg import DiagnosticArray
+    from frictionid_interfaces.msg import IdentifiedParameters
+    from frictionid_interfaces.srv import Identify, ParametersFile
+    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+    from std_srvs.srv import Trigger
+
+from frictionid_core.friction import get_model
+from frictionid_core.identify import identify
+from frictionid_core.io import load
+from frictionid_ros import replay
+from frictionid_ros.config import PARAMETERS
+
+pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+
+ROOT = Path(__file__).resolve().parents[1]
+BAG = ROOT / "bags" / "emps_estimation"
+YAML = ROOT / "frictionid_ros" / "config" / "frictionid.yaml"
+DOMAIN = random.randint(1, 200)
+NS = 1_000_000_000
+EPS = 0.01  # smoothing_eps of the node under test [m/s]
+SECONDS = 8.0  # replayed part of the bag [s]
+REPLAY_RATE = 4.0  # 4x real time: 4000 msg/s, every message arrives (reliable, depth 2000)
+RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2000, reliability=ReliabilityPolicy.RELIABLE)
+LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def _env() -> dict:
+    env = dict(os.environ)
+    env["ROS_DOMAIN_ID"] = str(DOMAIN)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    src = [str(ROOT / "frictionid_core" / "src"), str(ROOT / "frictionid_ros")]
+    env["PYTHONPATH"] = os.pathsep.join(src + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
+    env.pop("_ROS_WHEELS_BOOTSTRAP_COMPLETE", None)  # let the child bootstrap its own library path
+    return env
+
+
+class NodeProcess:
+    """``python -m frictionid_ros.node`` as a subprocess, output in files."""
+
+    def __init__(self, workdir: Path, args: list[str], tag: str):
+        self.out = workdir / f"node-{tag}.out"
+        self.err = workdir / f"node-{tag}.err"
+        with open(self.out, "w") as out, open(self.err, "w") as err:
+            self.proc = subprocess.Popen([sys.executable, "-m", "frictionid_ros.node", *args], env=_env(),
+                                         stdout=out, stderr=err, cwd=workdir)
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stop(self, sig=signal.SIGTERM, timeout: float = 10.0) -> int:
+        if self.alive():
+            self.proc.send_signal(sig)
+        try:
+            return self.proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait(5)
+            raise AssertionError(f"node did not stop within {timeout} s after {sig!r}")
+
+    def stderr(self) -> str:
+        return self.err.read_text()
+
+
+class Ros:
+    """rclpy in the test process: one client node spun by a MultiThreadedExecutor thread."""
+
+    def __init__(self):
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx, domain_id=DOMAIN)
+        self.node = rclpy.create_node("frictionid_test_client", context=self.ctx)
+        self.executor = MultiThreadedExecutor(num_threads=3, context=self.ctx)
+        self.executor.add_node(self.node)
+        self._stop = threading.Event()
+        self.errors = []
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+        self._clients = {}
+        self.lock = threading.Lock()
+        self.ff, self.ff_state, self.params, self.diag = [], [], [], {}
+        self.node.create_subscription(Float64MultiArray, "/frictionid/friction_torque",
+                                      lambda m: self._add(self.ff, m), RELIABLE)
+        self.ff_state_at = {}  # header stamp [ns] → index in ff_state
+        self.node.create_subscription(JointState, "/frictionid/friction_torque_state", self._on_ff_state, RELIABLE)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, RELIABLE)
+        self.js = self.node.create_publisher(JointState, "/joint_states", RELIABLE)
+
+    def _spin(self):
+        """Spin until closed; an exception in one callback must not stop every later one."""
+        while not self._stop.is_set():
+            try:
+                self.executor.spin_once(timeout_sec=0.05)
+            except Exception as exc:  # noqa: BLE001
+                if self._stop.is_set() or not self.ctx.ok():
+                    return
+                self.errors.append(exc)
+
+    def _add(self, lst, m):
+        with self.lock:
+            lst.append(m)
+
+    def _on_ff_state(self, m):
+        with self.lock:
+            self.ff_state_at[m.header.stamp.sec * NS + m.header.stamp.nanosec] = len(self.ff_state)
+            self.ff_state.append(m)
+
+    def _on_diag(self, arr):
+        with self.lock:
+            for s in arr.status:
+                self.diag[s.name] = ({kv.key: kv.value for kv in s.values}, s, time.monotonic())
+
+    def close(self):
+        self._stop.set()
+        self.thread.join(5.0)
+        self.executor.shutdown(timeout_sec=5.0)
+        self.thread.join(5.0)
+        self.node.destroy_node()
+        rclpy.shutdown(context=self.ctx)
+
+    def call(self, srv_type, name: str, req, timeout: float = 30.0):
+        """call_async + wait with a timeout: a test never hangs on a dead node."""
+        cli = self._clients.get(name)
+        if cli is None:
+            cli = self._clients[name] = self.node.create_client(srv_type, name)
+        assert cli.wait_for_service(timeout_sec=20.0), f"service {name} not available"
+        done = threading.Event()
+        fut = cli.call_async(req)
+        fut.add_done_callback(lambda _: done.set())
+        assert done.wait(timeout), f"{name}: no answer within {timeout} s"
+        return fut.result()
+
+    def identify(self, timeout: float = 60.0, **fields):
+        return self.call(Identify, "/frictionid/identify", Identify.Request(**fields), timeout)
+
+    def reset(self):
+        res = self.call(Trigger, "/frictionid/reset", Trigger.Request())
+        assert res.success, res.message
+
+    def diag_value(self, key: str, status: str = "frictionid: joint buffer", newer_than: float = 0.0,
+                   timeout: float = 10.0) -> str:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            with self.lock:
+                entry = self.diag.get(status)
+            if entry and entry[2] > newer_than:
+                return entry[0][key]
+            time.sleep(0.02)
+        raise AssertionError(f"no /diagnostics status '{status}' within {timeout} s")
+
+    def received(self) -> int:
+        """Joint states the node has taken in so far (from a fresh /diagnostics)."""
+        return int(self.diag_value("received", newer_than=time.monotonic()))
+
+    def wait_received(self, n: int, timeout: float = 15.0) -> int:
+        """Wait until the node's diagnostics report ``n`` joint states received."""
+        deadline = time.monotonic() + timeout
+        got = -1
+        while time.monotonic() < deadline:
+            got = self.received()
+            if got >= n:
+                return got
+        raise AssertionError(f"the node received {got} joint states, expected {n}")
+
+    def publish_states(self, t_ns, position, velocity=None, effort=None, names=("emps",), rate_hz: float = 4000.0,
+                       wait: bool = False):
+        """Publish JointStates row by row at ``rate_hz`` (stamps t_ns [ns]); ``wait``: until the node has them."""
+        before = self.received() if wait else 0
+        msg = JointState(name=list(names))
+        period = 1.0 / rate_hz
+        t0 = time.monotonic()
+        for k in range(len(t_ns)):
+            msg.header.stamp = Time(sec=int(t_ns[k]) // NS, nanosec=int(t_ns[k]) % NS)
+            msg.position = [] if position is None else np.atleast_1d(position[k]).tolist()
+            msg.velocity = [] if velocity is None else np.atleast_1d(velocity[k]).tolist()
+            msg.effort = [] if effort is None else np.atleast_1d(effort[k]).tolist()
+            self.js.publish(msg)
+            delay = t0 + (k + 1) * period - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+        if wait:
+            self.wait_received(before + len(t_ns))
+
+    def feedforward_for(self, stamp_ns: int, timeout: float = 5.0, resend=None):
+        """The (friction_torque_state, friction_torque) published for the joint state stamped ``stamp_ns``.
+
+        ``resend``: called every 0.25 s until then (a fresh node may not have matched our publisher yet).
+        """
+        deadline = time.monotonic() + timeout
+        last = time.monotonic()
+        while time.monotonic() < deadline:
+            if resend is not None and time.monotonic() - last > 0.25:
+                resend()
+                last = time.monotonic()
+            with self.lock:
+                i = self.ff_state_at.get(stamp_ns)
+                if i is not None:
+                    # both publishers send one message per input, in the same order
+                    return self.ff_state[i], (self.ff[i] if i < len(self.ff) else None)
+            time.sleep(0.01)
+        raise AssertionError(f"no feed-forward for the joint state stamped {stamp_ns}")
+
+    def latched_parameters(self, timeout: float = 10.0) -> IdentifiedParameters:
+        """A late subscriber of ~/parameters (transient local): the message it receives."""
+        got = []
+        # kept until the end (destroying a subscription the executor may be serving is racy)
+        self.node.create_subscription(IdentifiedParameters, "/frictionid/parameters", got.append, LATCHED)
+        deadline = time.monotonic() + timeout
+        while not got and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert got, "no ~/parameters for a late subscriber (transient local)"
+        return got[-1]
+
+    def assert_alive(self, proc: NodeProcess):
+        """Still running and still publishing: a fresh joint state yields a feed-forward."""
+        assert proc.alive(), proc.stderr()
+        stamp = 5_000 * NS + random.randint(0, NS - 1)
+        send = lambda: self.publish_states([stamp], [[0.0]], [[0.05]], [[0.0]])  # noqa: E731
+        send()
+        try:
+            self.feedforward_for(stamp, timeout=15.0, resend=send)
+        except AssertionError as exc:
+            with self.lock:
+                seen = (len(self.ff_state), self.ff_state[-1].header.stamp if self.ff_state else None,
+                        {k: v[0] for k, v in self.diag.items()})
+            raise AssertionError(f"{exc}; client saw {seen}; node stderr:\n{proc.stderr()[-3000:]}") from None
+
+
+# --------------------------------------------------------------------------- fixtures
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("frictionid_ros")
+
+
+@pytest.fixture(scope="module")
+def ros():
+    old = os.environ.get("ROS_DOMAIN_ID")
+    os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)  # also passed to rclpy.init explicitly
+    r = Ros()
+    yield r
+    r.close()
+    if old is None:
+        os.environ.pop("ROS_DOMAIN_ID", None)
+    else:
+        os.environ["ROS_DOMAIN_ID"] = old
+
+
+def _params_file(workdir: Path) -> Path:
+    p = workdir / "params.yaml"
+    p.write_text(f"""/**/frictionid:
+  ros__parameters:
+    joints: ["emps"]
+    system: "emps"
+    qos: "reliable"
+    qos_depth: 2000
+    smoothing_eps: {EPS}
+    diagnostics_period_s: 0.2
+    buffer_seconds: 30.0
+    results_file: "{workdir / 'results' / 'parameters.json'}"
+""")
+    return p
+
+
+def _start(workdir: Path, ros: Ros, tag: str) -> NodeProcess:
+    proc = NodeProcess(workdir, ["--params-file", str(_params_file(workdir))], tag)
+    cli = ros.node.create_client(Identify, "/frictionid/identify")
+    deadline = time.monotonic() + 30.0
+    while not cli.wait_for_service(timeout_sec=0.2):
+        assert proc.alive(), f"node exited with {proc.proc.returncode}:\n{proc.stderr()}"
+        assert time.monotonic() < deadline, "node services did not appear"
+    return proc
+
+
+@pytest.fixture(scope="module")
+def node(workdir, ros):
+    proc = _start(workdir, ros, "main")
+    yield proc
+    proc.stop()
+
+
+@pytest.fixture(scope="module")
+def stream():
+    return replay.load_stream(BAG, duration=SECONDS)
+
+
+@pytest.fixture(scope="module")
+def offline(stream):
+    return identify(load(BAG).slice(0, len(stream)))
+
+
+@pytest.fixture(scope="module")
+def identified(ros, node, stream):
+    """Reset, replay 8 s of the bag into the node, identify; returns (response, replay stats)."""
+    ros.reset()
+    before = ros.received()
+    stats = replay.publish_stream(ros.node, stream, rate=REPLAY_RATE, qos=RELIABLE, ack_timeout=0)
+    assert stats["sent"] == len(stream) and stats["subscribers"] >= 1
+    ros.wait_received(before + len(stream))
+    start = stats["first_stamp_ns"]
+    res = ros.identify(window_start=Time(sec=start // NS, nanosec=start % NS))
+    assert res.success, res.message
+    return res, stats
+
+
+# --------------------------------------------------------------------------- tests
+
+
+def test_config_yaml_matches_declared_defaults():
+    import yaml
+
+    params = yaml.safe_load(YAML.read_text())["/**/frictionid"]["ros__parameters"]
+    assert set(params) == set(PARAMETERS) - {"joints"}  # joints: [] cannot be written for rcl
+    for name, value in params.items():
+        assert value == PARAMETERS[name][0], name
+        assert type(value) is type(PARAMETERS[name][0]), f"{name}: YAML type must match the declared type"
+
+
+def test_unknown_system_is_a_clear_startup_error(workdir):
+    # the shipped YAML (parsed by rcl) then an override: explicit --ros-args come last and win
+    for tag, system, needle in (("scara", "scara", "choose one of emps, friction-only, tx40-j2, tx40, urdf:PATH"),
+                                ("urdf", "urdf:/nowhere/robot.urdf", "no such URDF file '/nowhere/robot.urdf'")):
+        proc = NodeProcess(workdir, ["--params-file", str(YAML), "--ros-args", "-p", f"system:={system}"], tag)
+        rc = proc.proc.wait(30)
+        err = proc.stderr()
+        assert rc == 2 and needle in err and "Traceback" not in err, err
+
+
+def test_identify_matches_offline(identified, offline, ros):
+    res, stats = identified
+    ref = offline.to_dict()
+    r = res.result
+    assert r.samples >= 0.99 * stats["sent"]
+    assert len(r.joints) == 1
+    j = r.joints[0]
+    assert (j.joint_name, j.system_model, j.friction_model, j.solver, j.asymmetric) == ("emps", "emps", "coulomb", "ls", False)
+    assert list(j.param_names) == list(ref["params"])
+    got = dict(zip(j.param_names, j.param_values))
+    for name in ("M", "Fv", "Fc"):
+        assert got[name] == pytest.approx(ref["params"][name], rel=0.01), name
+    assert got["offset"] == pytest.approx(ref["params"]["offset"], rel=0.02)
+    std = dict(zip(j.param_names, j.param_std))
+    assert std["Fv"] == pytest.approx(ref["std"]["Fv"], rel=0.1)
+    assert j.r2 == pytest.approx(ref["metrics"]["r2"], abs=1e-3) and j.samples > 700
+    span = (r.window_end.sec - r.window_start.sec) + (r.window_end.nanosec - r.window_start.nanosec) * 1e-9
+    assert span == pytest.approx(SECONDS, abs=0.01)
+    # a late subscriber gets the active parameters (transient local)
+    latched = ros.latched_parameters()
+    assert list(latched.joints[0].param_values) == list(j.param_values)
+
+
+def test_feedforward_equals_core_model(identified, ros, node):
+    res, _ = identified
+    j = res.result.joints[0]
+    p = dict(zip(j.param_names, j.param_values))
+    model = get_model("coulomb")
+    theta = np.array([p["Fv"], p["Fc"]])
+    base = 1_000 * NS  # stamps far outside the replayed window
+    v = np.array([-0.2, -0.004, 0.0, 0.003, 0.15])
+    stamps = base + np.arange(len(v)) * 1_000_000
+    ros.publish_states(stamps, np.zeros(len(v)), v, np.zeros(len(v)), rate_hz=200)
+    for k in range(len(v)):
+        state, arr = ros.feedforward_for(int(stamps[k]))
+        want = model.torque(theta, v[k : k + 1], eps=EPS)[0]
+        assert state.effort[0] == pytest.approx(want, rel=1e-12, abs=1e-12)
+        assert state.velocity[0] == v[k] and list(state.name) == ["emps"]
+        assert arr is not None and arr.data[0] == pytest.approx(want, rel=1e-12, abs=1e-12)
+    # no velocity in the message: finite difference of the two newest buffered positions
+    q = np.array([0.100, 0.1001])  # 0.1 mm in 1 ms: 0.1 m/s
+    stamps = base + NS + np.array([0, 1_000_000])
+    ros.publish_states(stamps, q, None, np.zeros(2), rate_hz=200)
+    state, _ = ros.feedforward_for(int(stamps[1]))
+    v_fd = (q[1] - q[0]) / 1e-3
+    assert state.velocity[0] == pytest.approx(v_fd, rel=1e-9)
+    assert state.effort[0] == pytest.approx(model.torque(theta, [v_fd], eps=EPS)[0], rel=1e-9)
+
+
+def test_busy_answer_for_a_concurrent_request(identified, ros, node):
+    _, stats = identified
+    start = stats["first_stamp_ns"]
+    window = dict(window_start=Time(sec=start // NS, nanosec=start % NS),
+                  window_end=Time(sec=(start + int(SECONDS * NS)) // NS, nanosec=(start + int(SECONDS * NS)) % NS))
+    before = ros.latched_parameters()
+    slow = {}
+    # A real slow case: differential evolution on the Tustin model with a large budget (a few s).
+    t = threading.Thread(target=lambda: slow.setdefault("res", ros.identify(
+        timeout=120, friction_model="tustin", solver="de", population=100, budget=2000, dry_run=True, **window)))
+    t.start()
+    answers = []
+    while t.is_alive():
+        r = ros.identify(dry_run=True, **window)
+        answers.append(r)
+        time.sleep(0.05)
+    t.join()
+    busy = [r for r in answers if not r.success]
+    assert busy, f"no request overlapped the slow one ({len(answers)} tries)"
+    assert all(r.message.startswith("busy") for r in busy), [r.message for r in busy]
+    assert slow["res"].success, slow["res"].message
+    assert list(slow["res"].result.joints[0].param_names) == ["M", "Fv", "Fc", "Fs", "vs", "offset"]
+    after = ros.identify(dry_run=True, **window)  # not stuck busy
+    assert after.success, after.message
+    # dry runs leave the active parameters alone
+    assert list(ros.latched_parameters().joints[0].param_values) == list(before.joints[0].param_values)
+
+
+def test_bad_requests_fail_with_a_clear_message(identified, ros, node):
+    cases = [
+        (dict(joints=["nope"]), "nope"),
+        (dict(solver="simplex"), "simplex"),
+        (dict(friction_model="lugre"), "lugre"),
+        (dict(window_seconds=2.0, window_start=Time(sec=1)), "window"),
+        (dict(window_seconds=-1.0), "window_seconds"),
+        (dict(solver="ls", friction_model="tustin"), "ls"),  # ls cannot fit a nonlinear model
+    ]
+    for fields, needle in cases:
+        res = ros.identify(**fields)
+        assert not res.success and needle in res.message, (fields, res.message)
+    ros.assert_alive(node)
+
+
+def test_bad_data_fail_with_a_clear_message(identified, ros, node, offline):
+    series = load(BAG).slice(0, 1000)
+    t_ns = 2_000 * NS + np.round(series.t * 1e9).astype(np.int64)
+
+    ros.reset()
+    res = ros.identify()
+    assert not res.success and "too little data" in res.message, res.message
+    ros.assert_alive(node)
+
+    ros.reset()
+    pos = series.position.copy()
+    pos[500, 0] = np.nan
+    ros.publish_states(t_ns, pos, None, series.effort, wait=True)
+    res = ros.identify()
+    assert not res.success and "NaN" in res.message and "position" in res.message, res.message
+    ros.assert_alive(node)
+
+    ros.reset()
+    ros.publish_states(t_ns, series.position, None, None, wait=True)  # no effort at all
+    res = ros.identify()
+    assert not res.success and "effort" in res.message and "empty" in res.message, res.message
+    ros.assert_alive(node)
+
+    ros.reset()
+    rejected = int(ros.diag_value("rejected", newer_than=time.monotonic()))
+    ros.publish_states(t_ns[:300], series.position[:300], None, series.effort[:300], names=("other",))
+    res = ros.identify()
+    assert not res.success and "too little data" in res.message, res.message
+    deadline = time.monotonic() + 10
+    while int(ros.diag_value("rejected", newer_than=time.monotonic())) < rejected + 300:
+        assert time.monotonic() < deadline, "messages of unknown joints not counted as rejected"
+    ros.assert_alive(node)
+
+
+def test_save_and_load(identified, ros, node, workdir, offline):
+    path = workdir / "saved.json"
+    res = ros.call(ParametersFile, "/frictionid/save", ParametersFile.Request(path=str(path)))
+    assert res.success and res.path == str(path), res.message
+    saved = json.loads(path.read_text())
+    assert {"system", "friction", "asymmetric", "solver", "params", "std", "metrics", "per_joint"} <= set(saved)
+    # load a plain `frictionid identify --json` file with other values
+    other = offline.to_dict()
+    other["params"] = {k: v * 1.5 for k, v in other["params"].items()}
+    plain = workdir / "plain.json"
+    plain.write_text(json.dumps(other))
+    res = ros.call(ParametersFile, "/frictionid/load", ParametersFile.Request(path=str(plain)))
+    assert res.success, res.message
+    assert dict(zip(ros.latched_parameters().joints[0].param_names,
+                    ros.latched_parameters().joints[0].param_values))["Fc"] == pytest.approx(other["params"]["Fc"])
+    res = ros.call(ParametersFile, "/frictionid/load", ParametersFile.Request(path=str(workdir / "missing.json")))
+    assert not res.success and "missing.json" in res.message
+    res = ros.call(ParametersFile, "/frictionid/load", ParametersFile.Request(path=str(path)))  # back
+    assert res.success, res.message
+
+
+def test_restart_restores_the_last_parameters(identified, ros, node, workdir):
+    res, _ = identified
+    last = ros.latched_parameters()
+    assert list(last.joints[0].param_values) == list(res.result.joints[0].param_values)
+    rc = node.stop(signal.SIGTERM)
+    err = node.stderr()
+    assert rc == 0 and "Traceback" not in err, err
+    again = _start(workdir, ros, "restart")
+    try:
+        got = ros.latched_parameters()  # late subscriber after the restart
+        assert list(got.joints[0].param_names) == list(last.joints[0].param_names)
+        assert list(got.joints[0].param_values) == list(last.joints[0].param_values)
+        assert got.window_start == last.window_start and got.samples == last.samples
+        # the feed-forward resumes at once, before any identification
+        p = dict(zip(got.joints[0].param_names, got.joints[0].param_values))
+        stamp = 3_000 * NS
+        send = lambda: ros.publish_states([stamp], [[0.0]], [[0.1]], [[0.0]])  # noqa: E731
+        send()
+        state, _ = ros.feedforward_for(stamp, timeout=15.0, resend=send)
+        assert state.effort[0] == pytest.approx(get_model("coulomb").torque([p["Fv"], p["Fc"]], [0.1], eps=EPS)[0])
+        assert again.stop(signal.SIGINT) == 0 and "Traceback" not in again.stderr(), again.stderr()
+    finally:
+        if again.alive():
+            again.stop(signal.SIGKILL)
+
+
+def test_effort_topic_reference_velocity_and_thread_worker(ros, workdir):
+    """Other options: a Float64MultiArray effort topic, joint_states in another joint order, the
+    feed-forward from a reference topic on a 50 Hz timer, friction-only, identification in a thread,
+    the SingleThreadedExecutor for the inputs, a namespace."""
+    ns = "/opt"
+    params = workdir / "opt.yaml"
+    params.write_text(f"""/**/frictionid:
+  ros__parameters:
+    joints: ["a", "b"]
+    system: "friction-only"
+    effort_topic: "effort"
+    effort_topic_type: "float64_multi_array"
+    velocity_source: "reference"
+    reference_topic: "reference"
+    feedforward_rate_hz: 50.0
+    smoothing_eps: 0.0
+    identification_worker: "thread"
+    input_executor: "single_threaded"
+    qos: "reliable"
+    qos_depth: 2000
+    max_missing_pct: 50.0
+    diagnostics_period_s: 0.2
+    results_file: "{workdir / 'opt' / 'parameters.json'}"
+""")
+    proc = NodeProcess(workdir, ["--ros-args", "--params-file", str(params), "-r", f"__ns:={ns}"], "opt")
+    n = ros.node
+    js = n.create_publisher(JointState, f"{ns}/joint_states", RELIABLE)
+    eff = n.create_publisher(Float64MultiArray, f"{ns}/effort", RELIABLE)
+    ref = n.create_publisher(JointState, f"{ns}/reference", RELIABLE)
+    got = []
+    n.create_subscription(Float64MultiArray, f"{ns}/frictionid/friction_torque", got.append, RELIABLE)
+    try:
+        cli = n.create_client(Identify, f"{ns}/frictionid/identify")
+        deadline = time.monotonic() + 30
+        while not cli.wait_for_service(timeout_sec=0.2):
+            assert proc.alive() and time.monotonic() < deadline, proc.stderr()
+        fv, fc = np.array([2.0, 1.0]), np.array([0.5, 0.3])  # joints a, b
+        rate = 500.0
+        t = np.arange(1500) / rate
+        w = 2 * np.pi * np.array([0.8, 1.1])
+        q = 0.3 * np.sin(np.outer(t, w))
+        v = 0.3 * w * np.cos(np.outer(t, w))
+        tau = fv * v + fc * np.sign(v)
+        while js.get_subscription_count() == 0 or eff.get_subscription_count() == 0:
+            assert time.monotonic() < deadline
+            time.sleep(0.02)
+        time.sleep(0.3)
+        m = JointState(name=["b", "a"])  # another order than the node's joints
+        t0, base = time.monotonic(), time.time_ns()
+        for k in range(len(t)):
+            stamp = base + int(t[k] * 1e9)  # the sample time, however late this loop runs
+            m.header.stamp = Time(sec=stamp // NS, nanosec=stamp % NS)
+            m.position = [q[k, 1], q[k, 0]]
+            js.publish(m)
+            eff.publish(Float64MultiArray(data=tau[k].tolist()))
+            delay = t0 + (k + 1) / rate - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+        time.sleep(0.5)
+        done = threading.Event()
+        fut = cli.call_async(Identify.Request())
+        fut.add_done_callback(lambda _: done.set())
+        assert done.wait(60)
+        res = fut.result()
+        assert res.success, res.message
+        joints = {j.joint_name: dict(zip(j.param_names, j.param_values)) for j in res.result.joints}
+        assert sorted(joints) == ["a", "b"] and set(joints["a"]) == {"Fv", "Fc", "offset"}
+        # the unstamped effort is paired with the joint states by receipt time
+        for i, name in enumerate(["a", "b"]):
+            assert joints[name]["Fv"] == pytest.approx(fv[i], rel=0.05), (name, joints)
+            assert joints[name]["Fc"] == pytest.approx(fc[i], rel=0.05), (name, joints)
+        # feed-forward: desired velocities of the reference topic, published by the 50 Hz timer
+        v_ref = np.array([0.1, -0.2])
+        ref.publish(JointState(name=["a", "b"], position=[0.0, 0.0], velocity=v_ref.tolist()))
+        deadline = time.monotonic() + 5
+        want = [get_model("coulomb").torque([joints[j]["Fv"], joints[j]["Fc"]], [v_ref[i]])[0]
+                for i, j in enumerate(["a", "b"])]
+        while not (got and np.allclose(got[-1].data, want, rtol=1e-12, atol=0)):
+            assert time.monotonic() < deadline, (got[-1].data if got else None, want)
+            time.sleep(0.1)
+            ref.publish(JointState(name=["a", "b"], position=[0.0, 0.0], velocity=v_ref.tolist()))
+        assert proc.stop(signal.SIGTERM) == 0 and "Traceback" not in proc.stderr(), proc.stderr()
+    finally:
+        if proc.alive():
+            proc.stop(signal.SIGKILL)
+
+
+def test_full_tx40_robot_from_a_replayed_bag(ros, workdir):
+    """The six-joint TX40 (Pinocchio base parameters + per-joint Coulomb friction): the node fed
+    the bundled excitation bag agrees with the offline identification of the same samples, the
+    base parameters come as shared parameters, and the feed-forward of every joint is the core
+    model with that joint's friction."""
+    bag = ROOT / "bags" / "tx40_excitation"
+    ns = "/robot"
+    params = workdir / "robot.yaml"
+    params.write_text(f"""/**/frictionid:
+  ros__parameters:
+    joints: ["joint_1", "joint_2", "joint_3", "joint_4", "joint_5", "joint_6"]
+    system: "tx40"
+    qos: "reliable"
+    qos_depth: 2000
+    smoothing_eps: {EPS}
+    results_file: "{workdir / 'robot' / 'parameters.json'}"
+""")
+    proc = NodeProcess(workdir, ["--ros-args", "--params-file", str(params), "-r", f"__ns:={ns}"], "robot")
+    try:
+        cli = ros.node.create_client(Identify, f"{ns}/frictionid/identify")
+        deadline = time.monotonic() + 60
+        while not cli.wait_for_service(timeout_sec=0.2):
+            assert proc.alive() and time.monotonic() < deadline, proc.stderr()
+        stream = replay.load_stream(bag, publish_topic=f"{ns}/joint_states")
+        stats = replay.publish_stream(ros.node, stream, rate=REPLAY_RATE, qos=RELIABLE)
+        assert stats["sent"] == len(stream) and stats["subscribers"] >= 1
+        time.sleep(1.0)
+        res = ros.call(Identify, f"{ns}/frictionid/identify", Identify.Request(friction_model="coulomb"), 120)
+        assert res.success, res.message
+        r = res.result
+        assert r.samples >= 0.99 * stats["sent"], (r.samples, stats["sent"])
+        ref = identify(load(bag).slice(0, r.samples), system="tx40", friction="coulomb").to_dict()
+        shared = dict(zip(r.shared_param_names, r.shared_param_values))
+        assert list(shared) == [k for k in ref["params"] if "/" not in k] and len(shared) == 40
+        for name, value in ref["params"].items():
+            if "/" not in name and abs(value) > 0.05:  # the well-determined base parameters
+                assert shared[name] == pytest.approx(value, rel=0.01), name
+        friction = {j.joint_name: dict(zip(j.param_names, j.param_values)) for j in r.joints}
+        assert list(friction) == [f"joint_{k}" for k in range(1, 7)]
+        for joint, p in friction.items():
+            assert set(p) == {"Fv", "Fc", "offset"} and r.joints[0].system_model == "tx40"
+            for name in ("Fv", "Fc"):
+                assert p[name] == pytest.approx(ref["params"][f"{joint}/{name}"], rel=0.01), (joint, name)
+        # feed-forward: joint k's friction at joint k's velocity, ordered by `joints`
+        got = []
+        ros.node.create_subscription(JointState, f"{ns}/frictionid/friction_torque_state", got.append, RELIABLE)
+        js = ros.node.create_publisher(JointState, f"{ns}/joint_states", RELIABLE)
+        v = np.array([0.3, -0.2, 0.1, -0.05, 0.004, 0.0])
+        stamp = 7_000 * NS
+        msg = JointState(name=list(reversed(friction)), position=[0.0] * 6, velocity=v[::-1].tolist(),
+                         effort=[0.0] * 6)  # another joint order than the node's
+        msg.header.stamp = Time(sec=stamp // NS)
+        deadline = time.monotonic() + 15
+        while not any(m.header.stamp.sec == stamp // NS for m in list(got)):
+            assert time.monotonic() < deadline and proc.alive(), proc.stderr()
+            js.publish(msg)
+            time.sleep(0.1)
+        state = next(m for m in list(got) if m.header.stamp.sec == stamp // NS)
+        coulomb = get_model("coulomb")
+        want = [coulomb.torque([p["Fv"], p["Fc"]], [v[k]], eps=EPS)[0] for k, p in enumerate(friction.values())]
+        assert list(state.name) == list(friction)
+        assert np.allclose(state.effort, want, rtol=1e-12, atol=1e-12), (list(state.effort), want)
+        assert proc.stop(signal.SIGTERM) == 0 and "Traceback" not in proc.stderr(), proc.stderr()
+    finally:
+        if proc.alive():
+            proc.stop(signal.SIGKILL)
