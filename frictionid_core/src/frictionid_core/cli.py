@@ -60,8 +60,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="EMPS: minimise the closed-loop simulated position error, starting from the IDM result")
     p.add_argument("--clock", choices=("true", "benchmark"), default="true",
                    help="simulation clock of --output-error (default true)")
-    p.add_argument("--varpro", action="store_true",
-                   help="variable projection: search only vs/delta/v0, solve the linear parameters in closed form")
+    p.add_argument("--varpro", action=argparse.BooleanOptionalAction, default=None,
+                   help="variable projection: search only vs/delta/v0, solve the linear parameters in closed form "
+                        "(default: on for tx40 and urdf:PATH, off otherwise)")
 
     p = sub.add_parser("validate", help="cross-test identified parameters on other data")
     _add_source_args(p)

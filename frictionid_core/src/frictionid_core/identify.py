@@ -54,7 +54,7 @@ def build_model(series: JointSeries, system: str, friction: str, asymmetric: boo
 
 
 def identify(series: JointSeries, *, system: str = "emps", friction: str = "coulomb",
-             asymmetric: bool = False, solver: str = "ls", seed: int = 0, varpro: bool = False,
+             asymmetric: bool = False, solver: str = "ls", seed: int = 0, varpro: bool | None = None,
              preprocessing: Preprocessing | None = None, bounds: dict[str, tuple[float, float]] | None = None,
              **solver_options) -> Identification:
     """Identify the parameters of ``system`` with ``friction`` from ``series``.
@@ -65,13 +65,18 @@ def identify(series: JointSeries, *, system: str = "emps", friction: str = "coul
         seed: seed of stochastic solvers.
         varpro: variable projection: the solver searches only the nonlinear friction
             parameters (vs, delta, v0); every other parameter is solved in closed form for each
-            candidate. Linear models are then solved by ``ls``.
+            candidate. Linear models are then solved by ``ls``. None (default): on for the
+            robot systems (``tx40``, ``urdf:PATH``), whose tens of base parameters a global
+            search over every parameter does not find; off otherwise (the thesis protocol).
         preprocessing: filter/decimation settings (default: the system's).
         bounds: {name: (lo, hi)} search-bound overrides (see ``IdentificationModel``).
         **solver_options: budgets (pop, generations, calls) and method options.
     """
     t0 = time.perf_counter()
-    settings = preprocessing or get_system(system).preprocessing
+    sys_ = get_system(system)
+    settings = preprocessing or sys_.preprocessing
+    if varpro is None:
+        varpro = sys_.info is not None  # a robot system (RobotInfo)
     model = build_model(series, system, friction, asymmetric, settings, bounds)
     extra: dict = {"preprocessing": asdict(settings)}
     if solver == "ls" or (varpro and model.is_linear):
