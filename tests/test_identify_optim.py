@@ -90,3 +90,22 @@ def test_cli_writes_optimiser_histories(tmp_path, capsys):
     assert len(opt["history_fmin"]) == 15 and len(opt["history_dist_mean"]) == 15
     assert np.all(np.diff(opt["history_fmin"]) <= 0)
     assert d["wall_s"] > 0 and set(d["params"]) == {"M", "Fv", "Fc", "Fs", "vs", "offset"}
+
+
+def test_population_cost_does_not_depend_on_the_thread_count(emps_estimation):
+    """The compiled dip sums give one candidate to one thread: bit-identical for 1 or 2 threads,
+    and a NaN shape parameter gives a NaN cost (the optimisers rank it last)."""
+    import numba
+
+    model = build_model(emps_estimation, "emps", "stribeck", True)
+    lo, hi = model.bounds()
+    pop = lo + (hi - lo) * np.random.default_rng(5).random((9, model.k))
+    pop[4, model.nonlinear_index[0]] = np.nan
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = model.batch_cost(pop)
+    finally:
+        numba.set_num_threads(threads)
+    np.testing.assert_array_equal(model.batch_cost(pop), one)
+    assert np.isnan(one[4]) and np.isfinite(np.delete(one, 4)).all()

@@ -15,13 +15,10 @@ from pathlib import Path
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import KINDS
+from frictionid_core.optim import CALL_METHODS, SOLVERS
 
 NODE_NAME = "frictionid"
 
-# Every solver id of the core; "ls" is built in, the others live in frictionid_core.optim.
-SOLVERS = ("ls", "lm", "ga", "aco", "bbo", "de", "pso", "bo", "dt", "hybrid")
-# Solvers whose budget is a number of cost calls (the others: generations).
-CALL_SOLVERS = ("lm", "bo", "dt")
 QOS_CHOICES = ("sensor_data", "reliable")
 VELOCITY_SOURCES = ("measured", "reference")
 EFFORT_TYPES = ("joint_state", "float64_multi_array")

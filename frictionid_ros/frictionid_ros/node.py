@@ -59,6 +59,7 @@ with warnings.catch_warnings():
 
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import KINDS
+from frictionid_core.optim import CALL_METHODS, SOLVERS
 from frictionid_core.io.checks import check_series
 from frictionid_core.timeseries import JointSeries
 
@@ -439,13 +440,13 @@ class FrictionIdNode(Node):
         if friction not in KINDS:
             raise InputError(f"unknown friction model '{friction}'; choose one of {', '.join(KINDS)}")
         solver = req.solver or cfg.solver
-        if solver not in cfgmod.SOLVERS:
-            raise InputError(f"unknown solver '{solver}'; choose one of {', '.join(cfgmod.SOLVERS)}")
+        if solver not in SOLVERS:
+            raise InputError(f"unknown solver '{solver}'; choose one of {', '.join(SOLVERS)}")
         if req.budget < 0 or req.population < 0:
             raise InputError(f"budget ({req.budget}) and population ({req.population}) must be >= 0")
         options = {}
         if req.budget > 0:
-            options["calls" if solver in cfgmod.CALL_SOLVERS else "generations"] = int(req.budget)
+            options["calls" if solver in CALL_METHODS else "generations"] = int(req.budget)
         if req.population > 0:
             options["pop"] = int(req.population)
         seed = int(req.seed) if req.seed > 0 else cfg.seed if req.seed == 0 else int(np.random.SeedSequence().entropy % 2**63)

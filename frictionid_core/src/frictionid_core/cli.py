@@ -19,11 +19,10 @@ from pathlib import Path
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import KINDS
+from frictionid_core.optim import CALL_METHODS, SOLVERS
 
 EXIT_INPUT = 2
 EXIT_INTERNAL = 1
-SOLVERS = ("ls", "lm", "ga", "aco", "bbo", "de", "pso", "bo", "dt", "hybrid")
-CALL_SOLVERS = ("bo", "dt", "lm")
 
 
 def _add_source_args(p: argparse.ArgumentParser) -> None:
@@ -160,7 +159,7 @@ def cmd_identify(args) -> int:
 
     opts = {}
     if args.budget is not None:
-        opts["calls" if args.solver in CALL_SOLVERS else "generations"] = args.budget
+        opts["calls" if args.solver in CALL_METHODS else "generations"] = args.budget
     if args.pop is not None:
         opts["pop"] = args.pop
     if args.output_error:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from frictionid_core.dipsums import dip_sums
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import LINEAR_PARAMS, FrictionModel
 from frictionid_core.observation import Observation
@@ -54,10 +55,21 @@ class _ActiveDip:
     y_rows: np.ndarray  # measured torque rows (n,)
     sign: np.ndarray  # (L,) ±1 for the linear terms the dip enters, 0 elsewhere
     sign2: np.ndarray  # outer(sign, sign)
+    F_cols: np.ndarray = field(init=False)  # columns of F_rows not all zero (the others add nothing to dᵀF)
+    F_nz: np.ndarray = field(init=False)  # F_rows[:, F_cols], contiguous
 
-    def values(self, friction: FrictionModel, p: np.ndarray) -> np.ndarray:
-        """Signed dip column on the active rows for parameters (P, k) → (P, n)."""
-        return self.mask * friction.dip(p[:, self.nl_index], self.speed, self.log_speed)
+    def __post_init__(self):
+        self.F_cols = np.flatnonzero(np.any(self.F_rows != 0.0, axis=0))
+        self.F_nz = np.ascontiguousarray(self.F_rows[:, self.F_cols])
+
+    def sums(self, friction: FrictionModel, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For parameters (P, k), the signed dip column d on the active rows reduced to
+        (dᵀd (P,), dᵀy (P,), dᵀF (P, L)) — see :mod:`frictionid_core.dipsums`."""
+        dd, dy, dF_nz = dip_sums(friction.kind, p[:, self.nl_index], self.speed, self.log_speed, self.mask,
+                                 self.F_nz, self.y_rows)
+        dF = np.zeros((p.shape[0], self.F_rows.shape[1]))
+        dF[:, self.F_cols] = dF_nz
+        return dd, dy, dF
 
 
 @dataclass
@@ -220,9 +232,9 @@ class IdentificationModel:
         c = p[:, self.linear_index]
         cost = yty - 2.0 * (c @ Fty) + np.einsum("pl,pl->p", c @ FtF, c)
         for d in dips:
-            v = d.values(self.friction, p)
+            dd, dy, dF = d.sums(self.friction, p)
             w = c @ d.sign
-            cost += w * (w * np.einsum("pn,pn->p", v, v) - 2.0 * (v @ d.y_rows - np.einsum("pl,pl->p", v @ d.F_rows, c)))
+            cost += w * (w * dd - 2.0 * (dy - np.einsum("pl,pl->p", dF, c)))
         return np.maximum(cost, 0.0)
 
     def residuals(self, params: np.ndarray) -> np.ndarray:
@@ -260,10 +272,10 @@ class IdentificationModel:
         G = np.repeat(FtF[None], n_pop, axis=0)
         b = np.repeat(Fty[None], n_pop, axis=0)
         for d in dips:
-            v = d.values(self.friction, p)
-            outer = (v @ d.F_rows)[:, :, None] * d.sign[None, None, :]  # Fᵀ·dip ⊗ signs
-            G += outer + outer.transpose(0, 2, 1) + np.einsum("pn,pn->p", v, v)[:, None, None] * d.sign2
-            b += (v @ d.y_rows)[:, None] * d.sign
+            dd, dy, dF = d.sums(self.friction, p)
+            outer = dF[:, :, None] * d.sign[None, None, :]  # Fᵀ·dip ⊗ signs
+            G += outer + outer.transpose(0, 2, 1) + dd[:, None, None] * d.sign2
+            b += dy[:, None] * d.sign
         scale = 1.0 / np.sqrt(np.maximum(np.einsum("pll->pl", G), np.finfo(float).tiny))
         Gs = G * scale[:, :, None] * scale[:, None, :] + 1e-12 * np.eye(n_lin)
         coef = np.linalg.solve(Gs, (b * scale)[..., None])[..., 0] * scale

@@ -49,6 +49,11 @@ METHODS: dict[str, Callable[..., OptimResult]] = {
 }
 
 POPULATION_METHODS = ("ga", "aco", "bbo", "de", "pso")
+# Methods whose budget is a number of cost calls (the population methods count generations).
+CALL_METHODS = ("lm", "bo", "dt")
+# Every solver id of identify(): "ls" (closed-form least squares) then the optimisers.
+SOLVERS = ("ls", "lm", "ga", "aco", "bbo", "de", "pso", "bo", "dt", "hybrid")
+assert set(SOLVERS) == {"ls", *METHODS}
 BUDGETS = ("pop", "generations", "calls")
 
 __all__ = ["METHODS", "POPULATION_METHODS", "OptimResult", "Problem", "minimize"]
