@@ -131,3 +131,8 @@ def test_batch_cost_wrong_shape():
 def test_problem_type_checked():
     with pytest.raises(OptimError, match="minimize needs a Problem, got dict"):
         minimize({"names": ["a"]}, "de")
+
+
+def test_batch_residuals_need_residuals():
+    with pytest.raises(OptimError, match="batch_residuals must be callable and come with residuals"):
+        Problem(["Fc", "Fv"], [0.0, 0.0], [10.0, 5.0], cost, batch_residuals=lambda P: P)

@@ -139,7 +139,7 @@ def _full_problem(model: IdentificationModel):
 
     lo, hi = model.bounds()
     return Problem(names=list(model.names), lower=lo, upper=hi, batch_cost=model.batch_cost,
-                   residuals=model.residuals)
+                   residuals=model.residuals, batch_residuals=lambda p: model.obs.y[None, :] - model.predict(p))
 
 
 def _embed(model: IdentificationModel, theta_nl: np.ndarray) -> np.ndarray:
@@ -163,8 +163,11 @@ def _varpro_problem(model: IdentificationModel):
     def residuals(theta_nl: np.ndarray) -> np.ndarray:
         return model.residuals(model.solve_linear(_embed(model, theta_nl))[0][0])
 
+    def batch_residuals(theta_nl: np.ndarray) -> np.ndarray:
+        return model.obs.y[None, :] - model.predict(model.solve_linear(_embed(model, theta_nl))[0])
+
     return Problem(names=[model.names[i] for i in nl], lower=lo[nl], upper=hi[nl], batch_cost=cost,
-                   residuals=residuals)
+                   residuals=residuals, batch_residuals=batch_residuals)
 
 
 def _jacobian_std(model: IdentificationModel, x: np.ndarray) -> dict[str, float]:

@@ -25,6 +25,8 @@ class Problem:
             used by ``lm`` (and the ``hybrid`` polish). Without it ``lm`` falls back to
             L-BFGS-B on ``batch_cost``.
         x0: optional start point, shape (k,), inside the bounds (``lm`` start).
+        batch_residuals: optional (P, k) -> (P, N) residuals of a population in one call; with
+            it ``lm`` evaluates each finite-difference Jacobian in one call instead of k.
     """
 
     names: list[str]
@@ -33,6 +35,7 @@ class Problem:
     batch_cost: Callable[[np.ndarray], np.ndarray]
     residuals: Callable[[np.ndarray], np.ndarray] | None = None
     x0: np.ndarray | None = None
+    batch_residuals: Callable[[np.ndarray], np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         self.check()
@@ -79,6 +82,8 @@ class Problem:
             raise OptimError(f"batch_cost must be callable, got {type(self.batch_cost).__name__}")
         if self.residuals is not None and not callable(self.residuals):
             raise OptimError(f"residuals must be callable or None, got {type(self.residuals).__name__}")
+        if self.batch_residuals is not None and (self.residuals is None or not callable(self.batch_residuals)):
+            raise OptimError("batch_residuals must be callable and come with residuals")
         if self.x0 is not None:
             x0 = np.asarray(self.x0, dtype=float)
             if x0.shape != (k,):
