@@ -138,13 +138,13 @@ class FrictionModel:
             level = fc + (col["Fs"] - fc) * stribeck_shape(a, col["vs"], delta)
         return fv * v + level * s
 
-    def dip(self, theta_nl: np.ndarray, a: np.ndarray, log_a: np.ndarray | None = None) -> np.ndarray:
+    def dip(self, theta_nl: np.ndarray, a: np.ndarray) -> np.ndarray:
         """Shape of the non-Coulomb part of one branch at speeds a (N,) → (P, N).
 
         ``theta_nl`` holds the branch's nonlinear parameters (P, m): v0 for threlfall,
         vs for tustin, (vs, delta) for stribeck. The branch torque is
         Fv·v + Fc·sign(v) + c·dip·sign(v) with c = −Fc (threlfall) or Fs − Fc (tustin, stribeck).
-        ``log_a`` = log(a), if given, turns the Stribeck power into an exp (faster; a > 0).
+        (The population cost uses the compiled :mod:`frictionid_core.dipsums` instead.)
         """
         a = np.asarray(a, dtype=float)[None, :]
         t = np.atleast_2d(theta_nl)
@@ -153,10 +153,7 @@ class FrictionModel:
         if self.kind == "tustin":
             return np.exp(a * (-1.0 / t[:, 0:1]))
         if self.kind == "stribeck":
-            if log_a is None:
-                return stribeck_shape(a, t[:, 0:1], t[:, 1:2])
-            delta = t[:, 1:2]
-            return np.exp(-np.exp(delta * (log_a[None, :] - np.log(t[:, 0:1]))))
+            return stribeck_shape(a, t[:, 0:1], t[:, 1:2])
         raise FrictionIdError("the Coulomb model has no nonlinear part")
 
 

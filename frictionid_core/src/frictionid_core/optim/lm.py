@@ -2,7 +2,8 @@
 
 With ``problem.residuals``: ``scipy.optimize.least_squares`` (trust-region reflective,
 'trf', which handles bounds; Jacobian by 2-point finite differences, all k perturbed points
-in one ``problem.batch_residuals`` call when the problem has it) minimising sum(r^2). Without residuals: ``scipy.optimize.minimize`` L-BFGS-B on ``batch_cost``
+in one ``problem.batch_residuals`` call when the problem has it) minimising sum(r^2).
+Without residuals: ``scipy.optimize.minimize`` L-BFGS-B on ``batch_cost``
 evaluated one (1, k) row at a time.
 
 Start: the ``x0`` option, else ``problem.x0``, else the middle of the box.
