@@ -382,3 +382,27 @@ def test_lm_batched_jacobian_matches_the_pointwise_one():
     for res in (plain, batched):
         np.testing.assert_allclose(res.x, [1.0, 1.0], atol=1e-8)
     assert batched.nfev == len(batched.history_fmin) + 1 and abs(batched.nfev - plain.nfev) <= 0.2 * plain.nfev
+
+
+@pytest.mark.parametrize("method", ALL_POPULATION + ["bo", "dt"])
+def test_start_point_is_evaluated_first_and_never_lost(method):
+    """With ``problem.x0`` the first evaluation is x0 itself, so the result is never worse
+    than x0; a deceptive cost (a needle at x0, a wide basin elsewhere) shows it is kept."""
+    x0 = np.array([-4.0, 4.0])
+
+    def needle(X):
+        far = np.sum((X - 2.0) ** 2, axis=1) + 1.0  # basin minimum 1 at (2, 2)
+        return np.where(np.all(X == x0, axis=1), 0.0, far)
+
+    seen = []
+    problem = Problem(["a", "b"], [-5.0, -5.0], [5.0, 5.0], lambda X: (seen.append(X.copy()), needle(X))[1], x0=x0)
+    budget = {"calls": 12, "n_initial_points": 10} if method in ("bo", "dt") else {"pop": 10, "generations": 5}
+    result = minimize(problem, method, seed=0, **budget)
+    np.testing.assert_array_equal(seen[0][0], x0)
+    assert result.fun == 0.0
+    np.testing.assert_array_equal(result.x, x0)
+    # without x0 the same seed draws the same random members (only the first one changes)
+    problem.x0 = None
+    seen.clear()
+    minimize(problem, method, seed=0, **budget)
+    assert not np.any(np.all(seen[0] == x0, axis=1))

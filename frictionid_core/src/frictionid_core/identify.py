@@ -108,7 +108,8 @@ def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpr
                 **solver_options):
     """Minimise the model's cost with ``solver``; returns (parameters (k,), OptimResult).
 
-    Local solvers start from the best of a sample of closed-form solutions (:func:`_start_point`).
+    Local solvers start from the best of a sample of closed-form solutions (:func:`_start_point`);
+    population methods and bo/dt evaluate it first.
     With ``varpro`` the solver sees only the nonlinear parameters.
     """
     from frictionid_core.optim import minimize
@@ -125,7 +126,8 @@ def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpr
 def _start_point(model: IdentificationModel, rng: np.random.Generator, samples: int = 64) -> np.ndarray:
     """Best of ``samples`` random nonlinear parameter sets (plus the lower corner, where the
     Stribeck/Threlfall dip vanishes and the model is the nested Coulomb one), each with its
-    linear parameters solved in closed form: the start of local solvers (lm)."""
+    linear parameters solved in closed form: the start of local solvers (lm) and a member of
+    the global methods' first population, so no solver returns worse than the nested model."""
     lo, hi = model.bounds()
     nl = model.nonlinear_index
     theta = np.zeros((samples + 1, model.k))

@@ -82,6 +82,15 @@ class PopulationRun:
         self.generation = 0
         self.t_start = time.perf_counter()
 
+    def initial(self, rng: np.random.Generator, pop: int) -> np.ndarray:
+        """The normalised initial population (pop, k): uniform in the box; with ``problem.x0``
+        its first member is x0 (e.g. the nested linear optimum), so the result is never worse
+        than x0. The random draws are the same with or without x0."""
+        u = rng.random((pop, self.problem.k))
+        if self.problem.x0 is not None:
+            u[0] = (self.problem.x0 - self.lower) / self.span
+        return u
+
     def to_x(self, u: np.ndarray) -> np.ndarray:
         """Normalised (P, k) -> parameters (P, k), clipped to the bounds."""
         return np.clip(self.lower + u * self.span, self.lower, self.upper)

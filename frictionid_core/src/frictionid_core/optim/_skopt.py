@@ -55,7 +55,7 @@ def run_skopt(
         warnings.filterwarnings("ignore", message="The objective has been evaluated at")
         minimizer(
             objective, dimensions, n_calls=calls, n_initial_points=n_initial_points,
-            random_state=seed, **skopt_kwargs,
+            random_state=seed, x0=None if problem.x0 is None else [problem.x0.tolist()], **skopt_kwargs,
         )
     if log.best_x is None:
         raise all_nan_error(method, log.nfev)

@@ -82,7 +82,7 @@ def solve(
     guide_cdf = np.cumsum(np.exp(-(rank**2) / (2.0 * (q * pop) ** 2)))
     guide_cdf /= guide_cdf[-1]
 
-    archive = rng.random((pop, k))
+    archive = run.initial(rng, pop)
     f = run.evaluate(archive)
     order = np.argsort(f, kind="stable")
     archive, f = archive[order], f[order]

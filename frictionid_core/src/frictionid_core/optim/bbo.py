@@ -62,7 +62,7 @@ def solve(
     emigration_cdf /= emigration_cdf[-1]
     genes = np.arange(k)[None, :]
 
-    u = rng.random((pop, k))
+    u = run.initial(rng, pop)
     f = run.evaluate(u)
     run.record(u)
     for _ in range(1, generations):

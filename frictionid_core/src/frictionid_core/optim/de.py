@@ -54,7 +54,7 @@ def solve(
     run = PopulationRun(problem, "de", generations)
     rows = np.arange(pop)
 
-    u = rng.random((pop, k))
+    u = run.initial(rng, pop)
     f = run.evaluate(u)
     run.record(u)
     for _ in range(1, generations):

@@ -86,7 +86,7 @@ def solve(
     rank_cdf /= rank_cdf[-1]
     genes = np.arange(k)
 
-    u = rng.random((pop, k))
+    u = run.initial(rng, pop)
     f = run.evaluate(u)
     run.record(u)
     for g in range(1, generations):

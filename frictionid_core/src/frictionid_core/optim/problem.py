@@ -24,7 +24,8 @@ class Problem:
         residuals: optional (k,) -> (N,) residual vector whose sum of squares is the cost;
             used by ``lm`` (and the ``hybrid`` polish). Without it ``lm`` falls back to
             L-BFGS-B on ``batch_cost``.
-        x0: optional start point, shape (k,), inside the bounds (``lm`` start).
+        x0: optional start point, shape (k,), inside the bounds: the ``lm`` start, the first
+            member of the population methods' initial population, the first bo/dt call.
         batch_residuals: optional (P, k) -> (P, N) residuals of a population in one call; with
             it ``lm`` evaluates each finite-difference Jacobian in one call instead of k.
     """

@@ -85,7 +85,7 @@ def solve(
     v_limit = v_max * np.sqrt(k)
     ring = _ring_members(pop, neighbourhood) if topology == "ring" else None
 
-    x = rng.random((pop, k))
+    x = run.initial(rng, pop)
     v = np.zeros((pop, k))
     f = run.evaluate(x)
     best_x, best_f = x.copy(), f.copy()
