@@ -3,10 +3,19 @@
 The cost and the variable projection of :class:`~frictionid_core.model.IdentificationModel`
 need, per candidate i, only three reductions of the signed dip column d_i (n,) over the rows
 where its branch is active: d_iᵀd_i, d_iᵀy and d_iᵀF (L,). One numba kernel computes them
-without materialising the (P, n) dip array, one candidate per thread (``prange``), each sum
-in a fixed order (results do not depend on the thread count), and skips rows whose dip is
-exactly 0 in float64 (exp underflow; Threlfall beyond v0). On a machine without AVX-512,
-numpy's float64 ``exp`` is scalar, so this halves the time on 2 cores.
+without materialising the (P, n) dip array, one candidate per thread (``prange``), so the
+results do not depend on the thread count.
+
+The dips are exponentials, and neither numpy (float64 ``exp`` is SIMD only with AVX-512) nor
+numba (no SVML with the PyPI llvmlite) vectorises ``exp`` on AVX2 machines such as these,
+where a scalar libm ``exp`` costs ~6 ns. :func:`_exp` is therefore written so that LLVM
+vectorises it: Cody–Waite reduction x = k·ln2 + q, a degree-13 Taylor polynomial of e^q on
+|q| ≤ ln2/2 (truncation < 1e-17) and 2^k assembled in the exponent bits. It is within 1 ulp
+of ``math.exp`` for −708 ≤ x ≤ 709, returns 0 below (where e^x < 3.3e-308) and saturates
+at e^709 above (the dips only need x ≤ 709 or a huge value that the outer exp maps to 0).
+On the EMPS costs it makes the whole kernel 2.5-3× faster than with libm ``exp``.
+The reductions may be reassociated (vectorised partial sums): their order is fixed by the
+compiled code, so a result is still bit-reproducible on a given machine.
 """
 
 from __future__ import annotations
@@ -18,57 +27,128 @@ from numba import njit, prange
 
 KIND_CODES = {"tustin": 0, "stribeck": 1, "threlfall": 2}
 _E3 = 1.0 - math.exp(-3.0)
-_EXP_UNDERFLOW = -745.2  # math.exp(x) == 0.0 below this
-_STRIBECK_ZERO = 6.62  # exp(−exp(e)) == 0.0 above this
+
+_LOG2E = 1.4426950408889634
+_LN2_HI = 6.93147180369123816490e-01  # high part of ln 2: k·_LN2_HI is exact for |k| < 2^20
+_LN2_LO = 1.90821492927058770002e-10  # ln 2 − _LN2_HI
+_SHIFTER = 6755399441055744.0  # 1.5·2^52: x + _SHIFTER rounds x to an integer held in the low bits
+_SHIFTER_BITS = int(np.float64(_SHIFTER).view(np.int64))
+_EXP_MIN, _EXP_MAX = -708.0, 709.0  # e^x is a normal float64 in between
+_C = tuple(1.0 / math.factorial(n) for n in range(14))  # Taylor coefficients of e^q
+_STRICT = {"contract"}  # FMA allowed; no reassociation (it would undo the Cody–Waite steps)
+_SUMS = {"contract", "reassoc"}
 
 
-@njit(cache=True, parallel=True)
-def _dip_sums(kind, theta, speed, log_speed, mask, F, y):  # pragma: no cover - compiled
-    n_pop, n_rows, n_cols = theta.shape[0], speed.size, F.shape[1]
+@njit(inline="always", fastmath=_STRICT)
+def _exp_begin(x):  # pragma: no cover - compiled
+    """(e^q, x/ln2 + _SHIFTER): the mantissa part of e^x and the integer k in float bits."""
+    v = min(max(x, _EXP_MIN), _EXP_MAX)
+    t = v * _LOG2E + _SHIFTER
+    k = t - _SHIFTER
+    q = (v - k * _LN2_HI) - k * _LN2_LO
+    p = _C[13]
+    p = p * q + _C[12]
+    p = p * q + _C[11]
+    p = p * q + _C[10]
+    p = p * q + _C[9]
+    p = p * q + _C[8]
+    p = p * q + _C[7]
+    p = p * q + _C[6]
+    p = p * q + _C[5]
+    p = p * q + _C[4]
+    p = p * q + _C[3]
+    p = p * q + _C[2]
+    p = p * q + 1.0
+    p = p * q + 1.0
+    if x < _EXP_MIN:
+        p = 0.0
+    elif x != x:
+        p = x  # NaN in, NaN out
+    return p, t
+
+
+@njit(fastmath=_STRICT)
+def _exp(x, out, work):  # pragma: no cover - compiled
+    """out[r] = e^x[r] for arrays (n,); ``work`` (n,) is scratch. Three distinct arrays: an
+    ``out`` that aliases ``x`` would make LLVM fall back to its scalar loop."""
+    for r in range(x.size):
+        out[r], work[r] = _exp_begin(x[r])
+    bits = work.view(np.int64)
+    for r in range(bits.size):
+        bits[r] = (bits[r] - _SHIFTER_BITS + 1023) << 52  # the float 2^k
+    for r in range(x.size):
+        out[r] *= work[r]
+
+
+@njit(fastmath=_SUMS)
+def _reduce(d, y, Ft, dF):  # pragma: no cover - compiled
+    """(dᵀd, dᵀy) and dF[c] = dᵀFt[c] for d, y (n,), Ft (L, n)."""
+    dd = 0.0
+    dy = 0.0
+    for r in range(d.size):
+        dd += d[r] * d[r]
+        dy += d[r] * y[r]
+    for c in range(Ft.shape[0]):
+        acc = 0.0
+        for r in range(d.size):
+            acc += d[r] * Ft[c, r]
+        dF[c] = acc
+    return dd, dy
+
+
+@njit(cache=True, parallel=True, fastmath=_STRICT)
+def _dip_sums(kind, theta, speed, log_speed, mask, Ft, y):  # pragma: no cover - compiled
+    n_pop, n_rows = theta.shape[0], speed.size
     s_dd = np.zeros(n_pop)
     s_dy = np.zeros(n_pop)
-    s_dF = np.zeros((n_pop, n_cols))
+    s_dF = np.zeros((n_pop, Ft.shape[0]))
     for i in prange(n_pop):
         a = theta[i, 0]
-        b = theta[i, 1] if theta.shape[1] > 1 else 0.0
-        inv = -1.0 / a
-        log_vs = math.log(a) if kind == 1 else 0.0
-        dd = 0.0
-        dy = 0.0
+        arg = np.empty(n_rows)
+        d = np.empty(n_rows)
+        work = np.empty(n_rows)
+        if kind == 0:  # tustin: exp(−|v|/vs)
+            for r in range(n_rows):
+                arg[r] = -speed[r] / a
+            _exp(arg, d, work)
+        elif kind == 1:  # stribeck: exp(−(|v|/vs)^δ) = exp(−exp(δ (log|v| − log vs)))
+            b = theta[i, 1]
+            log_vs = math.log(a)
+            for r in range(n_rows):
+                arg[r] = b * (log_speed[r] - log_vs)
+            _exp(arg, d, work)
+            for r in range(n_rows):
+                arg[r] = -d[r]
+            _exp(arg, d, work)
+        else:  # threlfall: 1 − (1 − exp(−3|v|/v0))/(1 − e⁻³) for |v| ≤ v0, else 0
+            for r in range(n_rows):
+                arg[r] = -3.0 * speed[r] / a
+            _exp(arg, d, work)
+            for r in range(n_rows):
+                d[r] = 1.0 - (1.0 - d[r]) / _E3 if speed[r] <= a else (d[r] if a != a else 0.0)
         for r in range(n_rows):
-            if kind == 0:  # tustin: exp(−|v|/vs)
-                x = speed[r] * inv
-                if x < _EXP_UNDERFLOW:
-                    continue
-                d = math.exp(x)
-            elif kind == 1:  # stribeck: exp(−(|v|/vs)^δ)
-                e = b * (log_speed[r] - log_vs)
-                if e > _STRIBECK_ZERO:
-                    continue
-                d = math.exp(-math.exp(e))
-            else:  # threlfall: 1 − (1 − exp(−3|v|/v0))/(1 − e⁻³) for |v| ≤ v0
-                if not speed[r] <= a:
-                    continue
-                d = 1.0 - (1.0 - math.exp(3.0 * speed[r] * inv)) / _E3
-            d *= mask[r]
-            dd += d * d
-            dy += d * y[r]
-            for c in range(n_cols):
-                s_dF[i, c] += d * F[r, c]
-        s_dd[i] = dd
-        s_dy[i] = dy
+            d[r] *= mask[r]
+        s_dd[i], s_dy[i] = _reduce(d, y, Ft, s_dF[i])
     return s_dd, s_dy, s_dF
 
 
 def dip_sums(kind: str, theta: np.ndarray, speed: np.ndarray, log_speed: np.ndarray, mask: np.ndarray,
-             F: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+             Ft: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(d·d, d·y, dᵀF) per candidate: (P,), (P,), (P, L).
 
     Args:
         kind: ``tustin``, ``stribeck`` or ``threlfall``.
         theta: (P, m) the branch's nonlinear parameters (vs | vs, δ | v0).
         speed, log_speed, mask: (n,) |v| > 0, log|v| and the signed branch mask of the rows.
-        F: (n, L) design rows; y: (n,) torque rows.
+        Ft: (L, n) design rows, transposed; y: (n,) torque rows.
     """
     return _dip_sums(KIND_CODES[kind], np.ascontiguousarray(theta, dtype=float), speed, log_speed, mask,
-                     np.ascontiguousarray(F), y)
+                     np.ascontiguousarray(Ft), y)
+
+
+def exp(x: np.ndarray) -> np.ndarray:
+    """e^x of a float64 array with the kernel's vectorised exponential (for tests/inspection)."""
+    x = np.ascontiguousarray(x, dtype=float).ravel()
+    out = np.empty_like(x)
+    _exp(x, out, np.empty_like(x))
+    return out

@@ -56,17 +56,17 @@ class _ActiveDip:
     sign: np.ndarray  # (L,) ±1 for the linear terms the dip enters, 0 elsewhere
     sign2: np.ndarray  # outer(sign, sign)
     F_cols: np.ndarray = field(init=False)  # columns of F_rows not all zero (the others add nothing to dᵀF)
-    F_nz: np.ndarray = field(init=False)  # F_rows[:, F_cols], contiguous
+    Ft_nz: np.ndarray = field(init=False)  # F_rows[:, F_cols]ᵀ (L', n), contiguous
 
     def __post_init__(self):
         self.F_cols = np.flatnonzero(np.any(self.F_rows != 0.0, axis=0))
-        self.F_nz = np.ascontiguousarray(self.F_rows[:, self.F_cols])
+        self.Ft_nz = np.ascontiguousarray(self.F_rows[:, self.F_cols].T)
 
     def sums(self, friction: FrictionModel, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For parameters (P, k), the signed dip column d on the active rows reduced to
         (dᵀd (P,), dᵀy (P,), dᵀF (P, L)) — see :mod:`frictionid_core.dipsums`."""
         dd, dy, dF_nz = dip_sums(friction.kind, p[:, self.nl_index], self.speed, self.log_speed, self.mask,
-                                 self.F_nz, self.y_rows)
+                                 self.Ft_nz, self.y_rows)
         dF = np.zeros((p.shape[0], self.F_rows.shape[1]))
         dF[:, self.F_cols] = dF_nz
         return dd, dy, dF
