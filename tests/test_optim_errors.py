@@ -113,6 +113,7 @@ def test_unknown_option_lists_accepted():
         ("ga", {"selection": "rank"}, "ga: selection must be one of ('roulette', 'tournament'), got 'rank'"),
         ("bo", {"acq_func": "UCB"}, "bo: acq_func must be one of"),
         ("dt", {"base_estimator": "GBRT"}, "dt: base_estimator must be one of ('ET', 'RF'), got 'GBRT'"),
+        ("dt", {"n_points": 0}, "dt: n_points must be positive, got 0"),
         ("hybrid", {"global_method": "lm"}, "hybrid: global_method must be one of"),
     ],
 )
