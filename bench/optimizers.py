@@ -3,6 +3,7 @@
 
     .venv/bin/python bench/optimizers.py            # full: 2 models x 5 seeds x 100 generations
     .venv/bin/python bench/optimizers.py --quick    # smoke: tustin-asym, 1 seed, 20 generations
+    .venv/bin/python bench/optimizers.py --seeds 21 # more seeds: is a cost difference real?
 
 EMPS estimation bag, ``tustin`` asymmetric and ``stribeck`` symmetric. Every method gets the
 thesis budget (population 50 x 100 generations, the initial one included = 5000 evaluations),
@@ -26,7 +27,9 @@ seeds measured around the optimiser call (process start, imports and data loadin
 
 Also: "time to quality" (C* = best final cost of any run on the model; the variable-projection
 ``solve_model(model, "lm", varpro=True)`` path vs mealpy DE) and, in full mode, bo/dt with
-100 calls. Results: bench/results/optimizers.json (quick: optimizers_quick.json).
+100 calls (first 3 seeds). Results: bench/results/optimizers.{json,txt} (quick: optimizers_quick;
+--seeds N other than 5: optimizers_Nseeds). A two-sided Mann-Whitney U p-value tells whether
+our final costs and mealpy's differ at all.
 The peer venvs are created on first use from requirements-peers.txt / requirements-mealpy.txt;
 a peer that cannot be installed or imported is reported as unavailable.
 """
@@ -532,13 +535,16 @@ def report(res: dict, quick: bool) -> list[str]:
     p(f"== targets: each population method >= {MEALPY_SPEEDUP:g}x faster than the same mealpy algorithm, "
       f"median cost <= mealpy's·(1+{COST_TOL:g}) ==")
     p(f"{'model':12}{'algo':5}{'ours s':>8}{'mealpy s':>10}{'speed-up':>10}{'':>6}{'(cpu)':>8}"
-      f"{'cost ratio':>12}{'':>6}")
+      f"{'cost ratio':>12}{'':>6}{'p(U)':>8}")
     for t in res["targets"]["mealpy"]:
         p(f"{t['model']:12}{t['algo']:5}{t['our_wall_s']:>8.3f}{t['mealpy_wall_s']:>10.3f}"
           f"{fmt(t['speedup'], '.1f', 9)}x{('PASS' if t['speed_pass'] else 'FAIL'):>6}{fmt(t['speedup_cpu'], '.1f', 7)}x"
-          f"{fmt(t['cost_ratio'], '.5f', 12)}{('PASS' if t['cost_pass'] else 'FAIL'):>6}")
+          f"{fmt(t['cost_ratio'], '.5f', 12)}{('PASS' if t['cost_pass'] else 'FAIL'):>6}"
+          f"{fmt(t.get('cost_p_mannwhitney'), '.2f', 8)}")
     if not res["targets"]["mealpy"]:
         p("  (mealpy unavailable: no comparison)")
+    else:
+        p("  p(U): two-sided Mann-Whitney U p-value of the final costs, ours vs mealpy's (small: they differ)")
     p("")
     p(f"== target: varpro (start sample + lm) >= {VARPRO_SPEEDUP:g}x faster than mealpy DE and within {QUALITY_TOL:.1%} of C* ==")
     for t in res["targets"]["varpro"]:
@@ -550,7 +556,7 @@ def report(res: dict, quick: bool) -> list[str]:
         p("")
         p("== bo / dt: 100 calls on tustin-asym ==")
         for meth, b in res["bo_dt"].items():
-            p(f"{meth:4} median {b['median_wall_s']:.2f} s (target <= {b['target_s']:g} s: "
+            p(f"{meth:4} median of {len(b['runs'])} seeds {b['median_wall_s']:.2f} s (target <= {b['target_s']:g} s: "
               f"{'PASS' if b['pass'] else 'FAIL'}), median cost {b['median_fun']:.6g}")
     elif not quick:
         p("bo/dt: not run")
@@ -574,6 +580,8 @@ def report(res: dict, quick: bool) -> list[str]:
 
 def analyse(res: dict) -> None:
     """Summaries, C*, time to quality, targets (in place)."""
+    from scipy.stats import mannwhitneyu
+
     gens = res["meta"]["generations"]
     tmeal, tvar = [], []
     for label, m in res["models"].items():
@@ -603,12 +611,15 @@ def analyse(res: dict) -> None:
             if a in meal:
                 sp = meal[a]["median_wall_s"] / ours[a]["median_wall_s"]
                 cr = ours[a]["median_fun"] / meal[a]["median_fun"]
+                # do the two samples of final costs differ at all? (two-sided Mann-Whitney U)
+                p_u = float(mannwhitneyu([r["fun"] for r in m["runs"]["frictionid"][a]],
+                                         [r["fun"] for r in m["runs"]["mealpy"][a]]).pvalue)
                 spc = (meal[a]["median_cpu_s"] / ours[a]["median_cpu_s"]
                        if meal[a]["median_cpu_s"] and ours[a]["median_cpu_s"] else None)
                 tmeal.append({"model": label, "algo": a, "speedup": sp, "speed_pass": sp >= MEALPY_SPEEDUP,
                               "speedup_cpu": spc, "our_wall_s": ours[a]["median_wall_s"],
                               "mealpy_wall_s": meal[a]["median_wall_s"],
-                              "cost_ratio": cr, "cost_pass": cr <= 1 + COST_TOL})
+                              "cost_ratio": cr, "cost_pass": cr <= 1 + COST_TOL, "cost_p_mannwhitney": p_u})
         if not v.get("available"):
             tvar.append({"model": label, "reason": v.get("reason", "not run")})
         else:
@@ -626,6 +637,7 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="smoke run: tustin-asym, 1 seed, 20 generations")
     ap.add_argument("--no-install", action="store_true", help="do not create missing peer venvs")
     ap.add_argument("--no-peers", action="store_true", help="frictionid (and scipy) only")
+    ap.add_argument("--seeds", type=int, default=len(SEEDS), help=f"seeds 0..N-1 per method (default {len(SEEDS)})")
     ap.add_argument("--out", type=Path, help="JSON output (default bench/results/optimizers[_quick].json)")
     ap.add_argument("--pymoo-worker", nargs=2, metavar=("JOB", "OUT"), help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
@@ -640,9 +652,12 @@ def main(argv=None) -> int:
     from frictionid_core.io import load
 
     labels = ["tustin-asym"] if a.quick else list(MODELS)
-    seeds = [0] if a.quick else list(SEEDS)
+    if a.seeds < 1:
+        ap.error(f"--seeds must be positive, got {a.seeds}")
+    seeds = [0] if a.quick else list(range(a.seeds))
     gens = 20 if a.quick else GENERATIONS
-    out_path = a.out or RESULTS / ("optimizers_quick.json" if a.quick else "optimizers.json")
+    name = "optimizers_quick" if a.quick else "optimizers" if a.seeds == len(SEEDS) else f"optimizers_{a.seeds}seeds"
+    out_path = a.out or RESULTS / f"{name}.json"
     series = load(str(BAG))
     models = {lb: build_model(series, "emps", *MODELS[lb]) for lb in labels}
     bc = type(models[labels[0]]).batch_cost
@@ -728,7 +743,7 @@ def main(argv=None) -> int:
             log("[bo/dt] tustin-asym, 100 calls")
             lb = "tustin-asym"
             try:
-                res["bo_dt"] = run_bo_dt(models[lb], [0])
+                res["bo_dt"] = run_bo_dt(models[lb], seeds[:3])
             except Exception as exc:  # noqa: BLE001
                 res["bo_dt_error"] = f"{type(exc).__name__}: {exc}"
     res["meta"]["loadavg_end"] = os.getloadavg()
@@ -738,7 +753,8 @@ def main(argv=None) -> int:
     res["report"] = lines
     out_path.parent.mkdir(parents=True, exist_ok=True)
     out_path.write_text(json.dumps(res, indent=1))
-    print(f"\nwritten {out_path.relative_to(ROOT) if out_path.is_relative_to(ROOT) else out_path}")
+    out_path.with_suffix(".txt").write_text("\n".join(res["report"]) + "\n")
+    print(f"\nwritten {out_path.relative_to(ROOT) if out_path.is_relative_to(ROOT) else out_path} (+ .txt)")
     return 0
 
 

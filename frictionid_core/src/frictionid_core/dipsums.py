@@ -125,7 +125,10 @@ def _dip_sums(kind, theta, speed, log_speed, mask, Ft, y):  # pragma: no cover -
                 arg[r] = -3.0 * speed[r] / a
             _exp(arg, d, work)
             for r in range(n_rows):
-                d[r] = 1.0 - (1.0 - d[r]) / _E3 if speed[r] <= a else (d[r] if a != a else 0.0)
+                if speed[r] <= a:
+                    d[r] = 1.0 - (1.0 - d[r]) / _E3
+                elif a == a:  # beyond v0; a NaN v0 keeps d = exp(NaN) = NaN
+                    d[r] = 0.0
         for r in range(n_rows):
             d[r] *= mask[r]
         s_dd[i], s_dy[i] = _reduce(d, y, Ft, s_dF[i])
