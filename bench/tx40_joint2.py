@@ -10,9 +10,11 @@ Stribeck friction + offset), symmetric Stribeck, seeds 0…runs−1.
 
 Protocols:
   thesis  every parameter searched (9) with the thesis budgets: DE/GA/PSO 50 × 100
-          generations, BO/DT 100 calls — the protocol of Tables 6.17–6.19;
+          generations, BO/DT 100 calls, random start (``warm_start=False``) — the protocol
+          of Tables 6.17–6.19;
   varpro  only vs and δ searched, the 7 linear parameters solved in closed form per
-          candidate (``identify(varpro=True)``), same budgets.
+          candidate (``identify(varpro=True)``), same budgets, the closed-form start
+          evaluated first (identify's default).
 
 Reported per algorithm: parameters mean ± std over the runs (Tables 6.17/6.18), wall time per
 run (Table 6.19), OSA relative error on the estimation data (Table 6.20, as the thesis) and on
@@ -67,7 +69,7 @@ def run(algorithms, protocols, runs, bags: Path, slow_runs: int | None = None) -
             rows = []
             for seed in range(slow_runs if alg == "bo" and slow_runs is not None else runs):
                 r = identify(est, system="tx40-j2", friction="stribeck", solver=alg, seed=seed,
-                             varpro=(protocol == "varpro")).to_dict()
+                             varpro=(protocol == "varpro"), warm_start=(protocol == "varpro")).to_dict()
                 rows.append({"params": r["params"], "wall_s": r["wall_s"], "relerr_est": r["metrics"]["relerr_pct"],
                              "relerr_val": validate(val, r)["relerr_pct"]})
                 if not floor_done:
@@ -90,7 +92,8 @@ def run(algorithms, protocols, runs, bags: Path, slow_runs: int | None = None) -
     times = []
     for seed in range(3):
         t0 = time.perf_counter()
-        identify(est, system="tx40-j2", friction="stribeck", solver="de", seed=seed, pop=50, generations=100)
+        identify(est, system="tx40-j2", friction="stribeck", solver="de", seed=seed, warm_start=False,
+                 pop=50, generations=100)
         times.append(time.perf_counter() - t0)
     out["de_50x100_wall_s"] = {"runs": times, "median": float(np.median(times)), "thesis": 171.16}
     return out

@@ -91,6 +91,11 @@ def test_global_search_over_all_parameters_never_worse_than_the_nested_linear_op
                    pop=10, generations=3)
     assert res.extra["optimizer"]["nfev"] <= 30
     assert res.metrics["cost"] <= nested.metrics["cost"] * (1 + 1e-9)
+    # the thesis protocol (random start) at this budget ends far above it
+    cold = identify(emps_estimation, friction=kind, asymmetric=asym, solver=solver, varpro=False, seed=0,
+                    warm_start=False, pop=10, generations=3)
+    assert cold.extra["warm_start"] is False and res.extra["warm_start"] is True
+    assert cold.metrics["cost"] > 1.2 * nested.metrics["cost"]
 
 
 def test_cli_writes_optimiser_histories(tmp_path, capsys):
@@ -104,6 +109,18 @@ def test_cli_writes_optimiser_histories(tmp_path, capsys):
     assert len(opt["history_fmin"]) == 15 and len(opt["history_dist_mean"]) == 15
     assert np.all(np.diff(opt["history_fmin"]) <= 0)
     assert d["wall_s"] > 0 and set(d["params"]) == {"M", "Fv", "Fc", "Fs", "vs", "offset"}
+    assert d["warm_start"] is True
+
+
+def test_cli_no_warm_start_is_the_random_thesis_start(tmp_path):
+    warm, cold = tmp_path / "warm.json", tmp_path / "cold.json"
+    common = ["identify", str(EMPS_ESTIMATION), "--friction", "tustin", "--solver", "pso", "--pop", "10",
+              "--budget", "3", "--seed", "1"]
+    assert main(common + ["--json", str(warm)]) == 0
+    assert main(common + ["--no-warm-start", "--json", str(cold)]) == 0
+    w, c = json.loads(warm.read_text()), json.loads(cold.read_text())
+    assert w["warm_start"] is True and c["warm_start"] is False
+    assert w["metrics"]["cost"] < c["metrics"]["cost"]
 
 
 def test_vectorised_exponential_of_the_dip_kernel_matches_libm():

@@ -62,6 +62,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--varpro", action=argparse.BooleanOptionalAction, default=None,
                    help="variable projection: search only vs/delta/v0, solve the linear parameters in closed form "
                         "(default: on for tx40 and urdf:PATH, off otherwise)")
+    p.add_argument("--warm-start", action=argparse.BooleanOptionalAction, default=True,
+                   help="global solvers evaluate the closed-form start (never worse than the nested linear model) "
+                        "first; --no-warm-start: purely random initial population, the thesis protocol (default on)")
 
     p = sub.add_parser("validate", help="cross-test identified parameters on other data")
     _add_source_args(p)
@@ -176,7 +179,8 @@ def cmd_identify(args) -> int:
     series = _load(args)
     result = identify(series, system=system_spec(args.system, args.joint_map), friction=args.friction,
                       asymmetric=args.asymmetric,
-                      solver=args.solver, seed=args.seed, varpro=args.varpro, bounds=_parse_bounds(args.bounds),
+                      solver=args.solver, seed=args.seed, varpro=args.varpro, warm_start=args.warm_start,
+                      bounds=_parse_bounds(args.bounds),
                       preprocessing=_preprocessing(args), **opts).to_dict()
     print_table(result)
     _write_json(args.json, result)

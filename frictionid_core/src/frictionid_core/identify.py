@@ -55,8 +55,8 @@ def build_model(series: JointSeries, system: str, friction: str, asymmetric: boo
 
 def identify(series: JointSeries, *, system: str = "emps", friction: str = "coulomb",
              asymmetric: bool = False, solver: str = "ls", seed: int = 0, varpro: bool | None = None,
-             preprocessing: Preprocessing | None = None, bounds: dict[str, tuple[float, float]] | None = None,
-             **solver_options) -> Identification:
+             warm_start: bool = True, preprocessing: Preprocessing | None = None,
+             bounds: dict[str, tuple[float, float]] | None = None, **solver_options) -> Identification:
     """Identify the parameters of ``system`` with ``friction`` from ``series``.
 
     Args:
@@ -68,6 +68,9 @@ def identify(series: JointSeries, *, system: str = "emps", friction: str = "coul
             candidate. Linear models are then solved by ``ls``. None (default): on for the
             robot systems (``tx40``, ``urdf:PATH``), whose tens of base parameters a global
             search over every parameter does not find; off otherwise (the thesis protocol).
+        warm_start: global solvers (population methods, bo, dt) evaluate the closed-form start
+            point first (see :func:`solve_model`), so no result is worse than the nested linear
+            model; False gives them a purely random start, the thesis protocol.
         preprocessing: filter/decimation settings (default: the system's).
         bounds: {name: (lo, hi)} search-bound overrides (see ``IdentificationModel``).
         **solver_options: budgets (pop, generations, calls) and method options.
@@ -91,9 +94,10 @@ def identify(series: JointSeries, *, system: str = "emps", friction: str = "coul
         std = {model.names[i]: float(s) for i, s in zip(model.linear_index, fit.std)}
         cond = fit.cond
     else:
-        x, res = solve_model(model, solver, seed=seed, varpro=varpro, **solver_options)
+        x, res = solve_model(model, solver, seed=seed, varpro=varpro, warm_start=warm_start, **solver_options)
         extra["optimizer"] = res.to_dict()
         extra["varpro"] = varpro
+        extra["warm_start"] = warm_start
         std = _jacobian_std(model, x)
         cond = float(np.linalg.cond(model.design(x[None])[0]))
     metrics = fit_metrics(model.obs.y, model.predict(x))
@@ -105,17 +109,17 @@ def identify(series: JointSeries, *, system: str = "emps", friction: str = "coul
 
 
 def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpro: bool = False,
-                **solver_options):
+                warm_start: bool = True, **solver_options):
     """Minimise the model's cost with ``solver``; returns (parameters (k,), OptimResult).
 
     Local solvers start from the best of a sample of closed-form solutions (:func:`_start_point`);
-    population methods and bo/dt evaluate it first.
+    with ``warm_start`` population methods and bo/dt evaluate it first (as ``problem.x0``).
     With ``varpro`` the solver sees only the nonlinear parameters.
     """
     from frictionid_core.optim import minimize
 
     problem = _varpro_problem(model) if varpro else _full_problem(model)
-    if model.nonlinear_index.size:
+    if model.nonlinear_index.size and (warm_start or solver == "lm"):
         start = _start_point(model, np.random.default_rng(seed))
         problem.x0 = start[model.nonlinear_index] if varpro else start
     res = minimize(problem, solver, seed=seed, **solver_options)

@@ -80,7 +80,7 @@ def run_one(spec: RunSpec) -> dict:
 
     t0 = time.perf_counter()
     res = identify(_series(spec.estimation), system="emps", friction=spec.friction, asymmetric=spec.asymmetric,
-                   solver=spec.algorithm, seed=spec.seed, pop=spec.pop, generations=spec.generations)
+                   solver=spec.algorithm, seed=spec.seed, warm_start=False, pop=spec.pop, generations=spec.generations)
     record = asdict(spec) | {"key": spec.key, "params": res.params, "cost": res.metrics["cost"],
                              "osa_est_pct": res.metrics["relerr_pct"],
                              "osa_val_pct": validate(_series(spec.validation), res.to_dict())["relerr_pct"],
