@@ -74,8 +74,11 @@ def test_full_robot_on_the_bundled_bags():
             assert value == pytest.approx(truth, rel=0.05), name
     rep = report_for_result(result)
     assert rep["feasible"], rep["bodies"]
-    assert compare(dict(result, std={n: 1e-3 for n in result["params"]}), TRUTH["tx40_excitation"])["summary"][
-        "parameters"] == model.k
+    summary = compare(dict(result, std={n: 1e-3 for n in result["params"]}), TRUTH["tx40_excitation"])["summary"]
+    assert summary["parameters"] == model.k
+    # resolvable to 5 % at 95 %: 1.96e-3 < 0.05 |truth|, i.e. |truth| > 0.0392 (zero truths never)
+    assert summary["resolvable_5pct"] == sum(abs(exp[n]) > 1.96e-3 / 0.05 for n in model.names)
+    assert 0 < summary["resolvable_5pct"] < model.k
 
 
 def test_full_robot_system_refuses_joint2_only_motion():

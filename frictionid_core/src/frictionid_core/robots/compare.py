@@ -8,7 +8,11 @@ one-step-ahead relative error on that recording is close to the floor.
 A parameter is *determined* by the data when its standard deviation σ (from the fit's
 Jacobian) is below 1 % of its true magnitude; relative-error thresholds only make sense
 for those (a true product of inertia of 3e−6 kg·m² cannot be matched to 5 %). Every other
-parameter is judged by its error in units of σ.
+parameter is judged by its error in units of σ. A parameter is *resolvable* to a tolerance
+when 1.96 σ (95 %) is below that fraction of its true magnitude. For least squares under
+Gaussian noise σ is the Cramér–Rao bound, so a parameter whose σ is larger (or whose truth
+is 0) cannot be placed within the tolerance with 95 % confidence by any unbiased estimator on
+that recording; at a given noise level σ shrinks only as 1/√(duration).
 """
 
 from __future__ import annotations
@@ -22,6 +26,8 @@ import numpy as np
 from frictionid_core.errors import FrictionIdError
 
 DETERMINED_RSD = 0.01
+RESOLVE_TOLERANCE_PCT = 5.0
+Z95 = 1.96
 
 
 def select_truth(truth: dict, bag: str | None = None) -> dict:
@@ -40,7 +46,7 @@ def select_truth(truth: dict, bag: str | None = None) -> dict:
 
 
 def compare(result: dict, truth: dict) -> dict:
-    """{parameter: {estimate, truth, error, relerr_pct, sigma, z, determined}} + a summary."""
+    """{parameter: {estimate, truth, error, relerr_pct, sigma, sigma_pct, z, determined}} + a summary."""
     from frictionid_core.robots.synth import expected_parameters
 
     exp = expected_parameters(truth, result["system"], result.get("joints"))
@@ -54,11 +60,15 @@ def compare(result: dict, truth: dict) -> dict:
         rel = 100.0 * err / abs(tv) if tv != 0 else float("nan")
         determined = bool(tv != 0 and np.isfinite(sd) and sd < DETERMINED_RSD * abs(tv))
         rows[name] = {"estimate": est, "truth": tv, "error": err, "relerr_pct": rel, "sigma": sd,
+                      "sigma_pct": 100.0 * sd / abs(tv) if tv != 0 else float("inf"),
                       "z": err / sd if sd and np.isfinite(sd) else float("nan"), "determined": determined}
     det = [r for r in rows.values() if r["determined"]]
+    resolvable = [r for r in rows.values() if Z95 * r["sigma_pct"] < RESOLVE_TOLERANCE_PCT]
     summary = {
         "parameters": len(rows),
         "determined": len(det),
+        "resolvable_5pct": len(resolvable),
+        "max_abs_relerr_pct_resolvable_5pct": max((abs(r["relerr_pct"]) for r in resolvable), default=float("nan")),
         "max_abs_relerr_pct_determined": max((abs(r["relerr_pct"]) for r in det), default=float("nan")),
         "max_abs_z": max((abs(r["z"]) for r in rows.values() if np.isfinite(r["z"])), default=float("nan")),
     }
@@ -109,13 +119,17 @@ def _cmd_compare(args) -> int:
     truth = select_truth(truth_all, args.bag or result.get("source"))
     out = compare(result, truth)
     print(f"{args.result} vs truth ({args.truth}{'' if not args.bag else ' · ' + args.bag})")
-    print(f"{'parameter':<22} {'estimate':>12} {'truth':>12} {'error %':>9} {'err/σ':>7}  determined")
+    print(f"{'parameter':<22} {'estimate':>12} {'truth':>12} {'error %':>9} {'σ %':>9} {'err/σ':>7}  determined")
     for name, r in out["parameters"].items():
         print(f"{name:<22} {_fmt(r['estimate']):>12} {_fmt(r['truth']):>12} {_fmt(r['relerr_pct'], 3):>9} "
-              f"{_fmt(r['z'], 3):>7}  {'yes' if r['determined'] else 'no'}")
+              f"{_fmt(r['sigma_pct'], 3):>9} {_fmt(r['z'], 3):>7}  {'yes' if r['determined'] else 'no'}")
     s = out["summary"]
     print(f"{s['determined']} of {s['parameters']} parameters determined (σ < 1 % of |truth|): max |error| "
           f"{_fmt(s['max_abs_relerr_pct_determined'])} %; max |z| over all {_fmt(s['max_abs_z'])}")
+    tol = f"{RESOLVE_TOLERANCE_PCT:g} %"
+    print(f"{s['resolvable_5pct']} of {s['parameters']} resolvable to {tol} ({Z95:g} σ < {tol} of |truth|): "
+          f"max |error| {_fmt(s['max_abs_relerr_pct_resolvable_5pct'])} %; the other "
+          f"{s['parameters'] - s['resolvable_5pct']} cannot be placed within {tol} with 95 % confidence on this recording")
     if args.validation is not None:
         from frictionid_core.io import load
 
