@@ -8,7 +8,8 @@ mu 2.5, |v| clamped, particles stop at the walls). mealpy 3.0.3's ``OriginalPSO`
 algorithm: global best, a particle moves only when its new position is better (greedy),
 components leaving the box are redrawn at random, and the velocity is never clamped. This
 script runs our PSO with the thesis settings next to the same update rule switched, one piece
-at a time, to mealpy's choices, on the EMPS costs of ``bench/optimizers.py`` (population 50 x
+at a time, to mealpy's choices (after the settings the thesis leaves open, v_max and the
+neighbourhood topology, which keep the local neighbourhood), on the EMPS costs of ``bench/optimizers.py`` (population 50 x
 100 generations, seeds 0..N-1), and prints the median final costs beside mealpy's medians from
 ``bench/results/optimizers_21seeds.json`` (run ``optimizers.py --seeds 21`` first). The
 variants exist only here: the product keeps the thesis's PSO.
@@ -74,8 +75,16 @@ def main(argv=None) -> int:
     ref_path = ROOT / "bench" / "results" / "optimizers_21seeds.json"
     ref = json.loads(ref_path.read_text()) if ref_path.exists() else None
     series = load(str(ROOT / "bags" / "emps_estimation"))
-    variants = {
-        "thesis pso (frictionid)": None,
+    # the thesis leaves v_max (and how the walls act) open; these keep its local neighbourhood
+    thesis_choices = {
+        "thesis pso (frictionid)": {},
+        "  v_max 0.05": dict(v_max=0.05),
+        "  v_max 0.1": dict(v_max=0.1),
+        "  v_max 0.5": dict(v_max=0.5),
+        "  ring neighbourhood": dict(topology="ring"),
+        "  ring neighbourhood, v_max 0.1": dict(topology="ring", v_max=0.1),
+    }
+    mealpy_steps = {
         "global best, walls, clamp 0.2": dict(greedy=False, random_walls=False, clamp=0.2),
         "+ greedy moves": dict(greedy=True, random_walls=False, clamp=0.2),
         "+ random walls": dict(greedy=True, random_walls=True, clamp=0.2),
@@ -87,9 +96,11 @@ def main(argv=None) -> int:
         lo, hi = model.bounds()
         problem = Problem(list(model.names), lo, hi, model.batch_cost)
         print(f"\n{label}")
-        for name, opts in variants.items():
-            costs = [minimize(problem, "pso", seed=s).fun if opts is None else variant_pso(problem, s, **opts)
-                     for s in seeds]
+        for name, opts in thesis_choices.items():
+            costs = [minimize(problem, "pso", seed=s, **opts).fun for s in seeds]
+            print(f"  {name:32} {statistics.median(costs):10.1f}")
+        for name, opts in mealpy_steps.items():
+            costs = [variant_pso(problem, s, **opts) for s in seeds]
             print(f"  {name:32} {statistics.median(costs):10.1f}")
         if ref is not None:
             runs = ref["models"][label]["runs"].get("mealpy", {}).get("pso", [])
