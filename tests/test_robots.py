@@ -12,8 +12,9 @@ import pytest
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.robots import example_robot_data_dir, load_urdf
 from frictionid_core.robots.base import random_samples, robot_base_parameters
-from frictionid_core.robots.excitation import (FourierTrajectory, SampledTrajectory, check_trajectory,
-                                               fit_to_limits, load_trajectory, optimise_excitation, robot_of)
+from frictionid_core.robots.excitation import (DWELL_SPEEDS, DwellTrajectory, FourierTrajectory, SampledTrajectory,
+                                               add_dwell, check_trajectory, fit_to_limits, load_trajectory,
+                                               optimise_excitation, robot_of)
 from frictionid_core.robots.synth import expected_parameters, synthesize
 from frictionid_core.robots.tx40 import (DH, FIRST_MOMENT, INERTIA, MASS, ROTOR_INERTIA, build_tx40,
                                          joint2_effective_parameters)
@@ -179,6 +180,57 @@ def test_excitation_respects_limits_and_roundtrips(tmp_path, tx40):
         load_trajectory(tmp_path / "bad.csv")
 
 
+def test_dwell_plateaus_follow_the_fourier_part_smoothly_and_exactly(tmp_path, tx40):
+    """The plateaus continue the Fourier motion with continuous q, q̇, q̈ (q̈ jumps would bias the
+    inertia estimates), hold ±DWELL_SPEEDS·vs, end at rest, and q̇, q̈ are the derivatives of q."""
+    sys_ = get_system("tx40")
+    res = optimise_excitation(sys_, tx40, evals=30, starts=2, seed=3, duration=10.0)
+    traj = add_dwell(tx40, res.trajectory, 12.0, vs=0.04)
+    assert isinstance(traj, DwellTrajectory) and traj.duration == pytest.approx(22.0)
+    t, q, qd, qdd = traj.sample(1000.0)
+    check_trajectory(tx40, traj)
+    k = 10000  # the junction at 10 s
+    before = [x[0] for x in res.trajectory.evaluate(np.array([10.0]))]
+    for x, y in zip((q, qd, qdd), before):
+        np.testing.assert_allclose(x[k], y, atol=1e-12)
+    left, right = (traj.evaluate(np.array([10.0 + d]))[2][0] for d in (-1e-7, 1e-7))
+    np.testing.assert_allclose(left, right, atol=1e-3)  # a step would be ~|q̈| (1–10 rad/s²); jerk × 2e-7 s ≲ 1e-4
+    # plateaus: every moving joint holds each ±speed for hold_s seconds
+    speeds = 0.04 * np.array(DWELL_SPEEDS)
+    for v in speeds:
+        for sign in (1.0, -1.0):
+            held = np.all(np.isclose(qd, sign * v, atol=1e-12), axis=1)
+            assert held.sum() / 1000.0 == pytest.approx(traj.hold_s[list(speeds).index(v)], abs=3e-3)  # ± the 2 end samples
+    np.testing.assert_allclose(qd[-1], 0.0, atol=1e-12)
+    np.testing.assert_allclose(qdd[-1], 0.0, atol=1e-9)
+    # exact derivatives: 4th-order central differences on a fine grid inside the dwell
+    h = 1e-4
+    tt = np.linspace(10.05, 21.95, 997)
+    d1 = (traj.evaluate(tt - 2 * h)[0] - 8 * traj.evaluate(tt - h)[0] + 8 * traj.evaluate(tt + h)[0]
+          - traj.evaluate(tt + 2 * h)[0]) / (12 * h)
+    d2 = (traj.evaluate(tt - h)[1] - traj.evaluate(tt + h)[1]) / (-2 * h)
+    np.testing.assert_allclose(d1, traj.evaluate(tt)[1], atol=1e-7)
+    np.testing.assert_allclose(d2, traj.evaluate(tt)[2], atol=1e-2)  # central difference across jerk steps
+    back = load_trajectory(traj.save(tmp_path / "d.npz"))
+    assert isinstance(back, DwellTrajectory)
+    np.testing.assert_array_equal(back.sample(1000.0)[1], q)
+    with pytest.raises(InputError, match="too short"):
+        add_dwell(tx40, res.trajectory, 2.0)
+    with pytest.raises(InputError, match=r"violates the limits of tx40: joint '.*' position"):
+        add_dwell(tx40, res.trajectory, 60.0, vs=1.0)  # 2.5 rad/s for seconds runs into the stops
+
+
+def test_dwell_keeps_held_joints_still(tx40):
+    sys_ = get_system("tx40-j2")
+    robot, moving = robot_of(sys_, "tx40-j2")
+    res = optimise_excitation(sys_, robot, moving=moving, evals=20, starts=2, seed=0, duration=10.0)
+    traj = add_dwell(robot, res.trajectory, 8.0)
+    _, q, qd, _ = traj.sample(500.0)
+    assert list(traj.moves()) == [False, True, False, False, False, False]
+    assert np.ptp(q[:, [0, 2, 3, 4, 5]], axis=0).max() == 0.0
+    assert np.abs(qd[5000:, 1]).max() > 0.1
+
+
 # ------------------------------------------------------------------- consistency
 def test_consistency_of_true_and_of_impossible_base_parameters(tx40):
     from frictionid_core.robots.consistency import check_consistency, generic_prior
@@ -238,7 +290,8 @@ def test_cli_excite_synth_identify_compare(tmp_path, ur5_path, capsys):
 
 
 def test_cli_reports_bad_robot_input_in_one_line(tmp_path, capsys):
-    """Bad URDF, a limit-violating CSV trajectory, a hold outside the limits: exit 2 + one line."""
+    """Bad URDF, a limit-violating CSV trajectory, a hold outside the limits, a dwell too short
+    for its ramps: exit 2 + one line."""
     from frictionid_core.cli import main
 
     from conftest import BAGS
@@ -262,3 +315,7 @@ def test_cli_reports_bad_robot_input_in_one_line(tmp_path, capsys):
     args = parser.parse_args(["excite", "--system", "tx40", "--out", str(tmp_path / "t.npz"), "--hold", "joint_2=3"])
     with pytest.raises(InputError, match=r"hold position of \['joint_2'\] outside"):
         handlers["excite"](args)
+    code = main(["excite", "--system", "tx40-j2", "--out", str(tmp_path / "t.npz"), "--evals", "5", "--starts", "1",
+                 "--dwell", "1.5"])
+    err = capsys.readouterr().err
+    assert code == 2 and "dwell of 1.5 s is too short" in err and err.count("\n") == 1

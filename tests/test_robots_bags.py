@@ -87,12 +87,20 @@ def test_full_robot_system_refuses_joint2_only_motion():
         build_model(series, "tx40", "coulomb", False)
 
 
-def test_full_robot_global_search_defaults_to_variable_projection():
+def test_full_robot_friction_within_5_percent_with_variable_projection():
     """On a robot system a population method searches only the friction shapes (12 here) and
-    solves the 40 base parameters and the levels in closed form: even 3 generations of 10 land
-    within 0.5 % relative error (noise floor of this bag 0.35 %; the same budget over all 70
-    parameters stays above 10 %)."""
-    r = identify(load(BAGS / "tx40_excitation"), system="tx40", friction="stribeck", solver="de", pop=10,
-                 generations=3, seed=0).to_dict()
+    solves the base parameters and the friction levels in closed form; DE 10 × 3 and the LM
+    polish (hybrid) fit the excitation bag better than the true parameters do (the least-squares
+    optimum) and put every friction parameter of the six joints within 5 % of the truth. The
+    bag's 15 s of plateaus make that possible: σ(δ of joint 2) ≈ 2.1 % there, 9.5 % on 20 s of
+    Fourier motion alone (bench/tx40_stribeck_information.py)."""
+    est = load(BAGS / "tx40_excitation")
+    r = identify(est, system="tx40", friction="stribeck", solver="hybrid", pop=10, generations=3, seed=0).to_dict()
     assert r["varpro"] is True
-    assert r["metrics"]["relerr_pct"] < 0.5
+    floor = noise_floor(est, r, TRUTH["tx40_excitation"])
+    assert floor["relerr_pct"] <= floor["floor_relerr_pct"]
+    rows = compare(r, TRUTH["tx40_excitation"])["parameters"]
+    friction = {n: row for n, row in rows.items() if "/" in n and not n.endswith("/offset")}
+    assert len(friction) == 30
+    for name, row in friction.items():
+        assert abs(row["relerr_pct"]) < 5.0, (name, row)

@@ -12,6 +12,12 @@ then only chooses the *shape* (and q0): it minimises log10 of the condition numb
 observation matrix — the system's rigid (base) columns plus the viscous and Coulomb
 columns q̇_j, sign(q̇_j) of every moving joint, each column scaled to unit norm (the
 criterion is then independent of parameter units) — sampled over one period.
+
+That criterion cannot see the Stribeck shapes (vs, δ): with unit-norm columns a 0.14 N·m hump
+weighs as much as a 50 N·m gravity term, and a Fourier motion crosses the Stribeck speeds only
+briefly at each reversal. A :class:`DwellTrajectory` therefore appends constant-velocity
+plateaus to the Fourier part, at the speeds and time shares of the c-optimal design for δ
+(``bench/tx40_stribeck_information.py``).
 """
 
 from __future__ import annotations
@@ -61,6 +67,14 @@ class FourierTrajectory:
         t = np.arange(int(round(self.duration * rate)) + 1) / rate
         return (t, *self.evaluate(t))
 
+    def moves(self) -> np.ndarray:
+        """(J,) True for the joints that move (non-zero coefficients)."""
+        return np.any(self.a != 0, axis=1) | np.any(self.b != 0, axis=1)
+
+    def to_dict(self) -> dict:
+        return {"kind": "fourier", "joints": list(self.joints), "q0": self.q0.tolist(), "a": self.a.tolist(),
+                "b": self.b.tolist(), "wf": self.wf, "duration": self.duration}
+
     # ------------------------------------------------------------------ files
     def save(self, path: Path, rate: float = 1000.0) -> Path:
         """``.npz``: the coefficients; ``.csv``: t and q/qd/qdd per joint sampled at ``rate``."""
@@ -68,14 +82,19 @@ class FourierTrajectory:
         if path.suffix.lower() == ".npz":
             np.savez(path, kind="fourier", joints=np.array(self.joints), q0=self.q0, a=self.a, b=self.b,
                      wf=self.wf, duration=self.duration)
-        elif path.suffix.lower() == ".csv":
-            t, q, qd, qdd = self.sample(rate)
-            head = ["t"] + [f"{p}:{j}" for p in ("q", "qd", "qdd") for j in self.joints]
-            np.savetxt(path, np.column_stack([t, q, qd, qdd]), delimiter=",", header=",".join(head), comments="",
-                       fmt="%.12g")
-        else:
-            raise FrictionIdError(f"{path}: trajectory files are .npz (coefficients) or .csv (samples)")
-        return path
+            return path
+        return _save_csv(self, path, rate)
+
+
+def _save_csv(traj, path: Path, rate: float) -> Path:
+    """t and q/qd/qdd per joint sampled at ``rate`` as CSV."""
+    if path.suffix.lower() != ".csv":
+        raise FrictionIdError(f"{path}: trajectory files are .npz (coefficients) or .csv (samples)")
+    t, q, qd, qdd = traj.sample(rate)
+    head = ["t"] + [f"{p}:{j}" for p in ("q", "qd", "qdd") for j in traj.joints]
+    np.savetxt(path, np.column_stack([t, q, qd, qdd]), delimiter=",", header=",".join(head), comments="",
+               fmt="%.12g")
+    return path
 
 
 @dataclass
@@ -95,8 +114,150 @@ class SampledTrajectory:
         interp = lambda a: np.column_stack([np.interp(t, self.t, c) for c in a.T])  # noqa: E731
         return t - t[0], interp(self.q), interp(self.qd), interp(self.qdd)
 
+    def moves(self) -> np.ndarray:
+        """(J,) True for the joints whose position changes."""
+        return np.ptp(self.q, axis=0) > 0
 
-def load_trajectory(path: str | Path) -> FourierTrajectory | SampledTrajectory:
+
+# Plateau speeds (multiples of the nominal vs) and their shares of the plateau time: the
+# c-optimal design for δ at the SPEC joint-2 friction (bench/tx40_stribeck_information.py puts
+# 0.22, 0.36, 0.27, 0.14 of the time at ≈ 0, 0.64, 1.25, 2.4 vs; "≈ 0" becomes 0.2 vs, well
+# above the velocity noise and the slow-row threshold of the robot systems).
+DWELL_SPEEDS = (0.2, 0.6, 1.25, 2.5)
+DWELL_SHARES = (0.22, 0.36, 0.27, 0.15)
+DWELL_RAMP_S = 0.25  # between plateaus (cubic velocity ramp, q̈ continuous)
+
+
+def _cubic_ramp(s, length, v0, a0, v1):
+    """Velocity going from (v0, a0) to (v1, 0) in ``length`` s as a cubic Hermite curve at
+    s ∈ [0, 1] (arrays broadcast): returns (Δq since s = 0, q̇, q̈)."""
+    h00, h10, h01 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, 3 * s**2 - 2 * s**3
+    d00, d10, d01 = 6 * s**2 - 6 * s, 3 * s**2 - 4 * s + 1, 6 * s - 6 * s**2
+    i00, i10, i01 = s**4 / 2 - s**3 + s, s**4 / 4 - 2 * s**3 / 3 + s**2 / 2, s**3 - s**4 / 2
+    tangent = length * a0
+    dq = length * (i00 * v0 + i10 * tangent + i01 * v1)
+    return dq, h00 * v0 + h10 * tangent + h01 * v1, (d00 * v0 + d10 * tangent + d01 * v1) / length
+
+
+@dataclass
+class DwellTrajectory:
+    """A Fourier excitation followed by constant-velocity plateaus for the Stribeck curve.
+
+    After ``fourier`` every moving joint ramps to +v₁ (in ``entry_s``), holds it ``hold_s[0]``
+    s, ramps to −v₁ (``ramp_s``), holds it, then ±v₂, … through ``speeds`` (rad/s), and ramps to
+    rest. Ramps are cubic in velocity, so q̈ is continuous; q, q̇, q̈ are exact. Joints that do
+    not move in the Fourier part stay still.
+    """
+
+    fourier: FourierTrajectory
+    speeds: np.ndarray
+    hold_s: np.ndarray
+    entry_s: float
+    ramp_s: float = DWELL_RAMP_S
+
+    @property
+    def joints(self) -> list[str]:
+        return self.fourier.joints
+
+    @property
+    def duration(self) -> float:
+        return self.fourier.duration + self.entry_s + 2.0 * float(np.sum(self.hold_s)) + 2 * len(self.speeds) * self.ramp_s
+
+    def moves(self) -> np.ndarray:
+        return self.fourier.moves()
+
+    def _segments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Start times (S,), lengths (S,), and per joint v0, a0, v1, q at the start (S, J)."""
+        q_end, v_end, a_end = (x[0] for x in self.fourier.evaluate(np.array([self.fourier.duration])))
+        mask = self.moves().astype(float)
+        levels = [sign * v * mask for v in self.speeds for sign in (1.0, -1.0)] + [np.zeros_like(mask)]
+        lengths, v0, a0, v1 = [self.entry_s], [v_end], [a_end], [levels[0]]
+        for k, hold in enumerate(np.repeat(self.hold_s, 2)):
+            lengths += [hold, self.ramp_s]
+            v0 += [levels[k], levels[k]]
+            a0 += [np.zeros_like(mask)] * 2
+            v1 += [levels[k], levels[k + 1]]
+        lengths, v0, a0, v1 = map(np.array, (lengths, v0, a0, v1))
+        dq, _, _ = _cubic_ramp(1.0, lengths[:, None], v0, a0, v1)
+        q0 = q_end + np.vstack([np.zeros_like(q_end), np.cumsum(dq, axis=0)[:-1]])
+        starts = self.fourier.duration + np.concatenate(([0.0], np.cumsum(lengths)[:-1]))
+        return starts, lengths, v0, a0, v1, q0
+
+    def evaluate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """q, q̇, q̈ at times t (N,), each (N, J); at rest after the end."""
+        t = np.asarray(t, dtype=float)
+        q, qd, qdd = self.fourier.evaluate(np.minimum(t, self.fourier.duration))
+        late = t > self.fourier.duration
+        if late.any():
+            starts, lengths, v0, a0, v1, q0 = self._segments()
+            seg = np.clip(np.searchsorted(starts, t[late], side="right") - 1, 0, len(starts) - 1)
+            s = np.clip((t[late] - starts[seg]) / lengths[seg], 0.0, 1.0)[:, None]
+            dq, qd[late], qdd[late] = _cubic_ramp(s, lengths[seg][:, None], v0[seg], a0[seg], v1[seg])
+            q[late] = q0[seg] + dq
+        return q, qd, qdd
+
+    def sample(self, rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        t = np.arange(int(round(self.duration * rate)) + 1) / rate
+        return (t, *self.evaluate(t))
+
+    def to_dict(self) -> dict:
+        return dict(self.fourier.to_dict(), kind="fourier+dwell", duration=self.duration,
+                    fourier_duration=self.fourier.duration, dwell_speeds=self.speeds.tolist(),
+                    dwell_hold_s=self.hold_s.tolist(), dwell_entry_s=self.entry_s, dwell_ramp_s=self.ramp_s)
+
+    def save(self, path: Path, rate: float = 1000.0) -> Path:
+        """``.npz``: the Fourier coefficients and the plateaus; ``.csv``: samples at ``rate``."""
+        path = Path(path)
+        if path.suffix.lower() == ".npz":
+            f = self.fourier
+            np.savez(path, kind="fourier+dwell", joints=np.array(f.joints), q0=f.q0, a=f.a, b=f.b, wf=f.wf,
+                     duration=f.duration, dwell_speeds=self.speeds, dwell_hold_s=self.hold_s,
+                     dwell_entry_s=self.entry_s, dwell_ramp_s=self.ramp_s)
+            return path
+        return _save_csv(self, path, rate)
+
+
+def add_dwell(robot, fourier: FourierTrajectory, dwell_s: float, vs: float = 0.05,
+              margin: float = 0.05) -> DwellTrajectory:
+    """``fourier`` followed by ``dwell_s`` s of plateaus at ±DWELL_SPEEDS·``vs`` rad/s.
+
+    The entry ramp takes the shortest time (0.1 s steps) that keeps q̈ within (1 − margin) of
+    the acceleration limits; the plateaus share the rest as DWELL_SHARES. Raises InputError
+    if ``dwell_s`` is too short for the ramps or the motion leaves the robot's limits.
+    """
+    if not (np.isfinite(vs) and vs > 0):
+        raise InputError(f"dwell: the nominal Stribeck speed vs must be > 0 rad/s, got {vs}")
+    speeds = vs * np.array(DWELL_SPEEDS)
+    _, v_end, a_end = (x[0] for x in fourier.evaluate(np.array([fourier.duration])))
+    v1 = speeds[0] * fourier.moves()
+    s = np.linspace(0.0, 1.0, 201)[:, None]
+    limit = (1.0 - margin) * np.asarray(robot.acceleration_limit, dtype=float)
+    for entry in np.arange(0.2, 5.0001, 0.1):
+        if np.all(np.abs(_cubic_ramp(s, entry, v_end, a_end, v1)[2]) <= limit):
+            break
+    else:
+        raise InputError("dwell: no entry ramp up to 5 s keeps the acceleration within the limits")
+    entry = float(round(entry, 1))
+    plateaus = dwell_s - entry - 2 * len(speeds) * DWELL_RAMP_S
+    if plateaus < 0.5 * len(speeds):
+        raise InputError(f"dwell of {dwell_s:g} s is too short: the ramps alone take "
+                         f"{dwell_s - plateaus:.3g} s; give at least {dwell_s - plateaus + 0.5 * len(speeds):.3g} s")
+    traj = DwellTrajectory(fourier, speeds, np.array(DWELL_SHARES) * plateaus / 2.0, entry)
+    check_trajectory(robot, traj, what=f"excitation with a {dwell_s:g} s dwell")
+    return traj
+
+
+def trajectory_from_dict(d: dict) -> FourierTrajectory | DwellTrajectory:
+    """Inverse of ``to_dict`` (the ``trajectory`` entry of a truth file)."""
+    fourier = FourierTrajectory(list(d["joints"]), np.array(d["q0"], float), np.array(d["a"], float),
+                                np.array(d["b"], float), float(d["wf"]), float(d.get("fourier_duration", d["duration"])))
+    if d.get("kind", "fourier") == "fourier":
+        return fourier
+    return DwellTrajectory(fourier, np.array(d["dwell_speeds"], float), np.array(d["dwell_hold_s"], float),
+                           float(d["dwell_entry_s"]), float(d["dwell_ramp_s"]))
+
+
+def load_trajectory(path: str | Path) -> FourierTrajectory | DwellTrajectory | SampledTrajectory:
     """Read a trajectory written by ``frictionid excite`` (.npz) or a CSV with columns ``t``,
     ``q:<joint>`` and optionally ``qd:<joint>``, ``qdd:<joint>`` (else cubic-spline derivatives)."""
     path = Path(path)
@@ -105,10 +266,10 @@ def load_trajectory(path: str | Path) -> FourierTrajectory | SampledTrajectory:
     if path.suffix.lower() == ".npz":
         try:
             z = np.load(path, allow_pickle=False)
-            return FourierTrajectory([str(j) for j in z["joints"]], np.array(z["q0"], float), np.array(z["a"], float),
-                                     np.array(z["b"], float), float(z["wf"]), float(z["duration"]))
+            d = {k: (z[k].tolist() if z[k].ndim else z[k].item()) for k in z.files}
+            return trajectory_from_dict(d)
         except (KeyError, ValueError, OSError) as exc:
-            raise InputError(f"{path}: not a Fourier trajectory written by 'frictionid excite' ({exc})") from None
+            raise InputError(f"{path}: not a trajectory written by 'frictionid excite' ({exc})") from None
     if path.suffix.lower() != ".csv":
         raise InputError(f"{path}: trajectory files are .npz or .csv")
     with path.open() as f:
@@ -348,6 +509,7 @@ def register(subparsers):
 
         frictionid excite --system tx40 --out traj.npz [--joints J,…] [--hold J=RAD,…]
                           [--harmonics 5] [--period 10] [--duration 20] [--evals 1500] [--seed 0]
+                          [--dwell SECONDS [--dwell-vs 0.05]]
     """
     p = subparsers.add_parser("excite", help="optimise a Fourier excitation trajectory within the joint limits")
     p.add_argument("--system", required=True,
@@ -363,6 +525,10 @@ def register(subparsers):
     p.add_argument("--margin", type=float, default=0.05, help="safety margin on the limits, fraction (default 0.05)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--rate", type=float, default=1000.0, help="sample rate of a .csv output, Hz (default 1000)")
+    p.add_argument("--dwell", type=float, default=0.0,
+                   help="append this many seconds of constant-velocity plateaus (±0.2, 0.6, 1.25, 2.5 × "
+                        "--dwell-vs) after the Fourier part, for the Stribeck shapes (default 0: none)")
+    p.add_argument("--dwell-vs", type=float, default=0.05, help="nominal Stribeck speed vs, rad/s (default 0.05)")
     p.add_argument("--json", type=Path, help="write a report as JSON to this file")
     return _cmd_excite
 
@@ -376,14 +542,22 @@ def _cmd_excite(args) -> int:
     res = optimise_excitation(system, robot, moving=moving, hold=_parse_hold(args.hold), harmonics=args.harmonics,
                               period=args.period, duration=args.duration, evals=args.evals, starts=args.starts,
                               seed=args.seed, margin=args.margin)
-    res.trajectory.save(args.out, args.rate)
-    t, q, qd, qdd = res.trajectory.sample(args.rate)
+    traj = res.trajectory
+    if args.dwell > 0:
+        traj = add_dwell(robot, traj, args.dwell, args.dwell_vs, args.margin)
+    traj.save(args.out, args.rate)
+    t, q, qd, qdd = traj.sample(args.rate)
     print(f"excitation for {args.system} ({robot.name}): cond {res.cond_initial:.4g} → {res.cond:.4g} "
           f"after {res.evaluations} evaluations; written to {args.out}")
+    if args.dwell > 0:
+        print(f"then {args.dwell:g} s of plateaus at ± {', '.join(f'{v:.4g}' for v in traj.speeds)} rad/s "
+              f"({', '.join(f'{h:.3g}' for h in traj.hold_s)} s each sign, entry ramp {traj.entry_s:g} s); "
+              f"{traj.duration:g} s in all")
     print(f"{'joint':<14}{'q min':>10}{'q max':>10}{'|q̇| max':>10}{'lim':>8}{'|q̈| max':>10}{'lim':>8}")
     for k, j in enumerate(robot.joints):
         print(f"{j:<14}{q[:, k].min():>10.4g}{q[:, k].max():>10.4g}{np.abs(qd[:, k]).max():>10.4g}"
               f"{robot.velocity_limit[k]:>8.3g}{np.abs(qdd[:, k]).max():>10.4g}{robot.acceleration_limit[k]:>8.3g}")
     if args.json is not None:
-        args.json.write_text(json.dumps(dict(res.to_dict(), system=args.system, out=str(args.out)), indent=2) + "\n")
+        report = dict(res.to_dict(), system=args.system, out=str(args.out), trajectory=traj.to_dict())
+        args.json.write_text(json.dumps(report, indent=2) + "\n")
     return 0

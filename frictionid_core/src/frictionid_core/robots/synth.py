@@ -130,7 +130,7 @@ def ground_truth(robot, kind, asymmetric, friction_params, offsets, sigma_q, tor
         "base_combinations": dict(zip(base_parameter_names(base), base.describe().values())),
         "limits": robot.limits_table(),
     }
-    moving = [j for k, j in enumerate(trajectory.joints) if _moves(trajectory, k)]
+    moving = [j for j, moves in zip(trajectory.joints, trajectory.moves()) if moves]
     truth["moving_joints"] = moving
     if robot.name == "tx40":
         from frictionid_core.robots.tx40 import ASSUMPTIONS, joint2_effective_parameters
@@ -149,12 +149,6 @@ def ground_truth(robot, kind, asymmetric, friction_params, offsets, sigma_q, tor
                 "hold": dict(zip(robot.joints, map(float, hold))),
             }
     return truth
-
-
-def _moves(traj, k: int) -> bool:
-    if hasattr(traj, "a"):
-        return bool(np.any(traj.a[k]) or np.any(traj.b[k]))
-    return bool(np.ptp(traj.q[:, k]) > 0)
 
 
 def expected_parameters(truth: dict, system: str, joints: list[str] | None = None) -> dict[str, float]:
