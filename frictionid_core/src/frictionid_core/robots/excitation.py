@@ -143,7 +143,7 @@ def _cubic_ramp(s, length, v0, a0, v1):
 class DwellTrajectory:
     """A Fourier excitation followed by constant-velocity plateaus for the Stribeck curve.
 
-    After ``fourier`` every moving joint ramps to +v₁ (in ``entry_s``), holds it ``hold_s[0]``
+    After ``fourier`` every moving joint ramps to +v₁ (in ``entry_s``), holds it ``plateau_s[0]``
     s, ramps to −v₁ (``ramp_s``), holds it, then ±v₂, … through ``speeds`` (rad/s), and ramps to
     rest. Ramps are cubic in velocity, so q̈ is continuous; q, q̇, q̈ are exact. Joints that do
     not move in the Fourier part stay still.
@@ -151,7 +151,7 @@ class DwellTrajectory:
 
     fourier: FourierTrajectory
     speeds: np.ndarray
-    hold_s: np.ndarray
+    plateau_s: np.ndarray
     entry_s: float
     ramp_s: float = DWELL_RAMP_S
 
@@ -161,7 +161,8 @@ class DwellTrajectory:
 
     @property
     def duration(self) -> float:
-        return self.fourier.duration + self.entry_s + 2.0 * float(np.sum(self.hold_s)) + 2 * len(self.speeds) * self.ramp_s
+        ramps = self.entry_s + 2 * len(self.speeds) * self.ramp_s
+        return self.fourier.duration + ramps + 2.0 * float(np.sum(self.plateau_s))
 
     def moves(self) -> np.ndarray:
         return self.fourier.moves()
@@ -172,7 +173,7 @@ class DwellTrajectory:
         mask = self.moves().astype(float)
         levels = [sign * v * mask for v in self.speeds for sign in (1.0, -1.0)] + [np.zeros_like(mask)]
         lengths, v0, a0, v1 = [self.entry_s], [v_end], [a_end], [levels[0]]
-        for k, hold in enumerate(np.repeat(self.hold_s, 2)):
+        for k, hold in enumerate(np.repeat(self.plateau_s, 2)):
             lengths += [hold, self.ramp_s]
             v0 += [levels[k], levels[k]]
             a0 += [np.zeros_like(mask)] * 2
@@ -203,7 +204,7 @@ class DwellTrajectory:
     def to_dict(self) -> dict:
         return dict(self.fourier.to_dict(), kind="fourier+dwell", duration=self.duration,
                     fourier_duration=self.fourier.duration, dwell_speeds=self.speeds.tolist(),
-                    dwell_hold_s=self.hold_s.tolist(), dwell_entry_s=self.entry_s, dwell_ramp_s=self.ramp_s)
+                    dwell_plateau_s=self.plateau_s.tolist(), dwell_entry_s=self.entry_s, dwell_ramp_s=self.ramp_s)
 
     def save(self, path: Path, rate: float = 1000.0) -> Path:
         """``.npz``: the Fourier coefficients and the plateaus; ``.csv``: samples at ``rate``."""
@@ -211,7 +212,7 @@ class DwellTrajectory:
         if path.suffix.lower() == ".npz":
             f = self.fourier
             np.savez(path, kind="fourier+dwell", joints=np.array(f.joints), q0=f.q0, a=f.a, b=f.b, wf=f.wf,
-                     duration=f.duration, dwell_speeds=self.speeds, dwell_hold_s=self.hold_s,
+                     duration=f.duration, dwell_speeds=self.speeds, dwell_plateau_s=self.plateau_s,
                      dwell_entry_s=self.entry_s, dwell_ramp_s=self.ramp_s)
             return path
         return _save_csv(self, path, rate)
@@ -253,7 +254,7 @@ def trajectory_from_dict(d: dict) -> FourierTrajectory | DwellTrajectory:
                                 np.array(d["b"], float), float(d["wf"]), float(d.get("fourier_duration", d["duration"])))
     if d.get("kind", "fourier") == "fourier":
         return fourier
-    return DwellTrajectory(fourier, np.array(d["dwell_speeds"], float), np.array(d["dwell_hold_s"], float),
+    return DwellTrajectory(fourier, np.array(d["dwell_speeds"], float), np.array(d["dwell_plateau_s"], float),
                            float(d["dwell_entry_s"]), float(d["dwell_ramp_s"]))
 
 
@@ -543,6 +544,8 @@ def _cmd_excite(args) -> int:
                               period=args.period, duration=args.duration, evals=args.evals, starts=args.starts,
                               seed=args.seed, margin=args.margin)
     traj = res.trajectory
+    if not args.dwell >= 0:
+        raise InputError(f"--dwell must be ≥ 0 s, got {args.dwell:g}")
     if args.dwell > 0:
         traj = add_dwell(robot, traj, args.dwell, args.dwell_vs, args.margin)
     traj.save(args.out, args.rate)
@@ -551,7 +554,7 @@ def _cmd_excite(args) -> int:
           f"after {res.evaluations} evaluations; written to {args.out}")
     if args.dwell > 0:
         print(f"then {args.dwell:g} s of plateaus at ± {', '.join(f'{v:.4g}' for v in traj.speeds)} rad/s "
-              f"({', '.join(f'{h:.3g}' for h in traj.hold_s)} s each sign, entry ramp {traj.entry_s:g} s); "
+              f"({', '.join(f'{h:.3g}' for h in traj.plateau_s)} s each sign, entry ramp {traj.entry_s:g} s); "
               f"{traj.duration:g} s in all")
     print(f"{'joint':<14}{'q min':>10}{'q max':>10}{'|q̇| max':>10}{'lim':>8}{'|q̈| max':>10}{'lim':>8}")
     for k, j in enumerate(robot.joints):
