@@ -7,12 +7,12 @@ frictionid's ``pso`` is the thesis's local-neighbourhood PSO (6 nearest particle
 mu 2.5, |v| clamped, particles stop at the walls). mealpy 3.0.3's ``OriginalPSO`` is another
 algorithm: global best, a particle moves only when its new position is better (greedy),
 components leaving the box are redrawn at random, and the velocity is never clamped. This
-script runs our PSO with the thesis settings next to the same update rule switched, one piece
-at a time, to mealpy's choices (after the settings the thesis leaves open, v_max and the
-neighbourhood topology, which keep the local neighbourhood), on the EMPS costs of ``bench/optimizers.py`` (population 50 x
-100 generations, seeds 0..N-1), and prints the median final costs beside mealpy's medians from
-``bench/results/optimizers_21seeds.json`` (run ``optimizers.py --seeds 21`` first). The
-variants exist only here: the product keeps the thesis's PSO.
+script runs our PSO with the thesis settings, then with the settings the thesis leaves open
+(v_max, the neighbourhood topology; the neighbourhood stays local), then with the update rule
+switched, one piece at a time, to mealpy's choices, on the EMPS costs of ``bench/optimizers.py``
+(population 50 x 100 generations, seeds 0..N-1), and prints the median final costs beside
+mealpy's medians from ``bench/results/optimizers_21seeds.json`` (run ``optimizers.py --seeds
+21`` first). The mealpy-rule variants exist only here: the product keeps the thesis's PSO.
 """
 
 from __future__ import annotations

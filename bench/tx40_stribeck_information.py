@@ -74,7 +74,8 @@ def main(argv=None) -> int:
     n = a.duration * a.rate
     vmax = np.deg2rad([287, 287, 430, 410, 320, 700])  # SPEC §6 velocity limits
     print(f"Stribeck shapes, friction-only Cramér–Rao bound (torque noise {noise} N·m, {a.rate:g} Hz)")
-    print(f"{'joint':8} {'Fs-Fc N·m':>9} {'vs':>6} {'δ':>5} | bag ({traj.duration:g} s) {'σ vs %':>7} {'σ δ %':>7} "
+    print(f"{'joint':8} {'Fs-Fc N·m':>9} {'vs':>6} {'δ':>5} | bag ({traj.duration:g} s) "
+          f"{'σ vs %':>7} {'σ δ %':>7} "
           f"| its Fourier part {'σ δ %':>7} | c-optimal ({a.duration:g} s) {'σ δ %':>7} {'1.96σ δ %':>9}")
     for j, joint in enumerate(truth["joints"]):
         f = truth["friction"]["params"][joint]

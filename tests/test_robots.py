@@ -194,13 +194,15 @@ def test_dwell_plateaus_follow_the_fourier_part_smoothly_and_exactly(tmp_path, t
     for x, y in zip((q, qd, qdd), before):
         np.testing.assert_allclose(x[k], y, atol=1e-12)
     left, right = (traj.evaluate(np.array([10.0 + d]))[2][0] for d in (-1e-7, 1e-7))
-    np.testing.assert_allclose(left, right, atol=1e-3)  # a step would be ~|q̈| (1–10 rad/s²); jerk × 2e-7 s ≲ 1e-4
+    # a step would be ~|q̈| (1–10 rad/s²); jerk × 2e-7 s is ≲ 1e-4
+    np.testing.assert_allclose(left, right, atol=1e-3)
     # plateaus: every moving joint holds each ±speed for plateau_s seconds
     speeds = 0.04 * np.array(DWELL_SPEEDS)
     for v in speeds:
         for sign in (1.0, -1.0):
             held = np.all(np.isclose(qd, sign * v, atol=1e-12), axis=1)
-            assert held.sum() / 1000.0 == pytest.approx(traj.plateau_s[list(speeds).index(v)], abs=3e-3)  # ± the 2 end samples
+            expected = traj.plateau_s[list(speeds).index(v)]
+            assert held.sum() / 1000.0 == pytest.approx(expected, abs=3e-3)  # ± the 2 end samples
     np.testing.assert_allclose(qd[-1], 0.0, atol=1e-12)
     np.testing.assert_allclose(qdd[-1], 0.0, atol=1e-9)
     # exact derivatives: 4th-order central differences on a fine grid inside the dwell

@@ -92,8 +92,8 @@ def test_full_robot_friction_within_5_percent_with_variable_projection():
     solves the base parameters and the friction levels in closed form; DE 10 × 3 and the LM
     polish (hybrid) fit the excitation bag better than the true parameters do (the least-squares
     optimum) and put every friction parameter of the six joints within 5 % of the truth. The
-    bag's 15 s of plateaus make that possible: σ(δ of joint 2) ≈ 2.1 % there, 9.5 % on 20 s of
-    Fourier motion alone (bench/tx40_stribeck_information.py)."""
+    bag's 15 s of plateaus make that possible: σ(δ of joint 2) is 2.1 % here, 9.5 % on the former
+    20 s Fourier-only bag (bench/tx40_stribeck_information.py bounds it)."""
     est = load(BAGS / "tx40_excitation")
     r = identify(est, system="tx40", friction="stribeck", solver="hybrid", pop=10, generations=3, seed=0).to_dict()
     assert r["varpro"] is True

@@ -129,7 +129,8 @@ def _cmd_compare(args) -> int:
     tol = f"{RESOLVE_TOLERANCE_PCT:g} %"
     print(f"{s['resolvable_5pct']} of {s['parameters']} resolvable to {tol} ({Z95:g} σ < {tol} of |truth|): "
           f"max |error| {_fmt(s['max_abs_relerr_pct_resolvable_5pct'])} %; the other "
-          f"{s['parameters'] - s['resolvable_5pct']} cannot be placed within {tol} with 95 % confidence on this recording")
+          f"{s['parameters'] - s['resolvable_5pct']} cannot be placed within {tol} with 95 % confidence "
+          f"on this recording")
     if args.validation is not None:
         from frictionid_core.io import load
 

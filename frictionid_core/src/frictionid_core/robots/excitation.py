@@ -251,7 +251,8 @@ def add_dwell(robot, fourier: FourierTrajectory, dwell_s: float, vs: float = 0.0
 def trajectory_from_dict(d: dict) -> FourierTrajectory | DwellTrajectory:
     """Inverse of ``to_dict`` (the ``trajectory`` entry of a truth file)."""
     fourier = FourierTrajectory(list(d["joints"]), np.array(d["q0"], float), np.array(d["a"], float),
-                                np.array(d["b"], float), float(d["wf"]), float(d.get("fourier_duration", d["duration"])))
+                                np.array(d["b"], float), float(d["wf"]),
+                                float(d.get("fourier_duration", d["duration"])))
     if d.get("kind", "fourier") == "fourier":
         return fourier
     return DwellTrajectory(fourier, np.array(d["dwell_speeds"], float), np.array(d["dwell_plateau_s"], float),
