@@ -29,6 +29,7 @@ import numpy as np
 
 from frictionid_core.friction import get_model
 from frictionid_core.robots.excitation import trajectory_from_dict
+from frictionid_core.robots.tx40 import build_tx40
 
 ROOT = Path(__file__).resolve().parents[1]
 NAMES = ("Fv", "Fc", "Fs", "vs", "delta")
@@ -72,7 +73,8 @@ def main(argv=None) -> int:
     n_fourier = int(round(getattr(traj, "fourier", traj).duration * truth["rate_hz"]))
     noise = truth["noise"]["torque"]
     n = a.duration * a.rate
-    vmax = np.deg2rad([287, 287, 430, 410, 320, 700])  # SPEC §6 velocity limits
+    robot = build_tx40()
+    vmax = dict(zip(robot.joints, robot.velocity_limit))  # SPEC §6, rad/s
     print(f"Stribeck shapes, friction-only Cramér–Rao bound (torque noise {noise} N·m, {a.rate:g} Hz)")
     print(f"{'joint':8} {'Fs-Fc N·m':>9} {'vs':>6} {'δ':>5} | bag ({traj.duration:g} s) "
           f"{'σ vs %':>7} {'σ δ %':>7} "
@@ -82,7 +84,7 @@ def main(argv=None) -> int:
         theta = np.array([f["Fv"], f["Fc"], f["Fs"], f["vs"], f["delta"]])
         sd_bag, sd_fourier = (100.0 * noise * np.sqrt(np.diag(np.linalg.inv(m.T @ m))) / np.abs(theta)
                               for m in (regressors(theta, qd[:, j]), regressors(theta, qd[:n_fourier, j])))
-        grid = np.geomspace(1e-3, vmax[j], 600)
+        grid = np.geomspace(1e-3, vmax[joint], 600)
         c = np.eye(5)[4]
         _, value = c_optimal(regressors(theta, grid), c)
         sd_opt = 100.0 * noise * np.sqrt(value / n) / theta[4]

@@ -78,16 +78,15 @@ class FourierTrajectory:
     # ------------------------------------------------------------------ files
     def save(self, path: Path, rate: float = 1000.0) -> Path:
         """``.npz``: the coefficients; ``.csv``: t and q/qd/qdd per joint sampled at ``rate``."""
-        path = Path(path)
-        if path.suffix.lower() == ".npz":
-            np.savez(path, kind="fourier", joints=np.array(self.joints), q0=self.q0, a=self.a, b=self.b,
-                     wf=self.wf, duration=self.duration)
-            return path
-        return _save_csv(self, path, rate)
+        return _save(self, Path(path), rate)
 
 
-def _save_csv(traj, path: Path, rate: float) -> Path:
-    """t and q/qd/qdd per joint sampled at ``rate`` as CSV."""
+def _save(traj, path: Path, rate: float) -> Path:
+    """``.npz``: ``traj.to_dict()`` (read back by :func:`trajectory_from_dict`); ``.csv``: t and
+    q/qd/qdd per joint sampled at ``rate``."""
+    if path.suffix.lower() == ".npz":
+        np.savez(path, **traj.to_dict())
+        return path
     if path.suffix.lower() != ".csv":
         raise FrictionIdError(f"{path}: trajectory files are .npz (coefficients) or .csv (samples)")
     t, q, qd, qdd = traj.sample(rate)
@@ -208,14 +207,7 @@ class DwellTrajectory:
 
     def save(self, path: Path, rate: float = 1000.0) -> Path:
         """``.npz``: the Fourier coefficients and the plateaus; ``.csv``: samples at ``rate``."""
-        path = Path(path)
-        if path.suffix.lower() == ".npz":
-            f = self.fourier
-            np.savez(path, kind="fourier+dwell", joints=np.array(f.joints), q0=f.q0, a=f.a, b=f.b, wf=f.wf,
-                     duration=f.duration, dwell_speeds=self.speeds, dwell_plateau_s=self.plateau_s,
-                     dwell_entry_s=self.entry_s, dwell_ramp_s=self.ramp_s)
-            return path
-        return _save_csv(self, path, rate)
+        return _save(self, Path(path), rate)
 
 
 def add_dwell(robot, fourier: FourierTrajectory, dwell_s: float, vs: float = 0.05,
