@@ -15,7 +15,8 @@ from pathlib import Path
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import KINDS
-from frictionid_core.optim import CALL_METHODS, SOLVERS
+from frictionid_core.optim import SOLVERS
+from frictionid_core.options import check_choice
 
 NODE_NAME = "frictionid"
 
@@ -102,9 +103,7 @@ class Config:
 
 
 def _choice(name: str, value: str, choices, what: str = "") -> str:
-    if value not in choices:
-        raise FrictionIdError(f"parameter '{name}': unknown {what or name} '{value}'; choose one of {', '.join(choices)}")
-    return value
+    return check_choice(f"parameter '{name}'", value, choices, what or name)
 
 
 def check_system(name: str) -> str:

@@ -58,8 +58,7 @@ with warnings.catch_warnings():
     from std_srvs.srv import Trigger
 
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.friction import KINDS
-from frictionid_core.optim import CALL_METHODS, SOLVERS
+from frictionid_core.options import SolveOptions
 from frictionid_core.io.checks import check_series
 from frictionid_core.timeseries import JointSeries
 
@@ -436,19 +435,13 @@ class FrictionIdNode(Node):
             raise InputError(f"unknown joint(s) {unknown}; buffered joints: {buffered or 'none yet'}")
         if len(set(joints)) != len(joints):
             raise InputError(f"duplicated joint names in {joints}")
-        friction = req.friction_model or cfg.friction_model
-        if friction not in KINDS:
-            raise InputError(f"unknown friction model '{friction}'; choose one of {', '.join(KINDS)}")
-        solver = req.solver or cfg.solver
-        if solver not in SOLVERS:
-            raise InputError(f"unknown solver '{solver}'; choose one of {', '.join(SOLVERS)}")
-        if req.budget < 0 or req.population < 0:
-            raise InputError(f"budget ({req.budget}) and population ({req.population}) must be >= 0")
-        options = {}
-        if req.budget > 0:
-            options["calls" if solver in CALL_METHODS else "generations"] = int(req.budget)
-        if req.population > 0:
-            options["pop"] = int(req.population)
+        try:
+            opts = SolveOptions(friction=req.friction_model or cfg.friction_model,
+                                asymmetric=bool(req.asymmetric or cfg.asymmetric), solver=req.solver or cfg.solver,
+                                budget=int(req.budget), pop=int(req.population))
+        except FrictionIdError as exc:
+            raise InputError(str(exc)) from None
+        friction, solver, options = opts.friction, opts.solver, opts.solver_options()
         seed = int(req.seed) if req.seed > 0 else cfg.seed if req.seed == 0 else int(np.random.SeedSequence().entropy % 2**63)
         ws = float(req.window_seconds)
         start, end = _ns(req.window_start), _ns(req.window_end)

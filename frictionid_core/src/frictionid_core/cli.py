@@ -19,7 +19,8 @@ from pathlib import Path
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import KINDS
-from frictionid_core.optim import CALL_METHODS, SOLVERS
+from frictionid_core.optim import SOLVERS
+from frictionid_core.options import budget_options
 
 EXIT_INPUT = 2
 EXIT_INTERNAL = 1
@@ -160,11 +161,7 @@ def cmd_identify(args) -> int:
     from frictionid_core.identify import identify
     from frictionid_core.systems import system_spec
 
-    opts = {}
-    if args.budget is not None:
-        opts["calls" if args.solver in CALL_METHODS else "generations"] = args.budget
-    if args.pop is not None:
-        opts["pop"] = args.pop
+    opts = budget_options(args.solver, args.budget, args.pop)
     if args.output_error:
         from frictionid_core.output_error import identify_output_error
 
