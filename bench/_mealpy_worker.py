@@ -32,7 +32,7 @@ class ExportedCost:
 
     def __init__(self, path: str) -> None:
         d = np.load(path, allow_pickle=False)
-        self.kind = str(d["kind"])
+        self.friction = str(d["friction"])
         self.y = d["y"]
         self.fixed_T = np.ascontiguousarray(d["fixed"].T)  # model: coef @ self._fixed.T
         self.linear_index = d["linear_index"]
@@ -48,18 +48,18 @@ class ExportedCost:
     def _shape(self, theta_nl: np.ndarray, speed: np.ndarray) -> np.ndarray:
         a = np.asarray(speed, dtype=float)[None, :]
         t = np.atleast_2d(theta_nl)
-        if self.kind == "threlfall":
+        if self.friction == "threlfall":
             v0 = t[:, 0:1]
             with np.errstate(over="ignore", invalid="ignore"):
                 g = (1.0 - np.exp(-3.0 * a / v0)) / _E3
             return np.where(a <= v0, 1.0 - g, 0.0)
-        if self.kind == "tustin":
+        if self.friction == "tustin":
             with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
                 return np.exp(-(a / t[:, 0:1]))
-        if self.kind == "stribeck":
+        if self.friction == "stribeck":
             with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
                 return np.exp(-((a / t[:, 0:1]) ** t[:, 1:2]))
-        raise ValueError(f"no dip for friction kind {self.kind!r}")
+        raise ValueError(f"no dip for friction law {self.friction!r}")
 
     def batch_cost(self, params: np.ndarray) -> np.ndarray:
         p = np.atleast_2d(np.asarray(params, dtype=float))

@@ -338,7 +338,7 @@ def export_cost(model, path: Path) -> None:
         terms, dips, fixed, nd = model._terms, model._dips, model._fixed, model._nd
     except AttributeError as exc:
         raise RuntimeError(f"IdentificationModel internals changed ({exc}); update export_cost") from None
-    arrays = {"kind": np.array(model.friction.kind), "y": model.obs.y, "fixed": fixed,
+    arrays = {"friction": np.array(model.friction.name), "y": model.obs.y, "fixed": fixed,
               "linear_index": np.asarray(model.linear_index), "k": np.array(model.k), "nd": np.array(nd),
               "lower": lo, "upper": hi, "n_dips": np.array(len(dips))}
     for i, d in enumerate(dips):

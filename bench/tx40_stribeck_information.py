@@ -29,6 +29,7 @@ import numpy as np
 
 from frictionid_core.friction import get_model
 from frictionid_core.robots.excitation import trajectory_from_dict
+from frictionid_core.robots.synth import truth_friction
 from frictionid_core.robots.tx40 import build_tx40
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -79,8 +80,9 @@ def main(argv=None) -> int:
     print(f"{'joint':8} {'Fs-Fc N·m':>9} {'vs':>6} {'δ':>5} | bag ({traj.duration:g} s) "
           f"{'σ vs %':>7} {'σ δ %':>7} "
           f"| its Fourier part {'σ δ %':>7} | c-optimal ({a.duration:g} s) {'σ δ %':>7} {'1.96σ δ %':>9}")
+    _, _, friction_params = truth_friction(truth)
     for j, joint in enumerate(truth["joints"]):
-        f = truth["friction"]["params"][joint]
+        f = friction_params[joint]
         theta = np.array([f["Fv"], f["Fc"], f["Fs"], f["vs"], f["delta"]])
         sd_bag, sd_fourier = (100.0 * noise * np.sqrt(np.diag(np.linalg.inv(m.T @ m))) / np.abs(theta)
                               for m in (regressors(theta, qd[:, j]), regressors(theta, qd[:n_fourier, j])))

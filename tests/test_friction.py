@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import KINDS, all_models, get_model, smooth_sign
+from frictionid_core.friction import FRICTIONS, all_models, get_model, smooth_sign
 from frictionid_core.identify import build_model
 from frictionid_core.linear import least_squares
 
@@ -24,30 +24,30 @@ def sgn(v: float) -> float:
     return 0.0 if v == 0.0 else math.copysign(1.0, v)
 
 
-def level(kind: str, p: dict, a: float) -> float:
+def level(friction: str, p: dict, a: float) -> float:
     """Friction level at speed a = |v| ≥ 0 of one branch (the part multiplied by sign(v))."""
-    if kind == "coulomb":
+    if friction == "coulomb":
         return p["Fc"]
-    if kind == "threlfall":
+    if friction == "threlfall":
         g = (1.0 - math.exp(-3.0 * a / p["v0"])) / (1.0 - math.exp(-3.0)) if a <= p["v0"] else 1.0
         return p["Fc"] * g
-    if kind == "tustin":
+    if friction == "tustin":
         return p["Fc"] + (p["Fs"] - p["Fc"]) * math.exp(-a / p["vs"])
-    if kind == "stribeck":
+    if friction == "stribeck":
         return p["Fc"] + (p["Fs"] - p["Fc"]) * math.exp(-((a / p["vs"]) ** p["delta"]))
-    raise AssertionError(kind)
+    raise AssertionError(friction)
 
 
-def spec_torque(kind: str, asymmetric: bool, p: dict, v: float) -> float:
+def spec_torque(friction: str, asymmetric: bool, p: dict, v: float) -> float:
     """SPEC §2.1, one candidate, one velocity."""
     if not asymmetric:
-        return p["Fv"] * v + level(kind, p, abs(v)) * sgn(v)
+        return p["Fv"] * v + level(friction, p, abs(v)) * sgn(v)
     if v > 0:
         pp = {k[:-4]: x for k, x in p.items() if k.endswith("_pos")}
-        return pp["Fv"] * v + level(kind, pp, v)
+        return pp["Fv"] * v + level(friction, pp, v)
     if v < 0:
         pn = {k[:-4]: x for k, x in p.items() if k.endswith("_neg")}
-        return -level(kind, pn, -v) - pn["Fv"] * abs(v)
+        return -level(friction, pn, -v) - pn["Fv"] * abs(v)
     return 0.0
 
 
@@ -79,7 +79,7 @@ def test_vectorised_torque_equals_spec_formula(model):
         v = np.concatenate([v, -P[:, model.names.index("v0_neg")]])
     out = model.torque(P, v)
     assert out.shape == (6, v.size)
-    ref = np.array([[spec_torque(model.kind, model.asymmetric, dict(zip(model.names, row)), x) for x in v]
+    ref = np.array([[spec_torque(model.name, model.asymmetric, dict(zip(model.names, row)), x) for x in v]
                     for row in P])
     # Same formulas, different evaluation order: agreement to rounding (forces up to ~100 N).
     np.testing.assert_allclose(out, ref, rtol=1e-12, atol=1e-12)
@@ -89,7 +89,7 @@ def test_vectorised_torque_equals_spec_formula(model):
 
 @pytest.mark.parametrize("model", all_models(), ids=lambda m: m.label)
 def test_parameter_names(model):
-    base = NAMES[model.kind]
+    base = NAMES[model.name]
     if model.asymmetric:
         assert model.names == tuple(n + "_pos" for n in base) + tuple(n + "_neg" for n in base)
         assert "offset" not in model.names
@@ -101,7 +101,7 @@ def test_parameter_names(model):
 def test_all_models_are_the_eight_combinations():
     labels = [m.label for m in all_models()]
     assert len(labels) == 8 and len(set(labels)) == 8
-    assert set(KINDS) == {"coulomb", "threlfall", "tustin", "stribeck"}
+    assert set(FRICTIONS) == {"coulomb", "threlfall", "tustin", "stribeck"}
     assert [m.is_linear for m in all_models()] == [True, True] + [False] * 6
 
 
@@ -119,7 +119,7 @@ def test_smoothed_sign_is_continuous_and_tends_to_hard_sign(model):
     tiny = np.array([-1e-12, 1e-12])
     hard = model.torque(P, tiny)
     soft = model.torque(P, tiny, eps=eps)
-    if model.kind == "threlfall":
+    if model.name == "threlfall":
         # g(0) = 0: the Threlfall model is continuous at 0 even with the hard sign.
         assert np.all(np.abs(hard[:, 1] - hard[:, 0]) < 1e-6)
     else:
@@ -155,7 +155,7 @@ def test_tustin_with_fs_equal_fc_is_coulomb():
     np.testing.assert_allclose(tus, cou, rtol=1e-14, atol=1e-12)
 
 
-def test_wrong_parameter_count_and_unknown_kind():
+def test_wrong_parameter_count_and_unknown_law():
     with pytest.raises(FrictionIdError, match="takes 2 parameters"):
         get_model("coulomb").torque(np.ones(3), np.zeros(4))
     with pytest.raises(FrictionIdError, match="unknown friction model 'dahl'"):

@@ -11,7 +11,7 @@ from frictionid_core.cli import main
 from frictionid_core.friction import all_models
 from frictionid_core.identify import build_model, identify
 
-MODELS = [(m.kind, m.asymmetric) for m in all_models()]
+MODELS = [(m.name, m.asymmetric) for m in all_models()]
 
 
 @pytest.fixture(scope="module")
@@ -19,9 +19,9 @@ def coulomb_ls(emps_estimation):
     return identify(emps_estimation, friction="coulomb", solver="ls")
 
 
-@pytest.mark.parametrize("kind,asym", MODELS)
-def test_population_cost_equals_the_residual_of_the_prediction(emps_estimation, kind, asym):
-    model = build_model(emps_estimation, "emps", kind, asym)
+@pytest.mark.parametrize("friction,asym", MODELS)
+def test_population_cost_equals_the_residual_of_the_prediction(emps_estimation, friction, asym):
+    model = build_model(emps_estimation, "emps", friction, asym)
     lo, hi = model.bounds()
     pop = lo + (hi - lo) * np.random.default_rng(3).random((17, model.k))
     r = model.obs.y[None, :] - model.predict(pop)
@@ -29,9 +29,9 @@ def test_population_cost_equals_the_residual_of_the_prediction(emps_estimation, 
     np.testing.assert_allclose(model.batch_cost(pop), np.einsum("pr,pr->p", r, r), rtol=1e-12)
 
 
-@pytest.mark.parametrize("kind,asym", MODELS)
-def test_variable_projection_is_the_least_squares_optimum(emps_estimation, kind, asym):
-    model = build_model(emps_estimation, "emps", kind, asym)
+@pytest.mark.parametrize("friction,asym", MODELS)
+def test_variable_projection_is_the_least_squares_optimum(emps_estimation, friction, asym):
+    model = build_model(emps_estimation, "emps", friction, asym)
     lo, hi = model.bounds()
     pop = lo + (hi - lo) * np.random.default_rng(4).random((5, model.k))
     full, cost = model.solve_linear(pop)
@@ -69,30 +69,30 @@ def test_tustin_asymmetric_by_local_search_beats_the_thesis(emps_estimation, cou
     assert np.isfinite(list(res.std.values())).all()
 
 
-@pytest.mark.parametrize("kind", ["threlfall", "tustin", "stribeck"])
+@pytest.mark.parametrize("friction", ["threlfall", "tustin", "stribeck"])
 @pytest.mark.parametrize("asym", [False, True])
 @pytest.mark.parametrize("solver,options", [("lm", {}), ("hybrid", {"pop": 20, "generations": 20})])
-def test_nonlinear_models_never_worse_than_the_nested_linear_optimum(emps_estimation, kind, asym, solver, options):
+def test_nonlinear_models_never_worse_than_the_nested_linear_optimum(emps_estimation, friction, asym, solver, options):
     """Tustin, Stribeck and Threlfall contain Coulomb (vs, v0 → 0): a worse cost is a bug."""
     nested = identify(emps_estimation, friction="coulomb", asymmetric=asym, solver="ls")
-    res = identify(emps_estimation, friction=kind, asymmetric=asym, solver=solver, varpro=True, seed=0, **options)
+    res = identify(emps_estimation, friction=friction, asymmetric=asym, solver=solver, varpro=True, seed=0, **options)
     assert res.metrics["cost"] <= nested.metrics["cost"] * (1 + 1e-9)
 
 
-@pytest.mark.parametrize("kind,asym", [("tustin", True), ("stribeck", False)])
+@pytest.mark.parametrize("friction,asym", [("tustin", True), ("stribeck", False)])
 @pytest.mark.parametrize("solver", ["de", "pso", "bbo"])
 def test_global_search_over_all_parameters_never_worse_than_the_nested_linear_optimum(
-        emps_estimation, kind, asym, solver):
+        emps_estimation, friction, asym, solver):
     """The thesis protocol (every parameter searched, no variable projection) at a budget far
     too small to find the nested optimum alone: the closed-form start in the first population
     keeps the result at or below the nested Coulomb cost."""
     nested = identify(emps_estimation, friction="coulomb", asymmetric=asym, solver="ls")
-    res = identify(emps_estimation, friction=kind, asymmetric=asym, solver=solver, varpro=False, seed=0,
+    res = identify(emps_estimation, friction=friction, asymmetric=asym, solver=solver, varpro=False, seed=0,
                    pop=10, generations=3)
     assert res.extra["optimizer"]["nfev"] <= 30
     assert res.metrics["cost"] <= nested.metrics["cost"] * (1 + 1e-9)
     # the thesis protocol (random start) at this budget ends far above it
-    cold = identify(emps_estimation, friction=kind, asymmetric=asym, solver=solver, varpro=False, seed=0,
+    cold = identify(emps_estimation, friction=friction, asymmetric=asym, solver=solver, varpro=False, seed=0,
                     warm_start=False, pop=10, generations=3)
     assert cold.extra["warm_start"] is False and res.extra["warm_start"] is True
     assert cold.metrics["cost"] > 1.2 * nested.metrics["cost"]

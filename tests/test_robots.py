@@ -18,7 +18,7 @@ from frictionid_core.robots.excitation import (DWELL_SPEEDS, DwellTrajectory, Fo
 from frictionid_core.robots.synth import expected_parameters, synthesize
 from frictionid_core.robots.tx40 import (DH, FIRST_MOMENT, INERTIA, MASS, ROTOR_INERTIA, build_tx40,
                                          joint2_effective_parameters)
-from frictionid_core.systems import get_system, observe, system_spec
+from frictionid_core.systems import get_system, observe, parse_joint_map
 
 UR5 = "ur_description/urdf/ur5_robot.urdf"
 
@@ -108,13 +108,16 @@ def test_data_joints_must_match_the_model(ur5_path):
         sys_.check_joints(["j1", "shoulder_lift_joint"])
     with pytest.raises(InputError, match=r"needs every joint.*missing from the data: \['elbow_joint'"):
         sys_.check_joints(["shoulder_pan_joint", "shoulder_lift_joint"])
-    spec = system_spec(f"urdf:{ur5_path}", "a=shoulder_pan_joint,b=shoulder_lift_joint")
-    assert spec.endswith("?map=a=shoulder_pan_joint,b=shoulder_lift_joint")
-    mapped = get_system(spec)
+    joint_map = parse_joint_map("a=shoulder_pan_joint, b=shoulder_lift_joint")
+    assert joint_map == {"a": "shoulder_pan_joint", "b": "shoulder_lift_joint"}
+    mapped = get_system(f"urdf:{ur5_path}", joint_map)
+    assert mapped.joint_map == joint_map and mapped.rigid_names == sys_.rigid_names
     with pytest.raises(InputError, match="missing from the data"):
         mapped.check_joints(["a", "b"])
+    with pytest.raises(InputError, match="several data joints map to model joint"):
+        mapped.check_joints(["a", "shoulder_pan_joint"])
     with pytest.raises(InputError, match="expected BAG_NAME=MODEL_NAME"):
-        system_spec("tx40", "a:b")
+        parse_joint_map("a:b")
 
 
 def test_trajectory_beyond_the_limits_is_refused(tx40):
@@ -149,7 +152,7 @@ def test_noise_free_full_robot_is_recovered_exactly(tx40):
     rng = np.random.default_rng(3)
     traj = FourierTrajectory(list(tx40.joints), np.zeros(6), rng.uniform(-1, 1, (6, 4)), rng.uniform(-1, 1, (6, 4)),
                              2 * np.pi / 5, 5.0)
-    series, truth = synthesize(tx40, fit_to_limits(tx40, traj), kind="coulomb", position_noise=0.0,
+    series, truth = synthesize(tx40, fit_to_limits(tx40, traj), friction="coulomb", position_noise=0.0,
                                torque_noise=0.0, offsets={"joint_3": 0.3})
     r = identify(series, system="tx40", friction="coulomb", solver="ls").to_dict()
     exp = expected_parameters(truth, "tx40")
@@ -279,8 +282,10 @@ def test_cli_excite_synth_identify_compare(tmp_path, ur5_path, capsys):
     assert series.joints == [f"a{k}" for k in range(6)]
     with pytest.raises(InputError, match="not in the model"):
         identify(series, system=system, friction="coulomb", asymmetric=True)
-    spec = system_spec(system, ",".join(f"a{k}={j}" for k, j in enumerate(load_urdf(ur5_path).joints)))
-    r = identify(series, system=spec, friction="coulomb", asymmetric=True, solver="ls").to_dict()
+    joint_map = {f"a{k}": j for k, j in enumerate(load_urdf(ur5_path).joints)}
+    r = identify(series, system=system, joint_map=joint_map, friction="coulomb", asymmetric=True,
+                 solver="ls").to_dict()
+    assert (r["system"], r["joint_map"]) == (system, joint_map)
     (tmp_path / "r.json").write_text(json.dumps(r))
     for k in range(6):
         j = load_urdf(ur5_path).joints[k]

@@ -13,7 +13,7 @@ from frictionid_core.errors import InputError
 from frictionid_core.identify import build_model, identify
 from frictionid_core.io import load
 from frictionid_core.robots.compare import compare, noise_floor
-from frictionid_core.robots.synth import expected_parameters
+from frictionid_core.robots.synth import expected_parameters, truth_friction
 
 TRUTH = json.loads((BAGS / "tx40_truth.json").read_text())["bags"]
 
@@ -28,7 +28,7 @@ def test_bags_are_small_and_described():
     for name in ("tx40_excitation", "tx40_validation", "tx40_j2_excitation", "tx40_j2_validation"):
         size = sum(f.stat().st_size for f in (BAGS / name).iterdir())
         assert size < 3e6, name
-        assert TRUTH[name]["friction"]["kind"] == "stribeck"
+        assert truth_friction(TRUTH[name])[:2] == ("stribeck", False)
     assert TRUTH["tx40_j2_excitation"]["moving_joints"] == ["joint_2"]
     assert len(TRUTH["tx40_excitation"]["moving_joints"]) == 6
 
@@ -60,6 +60,7 @@ def test_full_robot_on_the_bundled_bags():
     """At the true Stribeck shapes the closed form gives every determined base parameter and
     every friction level within 5 %, consistent bodies, and the noise floor on validation."""
     from frictionid_core.robots.consistency import report_for_result
+    from frictionid_core.systems import get_system
 
     est = load(BAGS / "tx40_excitation")
     model = build_model(est, "tx40", "stribeck", False)
@@ -72,7 +73,7 @@ def test_full_robot_on_the_bundled_bags():
         truth = exp[name]
         if "/F" in name or (name in TRUTH["tx40_excitation"]["base_parameters"] and abs(truth) > 0.01):
             assert value == pytest.approx(truth, rel=0.05), name
-    rep = report_for_result(result)
+    rep = report_for_result(result, get_system("tx40"))
     assert rep["feasible"], rep["bodies"]
     summary = compare(dict(result, std={n: 1e-3 for n in result["params"]}), TRUTH["tx40_excitation"])["summary"]
     assert summary["parameters"] == model.k

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.friction import KINDS, all_models
+from frictionid_core.friction import all_models
 from frictionid_core.simulation import (
     METRIC_KEYS,
     EmpsData,
@@ -115,7 +115,7 @@ def test_kernel_friction_matches_friction_models():
         theta = rng.uniform(lo, hi, (5, lo.size))
         for eps in (0.0, 1e-3):
             expected = model.torque(theta, v, eps)
-            got = friction_batch(KINDS.index(model.kind), model.asymmetric, eps, theta, v)
+            got = friction_batch(model.law.code, model.asymmetric, eps, theta, v)
             np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12, err_msg=f"{model.label} eps={eps}")
 
 

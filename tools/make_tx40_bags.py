@@ -60,7 +60,7 @@ def main() -> None:
         ex = optimise_excitation(system, robot, moving=moving, period=period, duration=duration, evals=evals,
                                  seed=seed)
         traj = add_dwell(robot, ex.trajectory, dwell) if dwell > 0 else ex.trajectory
-        series, truth = synthesize(robot, traj, kind="stribeck", seed=noise_seed, rate=RATE, source=name)
+        series, truth = synthesize(robot, traj, friction="stribeck", seed=noise_seed, rate=RATE, source=name)
         truth["trajectory"] = dict(traj.to_dict(), criterion_system=system_name, excitation_seed=seed,
                                    evaluations=evals, cond_unit_columns=ex.cond)
         target = out_dir / name

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import KINDS
+from frictionid_core.friction import FRICTIONS
 from frictionid_core.optim import SOLVERS
 from frictionid_core.options import check_choice
 
@@ -31,7 +31,7 @@ PARAMETERS: dict[str, tuple[object, str, bool]] = {
     "joints": ([], "joint names to buffer, identify and feed forward, in this order "
                    "(empty: the names of the first joint_states message)", True),
     "system": ("emps", "inverse dynamic model: emps | friction-only | tx40-j2 | tx40 | urdf:PATH (a URDF file)", True),
-    "friction_model": ("coulomb", f"default friction model: {' | '.join(KINDS)}", False),
+    "friction_model": ("coulomb", f"default friction model: {' | '.join(FRICTIONS)}", False),
     "asymmetric": (False, "default: separate parameters for v > 0 and v < 0", False),
     "solver": ("ls", f"default solver: {' | '.join(SOLVERS)}", False),
     "seed": (0, "default RNG seed of stochastic solvers", False),
@@ -144,7 +144,7 @@ def make_config(values: dict) -> Config:
     return Config(
         joints=joints,
         system=check_system(str(v["system"])),
-        friction_model=_choice("friction_model", v["friction_model"], KINDS, "friction model"),
+        friction_model=_choice("friction_model", v["friction_model"], FRICTIONS, "friction model"),
         asymmetric=bool(v["asymmetric"]),
         solver=_choice("solver", v["solver"], SOLVERS, "solver"),
         seed=int(v["seed"]),

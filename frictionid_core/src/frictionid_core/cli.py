@@ -18,7 +18,7 @@ import warnings
 from pathlib import Path
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import KINDS
+from frictionid_core.friction import FRICTIONS
 from frictionid_core.optim import SOLVERS
 from frictionid_core.options import budget_options
 
@@ -45,7 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--system", default="emps",
                    help="inverse dynamic model: emps | friction-only | tx40-j2 | tx40 | urdf:PATH (default emps)")
     p.add_argument("--joint-map", help="bag joint → model joint names when they differ: a=b,c=d")
-    p.add_argument("--friction", default="coulomb", choices=KINDS, help="friction model (default coulomb)")
+    p.add_argument("--friction", default="coulomb", choices=FRICTIONS, help="friction model (default coulomb)")
     p.add_argument("--asymmetric", action="store_true", help="separate parameters for v > 0 and v < 0")
     p.add_argument("--solver", default="ls", choices=SOLVERS, help="optimiser (default ls: linear least squares)")
     p.add_argument("--seed", type=int, default=0, help="random seed of stochastic solvers (default 0)")
@@ -159,7 +159,7 @@ def _preprocessing(args):
 
 def cmd_identify(args) -> int:
     from frictionid_core.identify import identify
-    from frictionid_core.systems import system_spec
+    from frictionid_core.systems import parse_joint_map
 
     opts = budget_options(args.solver, args.budget, args.pop)
     if args.output_error:
@@ -174,7 +174,7 @@ def cmd_identify(args) -> int:
         _write_json(args.json, result)
         return 0
     series = _load(args)
-    result = identify(series, system=system_spec(args.system, args.joint_map), friction=args.friction,
+    result = identify(series, system=args.system, joint_map=parse_joint_map(args.joint_map), friction=args.friction,
                       asymmetric=args.asymmetric,
                       solver=args.solver, seed=args.seed, varpro=args.varpro, warm_start=args.warm_start,
                       bounds=_parse_bounds(args.bounds),

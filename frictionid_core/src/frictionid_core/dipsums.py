@@ -25,7 +25,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
-KIND_CODES = {"tustin": 0, "stribeck": 1, "threlfall": 2}
+from frictionid_core.friction import LAWS, STRIBECK, THRELFALL, TUSTIN
+
 _E3 = 1.0 - math.exp(-3.0)
 
 _LOG2E = 1.4426950408889634
@@ -97,7 +98,7 @@ def _reduce(d, y, Ft, dF):  # pragma: no cover - compiled
 
 
 @njit(cache=True, parallel=True, fastmath=_STRICT)
-def _dip_sums(kind, theta, speed, log_speed, mask, Ft, y):  # pragma: no cover - compiled
+def _dip_sums(law, theta, speed, log_speed, mask, Ft, y):  # pragma: no cover - compiled
     n_pop, n_rows = theta.shape[0], speed.size
     s_dd = np.zeros(n_pop)
     s_dy = np.zeros(n_pop)
@@ -107,11 +108,11 @@ def _dip_sums(kind, theta, speed, log_speed, mask, Ft, y):  # pragma: no cover -
         arg = np.empty(n_rows)
         d = np.empty(n_rows)
         work = np.empty(n_rows)
-        if kind == 0:  # tustin: exp(−|v|/vs)
+        if law == TUSTIN:  # exp(−|v|/vs)
             for r in range(n_rows):
                 arg[r] = -speed[r] / a
             _exp(arg, d, work)
-        elif kind == 1:  # stribeck: exp(−(|v|/vs)^δ) = exp(−exp(δ (log|v| − log vs)))
+        elif law == STRIBECK:  # exp(−(|v|/vs)^δ) = exp(−exp(δ (log|v| − log vs)))
             b = theta[i, 1]
             log_vs = math.log(a)
             for r in range(n_rows):
@@ -120,7 +121,7 @@ def _dip_sums(kind, theta, speed, log_speed, mask, Ft, y):  # pragma: no cover -
             for r in range(n_rows):
                 arg[r] = -d[r]
             _exp(arg, d, work)
-        else:  # threlfall: 1 − (1 − exp(−3|v|/v0))/(1 − e⁻³) for |v| ≤ v0, else 0
+        elif law == THRELFALL:  # 1 − (1 − exp(−3|v|/v0))/(1 − e⁻³) for |v| ≤ v0, else 0
             for r in range(n_rows):
                 arg[r] = -3.0 * speed[r] / a
             _exp(arg, d, work)
@@ -135,17 +136,17 @@ def _dip_sums(kind, theta, speed, log_speed, mask, Ft, y):  # pragma: no cover -
     return s_dd, s_dy, s_dF
 
 
-def dip_sums(kind: str, theta: np.ndarray, speed: np.ndarray, log_speed: np.ndarray, mask: np.ndarray,
+def dip_sums(friction: str, theta: np.ndarray, speed: np.ndarray, log_speed: np.ndarray, mask: np.ndarray,
              Ft: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(d·d, d·y, dᵀF) per candidate: (P,), (P,), (P, L).
 
     Args:
-        kind: ``tustin``, ``stribeck`` or ``threlfall``.
+        friction: the law with a dip: ``tustin``, ``stribeck`` or ``threlfall``.
         theta: (P, m) the branch's nonlinear parameters (vs | vs, δ | v0).
         speed, log_speed, mask: (n,) |v| > 0, log|v| and the signed branch mask of the rows.
         Ft: (L, n) design rows, transposed; y: (n,) torque rows.
     """
-    return _dip_sums(KIND_CODES[kind], np.ascontiguousarray(theta, dtype=float), speed, log_speed, mask,
+    return _dip_sums(LAWS[friction].code, np.ascontiguousarray(theta, dtype=float), speed, log_speed, mask,
                      np.ascontiguousarray(Ft), y)
 
 

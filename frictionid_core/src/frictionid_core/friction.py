@@ -1,14 +1,21 @@
-"""The 8 friction models of SPEC §2.1, vectorised over a population.
+"""The friction laws of SPEC §2.1 (the registry :data:`LAWS`) and the 8 friction models.
 
-Every model maps joint velocity v (m/s or rad/s) to a friction force/torque (N or N·m):
+Every law maps joint velocity v (m/s or rad/s) to a friction force/torque (N or N·m):
 
 * ``coulomb``   Fv·v + Fc·sign(v)
 * ``threlfall`` Fv·v + Fc·g(v)·sign(v),  g = (1−e^(−3|v|/v0))/(1−e^(−3)) for |v| ≤ v0, else 1
 * ``tustin``    Fv·v + [Fc + (Fs−Fc)·e^(−|v|/vs)]·sign(v)
 * ``stribeck``  Fv·v + [Fc + (Fs−Fc)·e^(−(|v|/vs)^δ)]·sign(v)
 
-The asymmetric variant has one parameter set for v > 0 (suffix ``_pos``) and one for v < 0
-(suffix ``_neg``); the negative branch uses magnitudes: τ(v<0) = −[Fc_neg + …] − Fv_neg·|v|.
+i.e. Fv·v + [Fc + c·dip(|v|)]·sign(v) with c = Fs − Fc when the law has Fs, else −Fc: the
+*dip* is the only part that depends on nonlinear parameters. A new law is one
+:class:`FrictionLaw` in :data:`LAWS` (name, parameters, integer code, numpy dip) plus its
+branch in the compiled kernels (:mod:`frictionid_core.dipsums`, :mod:`frictionid_core.simulation`),
+which import the codes below as constants.
+
+A friction *model* is a law, symmetric or asymmetric: the asymmetric variant has one parameter
+set for v > 0 (suffix ``_pos``) and one for v < 0 (suffix ``_neg``); the negative branch uses
+magnitudes: τ(v<0) = −[Fc_neg + …] − Fv_neg·|v|.
 
 Parameter arrays are (P, k) for a population of P candidates (or (k,) for one); velocities
 are (N,); :meth:`FrictionModel.torque` returns (P, N) (or (N,)) with no Python loop.
@@ -18,21 +25,11 @@ A smoothed sign tanh(v/ε) replaces sign(v) when ``eps > 0`` (feed-forward witho
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError
-
-KINDS = ("coulomb", "threlfall", "tustin", "stribeck")
-
-# Per kind: the parameters of one branch, in order. Linear ones first.
-_BRANCH_PARAMS = {
-    "coulomb": ("Fv", "Fc"),
-    "threlfall": ("Fv", "Fc", "v0"),
-    "tustin": ("Fv", "Fc", "Fs", "vs"),
-    "stribeck": ("Fv", "Fc", "Fs", "vs", "delta"),
-}
-LINEAR_PARAMS = frozenset({"Fv", "Fc", "Fs"})
 
 UNITS = {
     "Fv": "N·s/m | N·m·s/rad",
@@ -53,7 +50,71 @@ DEFAULT_BOUNDS = {
     "delta": (0.3, 5.0),
 }
 
+# Integer codes of the laws in compiled kernels (numba freezes them as constants).
+COULOMB, THRELFALL, TUSTIN, STRIBECK = 0, 1, 2, 3
+
 _E3 = 1.0 - np.exp(-3.0)
+
+
+def threlfall_dip(a: np.ndarray, v0) -> np.ndarray:
+    """1 − g(|v|) of the Threlfall law: 1 at v = 0, 0 for |v| ≥ v0."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        g = (1.0 - np.exp(-3.0 * a / v0)) / _E3
+    return np.where(a <= v0, 1.0 - g, 0.0)
+
+
+def stribeck_shape(a: np.ndarray, vs, delta) -> np.ndarray:
+    """e^(−(|v|/vs)^δ): 1 at v = 0, decaying with speed."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        r = a / vs
+        return np.exp(-(r if np.isscalar(delta) and delta == 1.0 else r**delta))
+
+
+def _tustin_dip(a: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    return np.exp(a * (-1.0 / theta[:, 0:1]))
+
+
+def _threlfall_dip(a: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    return threlfall_dip(a, theta[:, 0:1])
+
+
+def _stribeck_dip(a: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    return stribeck_shape(a, theta[:, 0:1], theta[:, 1:2])
+
+
+@dataclass(frozen=True)
+class FrictionLaw:
+    """One friction law.
+
+    Attributes:
+        name: the law's name (``coulomb``, …).
+        linear: parameters of one velocity branch that enter the torque linearly.
+        nonlinear: the dip's shape parameters (velocities, exponents).
+        code: the law's integer code in compiled kernels.
+        dip: (speeds |v| (1, N), nonlinear parameters (P, m)) → dip (P, N); None for a law
+            without one (Coulomb).
+    """
+
+    name: str
+    linear: tuple[str, ...]
+    nonlinear: tuple[str, ...]
+    code: int
+    dip: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+
+    @property
+    def params(self) -> tuple[str, ...]:
+        """Parameters of one velocity branch, linear ones first."""
+        return self.linear + self.nonlinear
+
+
+LAWS: dict[str, FrictionLaw] = {law.name: law for law in (
+    FrictionLaw("coulomb", ("Fv", "Fc"), (), COULOMB),
+    FrictionLaw("threlfall", ("Fv", "Fc"), ("v0",), THRELFALL, _threlfall_dip),
+    FrictionLaw("tustin", ("Fv", "Fc", "Fs"), ("vs",), TUSTIN, _tustin_dip),
+    FrictionLaw("stribeck", ("Fv", "Fc", "Fs"), ("vs", "delta"), STRIBECK, _stribeck_dip),
+)}
+# The law names (choices of every --friction option and parameter).
+FRICTIONS = tuple(LAWS)
 
 
 def smooth_sign(v: np.ndarray, eps: float = 0.0) -> np.ndarray:
@@ -65,19 +126,23 @@ def smooth_sign(v: np.ndarray, eps: float = 0.0) -> np.ndarray:
 
 @dataclass(frozen=True)
 class FrictionModel:
-    """One of the 8 friction models: kind × {symmetric, asymmetric}."""
+    """One of the 8 friction models: law ``name`` × {symmetric, asymmetric}."""
 
-    kind: str
+    name: str
     asymmetric: bool = False
 
     def __post_init__(self) -> None:
-        if self.kind not in KINDS:
-            raise FrictionIdError(f"unknown friction model '{self.kind}'; choose one of {', '.join(KINDS)}")
+        if self.name not in LAWS:
+            raise FrictionIdError(f"unknown friction model '{self.name}'; choose one of {', '.join(FRICTIONS)}")
+
+    @property
+    def law(self) -> FrictionLaw:
+        return LAWS[self.name]
 
     @property
     def branch_names(self) -> tuple[str, ...]:
         """Parameter names of one velocity branch (no suffix)."""
-        return _BRANCH_PARAMS[self.kind]
+        return self.law.params
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -89,12 +154,12 @@ class FrictionModel:
 
     @property
     def label(self) -> str:
-        return f"{self.kind}{'-asym' if self.asymmetric else ''}"
+        return f"{self.name}{'-asym' if self.asymmetric else ''}"
 
     @property
     def is_linear(self) -> bool:
         """True when every parameter enters linearly (Coulomb + viscous)."""
-        return all(_base(n) in LINEAR_PARAMS for n in self.names)
+        return not self.law.nonlinear
 
     def units(self) -> dict[str, str]:
         return {n: UNITS[_base(n)] for n in self.names}
@@ -127,15 +192,13 @@ class FrictionModel:
         return out[0] if single else out
 
     def _branch(self, p: np.ndarray, v, s, a) -> np.ndarray:
-        col = {n: p[:, i : i + 1] for i, n in enumerate(self.branch_names)}
+        law = self.law
+        col = {n: p[:, i : i + 1] for i, n in enumerate(law.params)}
         fv, fc = col["Fv"], col["Fc"]
-        if self.kind == "coulomb":
-            level = fc
-        elif self.kind == "threlfall":
-            level = fc * (1.0 - threlfall_dip(a, col["v0"]))
-        else:
-            delta = col.get("delta", 1.0)
-            level = fc + (col["Fs"] - fc) * stribeck_shape(a, col["vs"], delta)
+        level = fc
+        if law.dip is not None:  # the dip takes the level from Fc to Fs, or to 0 without Fs
+            d = law.dip(a, p[:, len(law.linear) :])
+            level = fc + (col["Fs"] - fc) * d if "Fs" in col else fc * (1.0 - d)
         return fv * v + level * s
 
     def dip(self, theta_nl: np.ndarray, a: np.ndarray) -> np.ndarray:
@@ -146,40 +209,20 @@ class FrictionModel:
         Fv·v + Fc·sign(v) + c·dip·sign(v) with c = −Fc (threlfall) or Fs − Fc (tustin, stribeck).
         (The population cost uses the compiled :mod:`frictionid_core.dipsums` instead.)
         """
-        a = np.asarray(a, dtype=float)[None, :]
-        t = np.atleast_2d(theta_nl)
-        if self.kind == "threlfall":
-            return threlfall_dip(a, t[:, 0:1])
-        if self.kind == "tustin":
-            return np.exp(a * (-1.0 / t[:, 0:1]))
-        if self.kind == "stribeck":
-            return stribeck_shape(a, t[:, 0:1], t[:, 1:2])
-        raise FrictionIdError("the Coulomb model has no nonlinear part")
-
-
-def threlfall_dip(a: np.ndarray, v0) -> np.ndarray:
-    """1 − g(|v|) of the Threlfall model: 1 at v = 0, 0 for |v| ≥ v0."""
-    with np.errstate(over="ignore", invalid="ignore"):
-        g = (1.0 - np.exp(-3.0 * a / v0)) / _E3
-    return np.where(a <= v0, 1.0 - g, 0.0)
-
-
-def stribeck_shape(a: np.ndarray, vs, delta) -> np.ndarray:
-    """e^(−(|v|/vs)^δ): 1 at v = 0, decaying with speed."""
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        r = a / vs
-        return np.exp(-(r if np.isscalar(delta) and delta == 1.0 else r**delta))
+        if self.law.dip is None:
+            raise FrictionIdError(f"the {self.name} model has no nonlinear part")
+        return self.law.dip(np.asarray(a, dtype=float)[None, :], np.atleast_2d(theta_nl))
 
 
 def _base(name: str) -> str:
     return name.removesuffix("_pos").removesuffix("_neg")
 
 
-def get_model(kind: str, asymmetric: bool = False) -> FrictionModel:
-    """The friction model ``kind`` (one of KINDS), symmetric or asymmetric."""
-    return FrictionModel(kind, asymmetric)
+def get_model(friction: str, asymmetric: bool = False) -> FrictionModel:
+    """The model of friction law ``friction`` (one of FRICTIONS), symmetric or asymmetric."""
+    return FrictionModel(friction, asymmetric)
 
 
 def all_models() -> list[FrictionModel]:
-    """The 8 models: each kind, symmetric then asymmetric."""
-    return [FrictionModel(k, a) for k in KINDS for a in (False, True)]
+    """The 8 models: each law, symmetric then asymmetric."""
+    return [FrictionModel(f, a) for f in FRICTIONS for a in (False, True)]

@@ -13,7 +13,7 @@ from frictionid_core.linear import least_squares
 from frictionid_core.metrics import fit_metrics
 from frictionid_core.model import IdentificationModel
 from frictionid_core.preprocess import Preprocessing
-from frictionid_core.systems import get_system, observe
+from frictionid_core.systems import System, as_system, observe, result_system
 from frictionid_core.timeseries import JointSeries
 
 
@@ -32,34 +32,41 @@ class Identification:
     metrics: dict[str, float]
     wall_s: float
     extra: dict = field(default_factory=dict)
+    joint_map: dict[str, str] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        d = {k: getattr(self, k) for k in ("system", "friction", "asymmetric", "solver", "source", "joints",
+        d = {k: getattr(self, k) for k in ("system", "joint_map", "friction", "asymmetric", "solver", "source", "joints",
                                           "params", "std", "metrics", "wall_s")}
         d.update(self.extra)
         return d
 
 
-def build_model(series: JointSeries, system: str, friction: str, asymmetric: bool,
+def build_model(series: JointSeries, system: str | System, friction: str, asymmetric: bool,
                 preprocessing: Preprocessing | None = None,
-                bounds: dict[str, tuple[float, float]] | None = None) -> IdentificationModel:
-    """The identification model of ``system`` + ``friction`` on the data of ``series``.
+                bounds: dict[str, tuple[float, float]] | None = None, *,
+                joint_map: dict[str, str] | None = None) -> IdentificationModel:
+    """The identification model of ``system`` (a name, with ``joint_map``, or a System) +
+    ``friction`` on the data of ``series``.
 
     ``preprocessing`` overrides the system's default; ``bounds`` overrides search bounds.
     """
-    sys_ = get_system(system)
+    sys_ = as_system(system, joint_map)
     obs = observe(series, sys_, preprocessing)
     return IdentificationModel(obs, get_model(friction, asymmetric), rigid_bounds=dict(sys_.rigid_bounds),
                                bound_overrides=dict(bounds or {}))
 
 
-def identify(series: JointSeries, *, system: str = "emps", friction: str = "coulomb",
+def identify(series: JointSeries, *, system: str | System = "emps", joint_map: dict[str, str] | None = None,
+             friction: str = "coulomb",
              asymmetric: bool = False, solver: str = "ls", seed: int = 0, varpro: bool | None = None,
              warm_start: bool = True, preprocessing: Preprocessing | None = None,
              bounds: dict[str, tuple[float, float]] | None = None, **solver_options) -> Identification:
     """Identify the parameters of ``system`` with ``friction`` from ``series``.
 
     Args:
+        system: a system name (see :data:`frictionid_core.systems.SYSTEM_NAMES`) or a System.
+        joint_map: {data joint: model joint} of a robot system named by ``system``.
+        friction: the friction law (one of :data:`frictionid_core.friction.FRICTIONS`).
         solver: ``ls`` (models linear in their parameters) or any method of
             :mod:`frictionid_core.optim` (lm, ga, aco, bbo, de, pso, bo, dt, hybrid).
         seed: seed of stochastic solvers.
@@ -76,11 +83,11 @@ def identify(series: JointSeries, *, system: str = "emps", friction: str = "coul
         **solver_options: budgets (pop, generations, calls) and method options.
     """
     t0 = time.perf_counter()
-    sys_ = get_system(system)
+    sys_ = as_system(system, joint_map)
     settings = preprocessing or sys_.preprocessing
     if varpro is None:
-        varpro = sys_.info is not None  # a robot system (RobotInfo)
-    model = build_model(series, system, friction, asymmetric, settings, bounds)
+        varpro = sys_.robot is not None
+    model = build_model(series, sys_, friction, asymmetric, settings, bounds)
     extra: dict = {"preprocessing": asdict(settings)}
     if solver == "ls" or (varpro and model.is_linear):
         if not model.is_linear:
@@ -104,8 +111,9 @@ def identify(series: JointSeries, *, system: str = "emps", friction: str = "coul
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
     metrics["samples"] = int(model.obs.y.size)
-    return Identification(system, friction, asymmetric, solver, series.source, list(series.joints),
-                          dict(zip(model.names, map(float, x))), std, metrics, time.perf_counter() - t0, extra)
+    return Identification(sys_.name, friction, asymmetric, solver, series.source, list(series.joints),
+                          dict(zip(model.names, map(float, x))), std, metrics, time.perf_counter() - t0, extra,
+                          dict(sys_.joint_map))
 
 
 def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpro: bool = False,
@@ -197,10 +205,10 @@ def _jacobian_std(model: IdentificationModel, x: np.ndarray) -> dict[str, float]
 
 def validate(series: JointSeries, params: dict) -> dict[str, float]:
     """Cross-test: metrics of the identified ``params`` (an :meth:`Identification.to_dict`) on ``series``,
-    pre-processed as in the identification."""
+    with the identification's system (and joint map), pre-processed as in the identification."""
     try:
         settings = Preprocessing(**params["preprocessing"]) if "preprocessing" in params else None
-        model = build_model(series, params["system"], params["friction"], bool(params["asymmetric"]), settings)
+        model = build_model(series, result_system(params), params["friction"], bool(params["asymmetric"]), settings)
         values = params["params"]
         x = np.array([values[n] for n in model.names], dtype=float)
     except KeyError as exc:

@@ -17,7 +17,7 @@ import numpy as np
 
 from frictionid_core.dipsums import dip_sums
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import LINEAR_PARAMS, FrictionModel
+from frictionid_core.friction import FrictionModel
 from frictionid_core.observation import Observation
 
 
@@ -65,7 +65,7 @@ class _ActiveDip:
     def sums(self, friction: FrictionModel, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For parameters (P, k), the signed dip column d on the active rows reduced to
         (dᵀd (P,), dᵀy (P,), dᵀF (P, L)) — see :mod:`frictionid_core.dipsums`."""
-        dd, dy, dF_nz = dip_sums(friction.kind, p[:, self.nl_index], self.speed, self.log_speed, self.mask,
+        dd, dy, dF_nz = dip_sums(friction.name, p[:, self.nl_index], self.speed, self.log_speed, self.mask,
                                  self.Ft_nz, self.y_rows)
         dF = np.zeros((p.shape[0], self.F_rows.shape[1]))
         dF[:, self.F_cols] = dF_nz
@@ -101,6 +101,7 @@ class IdentificationModel:
         terms: list[_Term] = [_Term(n, i, -1, obs.rigid[:, i]) for i, n in enumerate(obs.rigid_names)]
         dips: list[_Dip] = []
         fnames = self.friction.names
+        law = self.friction.law
         nb = len(self.friction.branch_names)
         for j in range(nj):
             prefix = f"{obs.joints[j]}/" if nj > 1 else ""
@@ -113,7 +114,7 @@ class IdentificationModel:
                 vcol, scol = cols["V" + suffix], cols["S" + suffix]
                 mask = np.sign(v) * {"pos": v > 0, "neg": v < 0, "": np.ones_like(v, bool)}[tag]
                 dip_id = None
-                nl = [base + off + k for k, n in enumerate(self.friction.branch_names) if n not in LINEAR_PARAMS]
+                nl = [base + off + k for k, n in enumerate(self.friction.branch_names) if n in law.nonlinear]
                 if nl:
                     dip_id = len(dips)
                     dips.append(_Dip(j, nl, mask, np.abs(v)))

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import KINDS
+from frictionid_core.friction import FRICTIONS
 from frictionid_core.optim import CALL_METHODS, SOLVERS
 
 
@@ -38,7 +38,7 @@ class SolveOptions:
     """Friction model and solver of one identification (validated on creation).
 
     Attributes:
-        friction: friction law (one of :data:`frictionid_core.friction.KINDS`).
+        friction: friction law (one of :data:`frictionid_core.friction.FRICTIONS`).
         asymmetric: separate parameters for v > 0 and v < 0.
         solver: ``ls`` or an optimiser of :mod:`frictionid_core.optim`.
         seed: seed of stochastic solvers.
@@ -54,7 +54,7 @@ class SolveOptions:
     pop: int = 0
 
     def __post_init__(self) -> None:
-        check_choice("friction", self.friction, KINDS, "friction model")
+        check_choice("friction", self.friction, FRICTIONS, "friction model")
         check_choice("solver", self.solver, SOLVERS)
         for name in ("budget", "pop"):
             value = getattr(self, name)

@@ -26,7 +26,7 @@ def model_table(series) -> list[dict]:
     rows = []
     for m in all_models():
         solver = "ls" if m.is_linear else "lm"
-        res = identify(series, system="emps", friction=m.kind, asymmetric=m.asymmetric, solver=solver,
+        res = identify(series, system="emps", friction=m.name, asymmetric=m.asymmetric, solver=solver,
                        varpro=not m.is_linear)
         rows.append({"model": m.label, "solver": solver + ("" if m.is_linear else "+varpro"), "params": res.params,
                      **{k: res.metrics[k] for k in ("relerr_pct", "r2", "rmse", "error_std")}, "result": res})
@@ -124,28 +124,29 @@ def build_report(estimation: Path, validation: Path, out_dir: Path, study_dir: P
     rows = model_table(series)
     est, val = load_emps(estimation), load_emps(validation)
 
-    def sim_errors(kind: str, asym: bool, params: dict) -> dict:
+    def sim_errors(friction: str, asym: bool, params: dict) -> dict:
         out = {}
         for clock in ("true", "benchmark"):
             for tag, data in (("est", est), ("val", val)):
-                s = EmpsSimulator(data, kind, asym, clock=clock, offset="offset" in params)
+                s = EmpsSimulator(data, friction, asym, clock=clock, offset="offset" in params)
                 out[f"{tag}_{clock}"] = float(s.position_relerr(s.as_array(params))[0])
         return out
 
     for r in rows:
-        kind, asym = r["result"].friction, r["result"].asymmetric
-        r["sim"] = sim_errors(kind, asym, r["params"])
+        friction, asym = r["result"].friction, r["result"].asymmetric
+        r["sim"] = sim_errors(friction, asym, r["params"])
     # Output error: choose the model on estimation data only.
     oe = {}
-    for kind, asym in (("coulomb", True), ("tustin", True)):
-        res = identify_output_error(estimation, friction=kind, asymmetric=asym)
-        oe[f"{kind}{'-asym' if asym else ''}"] = {"params": res.params, "sim": sim_errors(kind, asym, res.params)}
+    for friction, asym in (("coulomb", True), ("tustin", True)):
+        res = identify_output_error(estimation, friction=friction, asymmetric=asym)
+        oe[f"{friction}{'-asym' if asym else ''}"] = {"params": res.params,
+                                                       "sim": sim_errors(friction, asym, res.params)}
     best_oe = min(oe, key=lambda k: oe[k]["sim"]["est_true"])
     ens = []
-    for label, kind, asym, params in (("coulomb (benchmark reference)", "coulomb", False, rows[0]["params"]),
-                                      (f"{best_oe} (output error)", best_oe.split("-")[0], best_oe.endswith("asym"),
-                                       oe[best_oe]["params"])):
-        e = grey_black_ensemble(est, val, params, kind, asym, members=ensemble_members).to_dict()
+    for label, friction, asym, params in (("coulomb (benchmark reference)", "coulomb", False, rows[0]["params"]),
+                                          (f"{best_oe} (output error)", best_oe.split("-")[0],
+                                           best_oe.endswith("asym"), oe[best_oe]["params"])):
+        e = grey_black_ensemble(est, val, params, friction, asym, members=ensemble_members).to_dict()
         ens.append({"label": label, **e})
     study = None
     study_runs = None
@@ -156,8 +157,8 @@ def build_report(estimation: Path, validation: Path, out_dir: Path, study_dir: P
         study_runs = load_runs(study_dir)
     best_row = min(rows, key=lambda r: r["relerr_pct"])
     sim_val = EmpsSimulator(val, "coulomb", False)
-    oe_kind = best_oe.split("-")[0]
-    sim_oe = EmpsSimulator(val, oe_kind, best_oe.endswith("asym"))
+    oe_friction = best_oe.split("-")[0]
+    sim_oe = EmpsSimulator(val, oe_friction, best_oe.endswith("asym"))
     sims = {"IDM Coulomb (reference)": sim_val.simulate(rows[0]["params"]),
             f"output error {best_oe}": sim_oe.simulate(oe[best_oe]["params"])}
     figs = figures(series, best_row, (sim_val, sims), study_runs)

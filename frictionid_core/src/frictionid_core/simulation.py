@@ -46,7 +46,7 @@ import numpy as np
 from numba import njit
 
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.friction import KINDS, FrictionModel, get_model
+from frictionid_core.friction import COULOMB, STRIBECK, THRELFALL, TUSTIN, FrictionModel, get_model
 from frictionid_core.preprocess import central_difference, lowpass_position
 from frictionid_core.timeseries import JointSeries
 
@@ -150,9 +150,10 @@ def _as_data(data) -> EmpsData:
 # Members of the population sit in the innermost loops (structure of arrays) so that the
 # compiler vectorises across them; chunks of members run in parallel threads.
 @njit(cache=True)
-def _friction_into(kind, asym, eps, th, off, cut, v, sg, out):
-    """out[i] = τ_f(v[i]; th[:, i]) + off[i]: friction of member i (same formulas and
-    parameter order as friction.py; th is (kf, m), the ``_neg`` block in its lower half).
+def _friction_into(law, asym, eps, th, off, cut, v, sg, out):
+    """out[i] = τ_f(v[i]; th[:, i]) + off[i]: friction of member i under the law with code
+    ``law`` (same formulas and parameter order as friction.py; th is (kf, m), the ``_neg``
+    block in its lower half).
     cut (2, m): speeds (v > 0, v < 0) above which the Stribeck term is below e^−40 of
     (Fs − Fc) and skipped (see _stribeck_cutoffs). sg is scratch for sign(v) or tanh(v/eps)."""
     nb = th.shape[0] // 2 if asym else 0
@@ -163,7 +164,7 @@ def _friction_into(kind, asym, eps, th, off, cut, v, sg, out):
     else:
         for i in range(m):
             sg[i] = (1.0 if v[i] > 0.0 else 0.0) - (1.0 if v[i] < 0.0 else 0.0)
-    if kind == 0:
+    if law == COULOMB:
         for i in range(m):
             vi = v[i]
             neg = vi < 0.0
@@ -178,12 +179,12 @@ def _friction_into(kind, asym, eps, th, off, cut, v, sg, out):
         a = abs(vi)
         fc = th[o + 1, i]
         level = fc
-        if kind == 1:
+        if law == THRELFALL:
             v0 = th[o + 2, i]
             if a <= v0:
                 level = fc * (1.0 - math.exp(-3.0 * a / v0)) / _E3
         elif a < cut[1 if neg else 0, i]:
-            if kind == 2:
+            if law == TUSTIN:
                 level = fc + (th[o + 2, i] - fc) * math.exp(-a / th[o + 3, i])
             else:
                 level = fc + (th[o + 2, i] - fc) * math.exp(-((a / th[o + 3, i]) ** th[o + 4, i]))
@@ -191,16 +192,16 @@ def _friction_into(kind, asym, eps, th, off, cut, v, sg, out):
 
 
 @njit(cache=True)
-def _stribeck_cutoffs(kind, asym, th):
+def _stribeck_cutoffs(law, asym, th):
     """(2, m) speeds (v > 0, v < 0) where the Stribeck exponent reaches 40: vs·40^(1/δ)."""
     m = th.shape[1]
     cut = np.full((2, m), np.inf)
-    if kind >= 2:
+    if law == TUSTIN or law == STRIBECK:
         nb = th.shape[0] // 2 if asym else 0
         for b in range(2):
             o = nb * b
             for i in range(m):
-                cut[b, i] = th[o + 3, i] * (40.0 if kind == 2 else 40.0 ** (1.0 / th[o + 4, i]))
+                cut[b, i] = th[o + 3, i] * (40.0 if law == TUSTIN else 40.0 ** (1.0 / th[o + 4, i]))
     return cut
 
 
@@ -217,8 +218,8 @@ def _coulomb_into(asym, th, off, v, out):
 
 
 @njit(cache=True)
-def friction_batch(kind, asym, eps, theta, v):
-    """The kernel's friction for checks: (P, kf) parameters × (N,) velocities → (P, N)."""
+def friction_batch(law, asym, eps, theta, v):
+    """The kernel's friction for checks: law code, (P, kf) parameters × (N,) velocities → (P, N)."""
     P = theta.shape[0]
     out = np.empty((P, v.shape[0]))
     th = np.ascontiguousarray(theta.T)
@@ -226,16 +227,16 @@ def friction_batch(kind, asym, eps, theta, v):
     col = np.empty(P)
     sg = np.empty(P)
     vv = np.empty(P)
-    cut = _stribeck_cutoffs(kind, asym, th)
+    cut = _stribeck_cutoffs(law, asym, th)
     for j in range(v.shape[0]):
         vv[:] = v[j]
-        _friction_into(kind, asym, eps, th, zero, cut, vv, sg, col)
+        _friction_into(law, asym, eps, th, zero, cut, vv, sg, col)
         out[:, j] = col
     return out
 
 
 @njit(cache=True, nogil=True)
-def _simulate_chunk(kind, asym, eps, th, mass, off, gtau, kp, kv, sat, periods, t_ctrl, qg, ext, pulse_k,
+def _simulate_chunk(law, asym, eps, th, mass, off, gtau, kp, kv, sat, periods, t_ctrl, qg, ext, pulse_k,
                     q0, v0, q_prev0, qf_prev0, u0, nsub, full, out_q, out_v, out_a, out_u):
     """Simulate m members (columns of th (kf, m), mass (m,), off (m,)) over the N samples.
 
@@ -246,8 +247,8 @@ def _simulate_chunk(kind, asym, eps, th, mass, off, gtau, kp, kv, sat, periods, 
     m = mass.shape[0]
     n = qg.shape[0]
     has_ext = ext.shape[0] > 0
-    fast = kind == 0 and eps == 0.0
-    cut = _stribeck_cutoffs(kind, asym, th)
+    fast = law == COULOMB and eps == 0.0
+    cut = _stribeck_cutoffs(law, asym, th)
     inv_m = 1.0 / mass
     q = np.full(m, q0)
     v = np.full(m, v0)
@@ -281,7 +282,7 @@ def _simulate_chunk(kind, asym, eps, th, mass, off, gtau, kp, kv, sat, periods, 
             qf_prev[i] = qf
         if k == n - 1:
             if full:
-                _friction_into(kind, asym, eps, th, off, cut, v, sg, f)
+                _friction_into(law, asym, eps, th, off, cut, v, sg, f)
                 for i in range(m):
                     out_v[i, k] = v[i]
                     out_u[i, k] = u_now[i]
@@ -303,28 +304,28 @@ def _simulate_chunk(kind, asym, eps, th, mass, off, gtau, kp, kv, sat, periods, 
             if fast:
                 _coulomb_into(asym, th, off, v, f)
             else:
-                _friction_into(kind, asym, eps, th, off, cut, v, sg, f)
+                _friction_into(law, asym, eps, th, off, cut, v, sg, f)
             for i in range(m):
                 a1[i] = (fu[i] + e1 - f[i]) * inv_m[i]
                 v2[i] = v[i] + 0.5 * h * a1[i]
             if fast:
                 _coulomb_into(asym, th, off, v2, f)
             else:
-                _friction_into(kind, asym, eps, th, off, cut, v2, sg, f)
+                _friction_into(law, asym, eps, th, off, cut, v2, sg, f)
             for i in range(m):
                 a2[i] = (fu[i] + e2 - f[i]) * inv_m[i]
                 v3[i] = v[i] + 0.5 * h * a2[i]
             if fast:
                 _coulomb_into(asym, th, off, v3, f)
             else:
-                _friction_into(kind, asym, eps, th, off, cut, v3, sg, f)
+                _friction_into(law, asym, eps, th, off, cut, v3, sg, f)
             for i in range(m):
                 a3[i] = (fu[i] + e2 - f[i]) * inv_m[i]
                 v4[i] = v[i] + h * a3[i]
             if fast:
                 _coulomb_into(asym, th, off, v4, f)
             else:
-                _friction_into(kind, asym, eps, th, off, cut, v4, sg, f)
+                _friction_into(law, asym, eps, th, off, cut, v4, sg, f)
             if full and s == 0:  # outputs at the sample: state, held input, acceleration
                 for i in range(m):
                     out_v[i, k] = v[i]
@@ -392,7 +393,7 @@ class EmpsSimulator:
     Args:
         data: EmpsData, a JointSeries with extras qg (and pulses) and meta gtau/kp/kv, or a
             path (MAT file or bag).
-        friction: friction kind (``coulomb``, ``threlfall``, ``tustin``, ``stribeck``) or a FrictionModel.
+        friction: friction law (``coulomb``, ``threlfall``, ``tustin``, ``stribeck``) or a FrictionModel.
         asymmetric: separate parameters for v > 0 and v < 0 (ignored if friction is a model).
         clock: ``true`` (default) or ``benchmark`` (see the module docstring).
         substeps: RK4 steps per controller period (10 = the benchmark's MaxStep tec/10).
@@ -497,14 +498,13 @@ class EmpsSimulator:
         shape = (P, n) if full else (0, 0)
         out_v, out_a, out_u = np.empty(shape), np.empty(shape), np.empty(shape)
         d = self.data
-        kind = KINDS.index(self.friction.kind)
         # one chunk per core, at least 8 members each (the kernel vectorises across members)
         n_chunks = max(1, min(_workers(), P // 8))
         bounds = np.linspace(0, P, n_chunks + 1).round().astype(int)
 
         def run(lo: int, hi: int) -> None:
             rows = slice(lo, hi) if full else slice(0, 0)
-            _simulate_chunk(kind, self.friction.asymmetric, self.eps, np.ascontiguousarray(theta_t[:, lo:hi]),
+            _simulate_chunk(self.friction.law.code, self.friction.asymmetric, self.eps, np.ascontiguousarray(theta_t[:, lo:hi]),
                             p[lo:hi, 0].copy(), off[lo:hi].copy(), d.gtau, d.kp, d.kv, self.saturation,
                             self.periods, self.t_ctrl, self.qg, self.ext, self.pulse_at_samples, *self.initial,
                             self.substeps, full, out_q[lo:hi], out_v[rows], out_a[rows], out_u[rows])
@@ -526,7 +526,7 @@ class EmpsSimulator:
             metrics[key] = float(err[0]) if single else err
         pick = (lambda x: x[0]) if single else (lambda x: x)
         settings = {"clock": self.clock, "substeps": self.substeps, "pulses": self.pulse_input,
-                    "tec": self.tec, "skip": self.skip, "friction": self.friction.kind,
+                    "tec": self.tec, "skip": self.skip, "friction": self.friction.name,
                     "asymmetric": self.friction.asymmetric}
         return EmpsSimulation(self.clock, self.t, pick(q), pick(v), pick(a), pick(u), pick(force), metrics,
                               self.names, pick(p), settings)
@@ -562,13 +562,13 @@ def simulate_emps(data, params, friction: str | FrictionModel = "coulomb", asymm
 def simulate_identification(data, result: dict, *, clock: str = "true", **options) -> EmpsSimulation:
     """Simulate the parameters of a ``frictionid identify`` result (its JSON as a dict)."""
     try:
-        system, kind, asym, values = result["system"], result["friction"], bool(result["asymmetric"]), result["params"]
+        system, friction, asym, values = result["system"], result["friction"], bool(result["asymmetric"]), result["params"]
     except (KeyError, TypeError) as exc:
         raise FrictionIdError(f"parameter file lacks {exc}; "
                               "expected the JSON written by 'frictionid identify'") from None
     if system != "emps":
         raise FrictionIdError(f"only the EMPS can be simulated; the parameters are for system '{system}'")
-    sim = EmpsSimulator(data, kind, asym, clock=clock, offset="offset" in values, **options)
+    sim = EmpsSimulator(data, friction, asym, clock=clock, offset="offset" in values, **options)
     return sim.simulate(values)
 
 

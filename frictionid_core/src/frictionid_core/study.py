@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import KINDS
+from frictionid_core.friction import FRICTIONS
 
 ALGORITHMS = ("de", "pso", "ga", "aco", "bbo")
 RUNS_FILE = "runs.jsonl"
@@ -292,7 +292,7 @@ def register(subparsers):
     p = subparsers.add_parser("study", help="optimisers × friction models × seeds on the EMPS (thesis §6.3)")
     p.add_argument("system", choices=["emps"])
     p.add_argument("--algorithms", default=",".join(ALGORITHMS), help="comma-separated (default de,pso,ga,aco,bbo)")
-    p.add_argument("--friction", default="all", help="comma-separated friction kinds or 'all' (each sym + asym)")
+    p.add_argument("--friction", default="all", help="comma-separated friction laws or 'all' (each sym + asym)")
     p.add_argument("--seeds", type=int, default=20)
     p.add_argument("--pop", type=int, default=50)
     p.add_argument("--generations", type=int, default=100)
@@ -311,14 +311,14 @@ def _cmd_study(args) -> int:
     unknown = [a for a in algos if a not in METHODS]
     if unknown:
         raise FrictionIdError(f"unknown algorithm(s) {unknown}; available: {', '.join(METHODS)}")
-    kinds = list(KINDS) if args.friction == "all" else [k.strip() for k in args.friction.split(",")]
-    bad = [k for k in kinds if k not in KINDS]
+    frictions = list(FRICTIONS) if args.friction == "all" else [f.strip() for f in args.friction.split(",")]
+    bad = [f for f in frictions if f not in FRICTIONS]
     if bad:
-        raise FrictionIdError(f"unknown friction model(s) {bad}; choose from {', '.join(KINDS)} or 'all'")
+        raise FrictionIdError(f"unknown friction model(s) {bad}; choose from {', '.join(FRICTIONS)} or 'all'")
     for path in (args.estimation, args.validation):
         if not Path(path).exists():
             raise FrictionIdError(f"{path}: no such file or directory")
-    specs = plan(algos, kinds, args.seeds, args.estimation, args.validation, args.pop, args.generations)
+    specs = plan(algos, frictions, args.seeds, args.estimation, args.validation, args.pop, args.generations)
     t0 = time.perf_counter()
     ran = run_study(specs, args.out, workers=args.workers, scheduler=args.scheduler)
     print(f"{ran} runs done now, {len(specs) - ran} were already finished; {time.perf_counter() - t0:.1f} s")

@@ -5,9 +5,8 @@
 * :mod:`~frictionid_core.robots.tx40` — the Stäubli TX40 of SPEC §6 (:func:`build_tx40`) and
   the thesis joint-2 model equivalents.
 * :mod:`~frictionid_core.robots.base` — base parameters by QR with column pivoting, the
-  excitation (rank) test naming unidentifiable parameters.
-* :mod:`~frictionid_core.robots.system` — identification systems ``tx40`` and ``urdf:PATH``
-  (see :func:`frictionid_core.systems.get_system`).
+  excitation (rank) test naming unidentifiable parameters. The identification systems
+  ``tx40`` and ``urdf:PATH`` built on them are in :mod:`frictionid_core.systems.robot`.
 * :mod:`~frictionid_core.robots.excitation` — Fourier excitation optimised for the condition
   number (``frictionid excite``).
 * :mod:`~frictionid_core.robots.synth` — synthetic JointState data (``frictionid synth``).

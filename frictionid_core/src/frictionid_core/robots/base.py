@@ -122,6 +122,12 @@ def _independent_in_order(W: np.ndarray, rank: int, tol: float) -> np.ndarray:
     return np.array(keep, dtype=int)
 
 
+def base_parameter_names(base: BaseParameters) -> list[str]:
+    """Base parameter names: the independent standard parameter, suffixed ``R`` when others
+    are regrouped into it (Khalil's convention, e.g. ``joint_2.IzzR``)."""
+    return [n + ("R" if np.any(base.K[k]) else "") for k, n in enumerate(base.base_names)]
+
+
 def random_samples(robot, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """n random (q, q̇, q̈) within the robot's limits (finite stand-ins for unlimited ones)."""
     rng = np.random.default_rng(seed)

@@ -158,23 +158,20 @@ def check_consistency(robot, base, beta_hat: np.ndarray, prior: np.ndarray | Non
                              dict(zip(names, map(float, pi))))
 
 
-def report_for_result(result: dict, prior: str = "model") -> dict:
-    """Consistency report of an identification result (``Identification.to_dict()``) of a robot system."""
-    from frictionid_core.robots.system import RobotInfo
-    from frictionid_core.systems import get_system
-
-    system = get_system(result["system"])
-    if not isinstance(system.info, RobotInfo):
-        raise FrictionIdError(f"system '{result['system']}' is not a robot system (tx40, urdf:PATH): "
+def report_for_result(result: dict, system, prior: str = "model") -> dict:
+    """Consistency report of an identification result (``Identification.to_dict()``) of a robot
+    system; ``system``: its System (:func:`frictionid_core.systems.result_system`)."""
+    if system.robot is None:
+        raise FrictionIdError(f"system '{system.name}' is not a robot system (tx40, urdf:PATH): "
                               "no body parameters to check")
-    info = system.info
+    info = system.robot
     try:
-        beta = np.array([result["params"][n] for n in info.base_names()])
+        beta = np.array([result["params"][n] for n in system.rigid_names])
     except KeyError as exc:
         raise FrictionIdError(f"result lacks base parameter {exc}") from None
     pri = None if prior == "model" else generic_prior(info.robot)
     rep = check_consistency(info.robot, info.base, beta, pri)
-    return dict(rep.to_dict(), system=result["system"], prior=prior)
+    return dict(rep.to_dict(), system=system.name, prior=prior)
 
 
 def register(subparsers):
@@ -199,7 +196,9 @@ def _cmd_consistency(args) -> int:
         result = json.loads(args.result.read_text())
     except (OSError, json.JSONDecodeError) as exc:
         raise FrictionIdError(f"{args.result}: cannot read the result ({exc})") from None
-    rep = report_for_result(result, args.prior)
+    from frictionid_core.systems import result_system
+
+    rep = report_for_result(result, result_system(result), args.prior)
     print(f"physical consistency of {args.result} ({rep['system']}): "
           f"{'FEASIBLE' if rep['feasible'] else 'NOT FOUND FEASIBLE'} — {rep['method']}")
     print(f"{'body':<14}{'mass':>10}{'λmin(J)':>12}{'triangle':>10}{'ok':>5}")

@@ -340,13 +340,11 @@ def check_trajectory(robot, traj, rate: float = 1000.0, what: str | None = None)
 def observation_matrix(system, robot, traj: FourierTrajectory, moving: list[str], samples: int = 200) -> np.ndarray:
     """Unit-norm columns: the system's rigid columns and q̇_j, sign(q̇_j) of the moving joints,
     over one period at ``samples`` points."""
-    from frictionid_core.robots.system import RobotInfo
-
     t = np.arange(samples) * traj.period / samples
     q, qd, qdd = traj.evaluate(t)
-    if isinstance(system.info, RobotInfo):
+    if system.robot is not None:
         rows_joints = list(robot.joints)
-        W = system.info.base_columns(q, qd, qdd, rows_joints)
+        W = system.robot.base_columns(q, qd, qdd, rows_joints)
         sel = list(range(len(rows_joints)))
     else:
         from frictionid_core.preprocess import Prepared
@@ -474,10 +472,8 @@ def optimise_excitation(system, robot, *, moving: list[str] | None = None, hold:
 # --------------------------------------------------------------------- CLI
 def robot_of(system, system_name: str):
     """The RobotModel behind a system (robot systems, tx40-j2), and its default moving joints."""
-    from frictionid_core.robots.system import RobotInfo
-
-    if isinstance(system.info, RobotInfo):
-        return system.info.robot, None
+    if system.robot is not None:
+        return system.robot.robot, None
     if system_name == "tx40-j2":
         from frictionid_core.robots.tx40 import build_tx40
 

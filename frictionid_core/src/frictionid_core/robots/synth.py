@@ -14,21 +14,21 @@ from pathlib import Path
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.friction import KINDS, get_model
+from frictionid_core.friction import FRICTIONS, get_model
 from frictionid_core.timeseries import JointSeries
 
 DEFAULT_POSITION_NOISE = 1e-6  # rad, robots without a noise table (≈ 0.057e-3 deg)
 DEFAULT_TORQUE_NOISE = 0.05  # N·m (SPEC §6)
 
 
-def tx40_friction(kind: str, asymmetric: bool) -> dict[str, dict[str, float]]:
-    """SPEC friction of the TX40 for ``kind`` (asymmetric: the v < 0 branch has 0.85·Fv,
+def tx40_friction(friction: str, asymmetric: bool) -> dict[str, dict[str, float]]:
+    """SPEC friction of the TX40 for the law ``friction`` (asymmetric: the v < 0 branch has 0.85·Fv,
     0.85·Fc, 0.85·Fs and the same vs, δ — an assumption, SPEC is symmetric)."""
     from frictionid_core.robots.tx40 import FRICTION, JOINTS
 
-    if kind == "threlfall":
+    if friction == "threlfall":
         raise FrictionIdError("SPEC gives no Threlfall parameters for the TX40; pass --friction-params")
-    names = get_model(kind, False).names
+    names = get_model(friction, False).names
     out = {}
     for k, j in enumerate(JOINTS):
         sym = {n: float(FRICTION[n][k]) for n in names}
@@ -40,10 +40,10 @@ def tx40_friction(kind: str, asymmetric: bool) -> dict[str, dict[str, float]]:
     return out
 
 
-def friction_torques(kind: str, asymmetric: bool, params: dict[str, dict[str, float]], joints: list[str],
+def friction_torques(friction: str, asymmetric: bool, params: dict[str, dict[str, float]], joints: list[str],
                      qd: np.ndarray) -> np.ndarray:
     """τ_f for velocities (N, J) of ``joints`` with per-joint parameters {joint: {name: value}}."""
-    model = get_model(kind, asymmetric)
+    model = get_model(friction, asymmetric)
     out = np.empty_like(qd)
     for k, j in enumerate(joints):
         if j not in params:
@@ -56,7 +56,7 @@ def friction_torques(kind: str, asymmetric: bool, params: dict[str, dict[str, fl
     return out
 
 
-def synthesize(robot, trajectory, *, kind: str = "stribeck", asymmetric: bool = False,
+def synthesize(robot, trajectory, *, friction: str = "stribeck", asymmetric: bool = False,
                friction_params: dict[str, dict[str, float]] | None = None, offsets: dict[str, float] | None = None,
                position_noise: float | np.ndarray | None = None, torque_noise: float = DEFAULT_TORQUE_NOISE,
                rate: float = 1000.0, seed: int = 0, names: dict[str, str] | None = None,
@@ -64,6 +64,7 @@ def synthesize(robot, trajectory, *, kind: str = "stribeck", asymmetric: bool = 
     """Data of ``robot`` following ``trajectory`` (see the module doc) and its ground truth.
 
     Args:
+        friction: the friction law; asymmetric: separate v > 0 and v < 0 parameters.
         friction_params: {model joint: {param: value}} (default: SPEC values for the TX40).
         offsets: {model joint: N·m} constant torque offsets (default 0).
         position_noise: 1σ per joint (scalar or (nv,)), rad (default: SPEC for the TX40, else 1e−6).
@@ -71,13 +72,13 @@ def synthesize(robot, trajectory, *, kind: str = "stribeck", asymmetric: bool = 
     """
     from frictionid_core.robots.excitation import check_trajectory
 
-    if kind not in KINDS:
-        raise FrictionIdError(f"unknown friction model '{kind}'; choose one of {', '.join(KINDS)}")
+    if friction not in FRICTIONS:
+        raise FrictionIdError(f"unknown friction model '{friction}'; choose one of {', '.join(FRICTIONS)}")
     check_trajectory(robot, trajectory, rate)
     if friction_params is None:
         if robot.name != "tx40":
             raise InputError(f"no default friction for {robot.name}: give per-joint friction parameters")
-        friction_params = tx40_friction(kind, asymmetric)
+        friction_params = tx40_friction(friction, asymmetric)
     if position_noise is None:
         if robot.name == "tx40":
             from frictionid_core.robots.tx40 import POSITION_NOISE
@@ -94,26 +95,25 @@ def synthesize(robot, trajectory, *, kind: str = "stribeck", asymmetric: bool = 
     order = [trajectory.joints.index(j) for j in robot.joints]
     q, qd, qdd = q[:, order], qd[:, order], qdd[:, order]
     tau = robot.inverse_dynamics(q, qd, qdd)
-    tau += friction_torques(kind, asymmetric, friction_params, robot.joints, qd)
+    tau += friction_torques(friction, asymmetric, friction_params, robot.joints, qd)
     tau += np.array([offsets[j] for j in robot.joints])
     rng = np.random.default_rng(seed)
     position = q + rng.standard_normal(q.shape) * sigma_q
     effort = tau + rng.standard_normal(tau.shape) * torque_noise
     data_names = [(names or {}).get(j, j) for j in robot.joints]
     series = JointSeries(t, data_names, position, effort, source=source)
-    truth = ground_truth(robot, kind, asymmetric, friction_params, offsets, sigma_q, torque_noise, rate, seed,
+    truth = ground_truth(robot, friction, asymmetric, friction_params, offsets, sigma_q, torque_noise, rate, seed,
                          trajectory, data_names)
     return series, truth
 
 
-def ground_truth(robot, kind, asymmetric, friction_params, offsets, sigma_q, torque_noise, rate, seed,
+def ground_truth(robot, friction, asymmetric, friction_params, offsets, sigma_q, torque_noise, rate, seed,
                  trajectory, data_names) -> dict:
     """The JSON-ready ground truth of a synthetic recording."""
-    from frictionid_core.robots.base import robot_base_parameters
-    from frictionid_core.robots.system import base_parameter_names
+    from frictionid_core.robots.base import base_parameter_names, robot_base_parameters
 
     base = robot_base_parameters(robot)
-    model = get_model(kind, asymmetric)
+    model = get_model(friction, asymmetric)
     truth = {
         "robot": robot.name,
         "model_source": robot.source,
@@ -121,7 +121,7 @@ def ground_truth(robot, kind, asymmetric, friction_params, offsets, sigma_q, tor
         "data_joint_names": list(data_names),
         "rate_hz": rate,
         "seed": seed,
-        "friction": {"kind": kind, "asymmetric": asymmetric,
+        "friction": {"kind": friction, "asymmetric": asymmetric,  # "kind": the truth files' format
                      "params": {j: {n: float(friction_params[j][n]) for n in model.names} for j in robot.joints}},
         "offsets": offsets,
         "noise": {"position_rad": dict(zip(robot.joints, map(float, sigma_q))), "torque": float(torque_noise)},
@@ -156,7 +156,7 @@ def expected_parameters(truth: dict, system: str, joints: list[str] | None = Non
 
     ``system``: ``tx40-j2`` (one joint: ZZ, MX, MY, friction, offset) or a robot system
     (base parameters, ``<joint>/<friction>``, ``<joint>/offset``; data joint names)."""
-    fr = truth["friction"]
+    _, _, friction_params = truth_friction(truth)
     data = dict(zip(truth["joints"], truth["data_joint_names"]))
     out: dict[str, float] = {}
     if system == "tx40-j2":
@@ -164,15 +164,24 @@ def expected_parameters(truth: dict, system: str, joints: list[str] | None = Non
             raise FrictionIdError("the truth has no thesis joint-2 equivalents (joint 2 was not the only joint moving)")
         j2 = truth["joint2_thesis_model"]
         out.update(ZZ=j2["ZZ"], MX=j2["MX"], MY=j2["MY"])
-        out.update(fr["params"]["joint_2"])
+        out.update(friction_params["joint_2"])
         out["offset"] = truth["offsets"]["joint_2"]
         return out
     out.update(truth["base_parameters"])
     for j in joints or truth["joints"]:
         model_j = {v: k for k, v in data.items()}.get(j, j)
-        out.update({f"{j}/{n}": v for n, v in fr["params"][model_j].items()})
+        out.update({f"{j}/{n}": v for n, v in friction_params[model_j].items()})
         out[f"{j}/offset"] = truth["offsets"][model_j]
     return out
+
+
+def truth_friction(truth: dict) -> tuple[str | None, bool | None, dict[str, dict[str, float]]]:
+    """(friction law, asymmetric, {joint: {parameter: value}}) of a ground truth, of its
+    ``friction`` block or of bare per-joint parameters (law and asymmetry then None)."""
+    block = truth["friction"] if isinstance(truth.get("friction"), dict) else truth
+    if "params" in block:
+        return block.get("kind"), block.get("asymmetric"), block["params"]
+    return None, None, block
 
 
 # --------------------------------------------------------------------- CLI
@@ -181,11 +190,8 @@ def _read_friction(path: Path) -> tuple[dict, str | None, bool | None]:
         d = json.loads(Path(path).read_text())
     except (OSError, json.JSONDecodeError) as exc:
         raise InputError(f"{path}: cannot read friction parameters ({exc})") from None
-    if "friction" in d and isinstance(d["friction"], dict):  # a truth file
-        d = d["friction"]
-    if "params" in d:
-        return d["params"], d.get("kind"), d.get("asymmetric")
-    return d, None, None
+    friction, asymmetric, params = truth_friction(d)
+    return params, friction, asymmetric
 
 
 def _parse_values(text: str | None, n: int, what: str) -> np.ndarray | None:
@@ -213,7 +219,7 @@ def register(subparsers):
                    help="trajectory from 'frictionid excite' (.npz) or CSV (t, q:<joint>, …)")
     p.add_argument("--system", required=True, help="robot: tx40 | tx40-j2 (the TX40) | urdf:PATH")
     p.add_argument("--out", type=Path, required=True, help="bag directory to create (MCAP)")
-    p.add_argument("--friction", default="stribeck", choices=KINDS, help="friction law (default stribeck)")
+    p.add_argument("--friction", default="stribeck", choices=FRICTIONS, help="friction law (default stribeck)")
     p.add_argument("--asymmetric", action="store_true", help="asymmetric friction (v > 0 and v < 0 parameters)")
     p.add_argument("--friction-params", type=Path,
                    help="JSON {joint: {Fv: …, Fc: …}} or a truth file (default for the TX40: SPEC §6)")
@@ -259,7 +265,7 @@ def _cmd_synth(args) -> int:
         if len(given) != robot.nv:
             raise FrictionIdError(f"--names: {robot.nv} names needed (model order {robot.joints}), got {len(given)}")
         names = dict(zip(robot.joints, given))
-    series, truth = synthesize(robot, traj, kind=args.friction, asymmetric=args.asymmetric, friction_params=params,
+    series, truth = synthesize(robot, traj, friction=args.friction, asymmetric=args.asymmetric, friction_params=params,
                                offsets=offsets, position_noise=_parse_values(args.position_noise, robot.nv,
                                                                              "--position-noise"),
                                torque_noise=args.torque_noise, rate=args.rate, seed=args.seed, names=names,

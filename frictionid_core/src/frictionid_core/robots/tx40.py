@@ -79,16 +79,6 @@ ASSUMPTIONS = (
 )
 
 
-def friction_truth(kind: str = "stribeck") -> dict[str, dict[str, float]]:
-    """{joint: {param: value}} of the SPEC friction restricted to ``kind``'s parameters."""
-    from frictionid_core.friction import get_model
-
-    names = get_model(kind, False).names
-    if kind == "threlfall":
-        raise ValueError("SPEC gives no Threlfall parameters for the TX40")
-    return {j: {n: float(FRICTION[n][k]) for n in names} for k, j in enumerate(JOINTS)}
-
-
 def _placement(alpha: float, a: float, d: float, theta: float, z0: float = 0.0):
     import pinocchio as pin
 

@@ -1,0 +1,66 @@
+"""Full-robot systems on a Pinocchio model: the TX40 (``tx40``) and any fixed-base URDF.
+
+:func:`robot_system` gives a :class:`~frictionid_core.systems.system.System` whose rigid
+columns are the robot's *base* regressor (Pinocchio's joint torque regressor, 10 parameters
+per body, plus one rotor-inertia column q̈_j per joint, reduced to the base parameters by QR
+with column pivoting): τ = W_b(q, q̇, q̈)·β + τ_f(q̇) + offset. Rows are the data's joints
+(joint-major); the data must hold every model joint (bag names matched to model names through
+the system's joint map). The columns of the data are checked for rank before any solve.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from frictionid_core.preprocess import Prepared, Preprocessing
+from frictionid_core.robots.base import base_parameter_names, check_excitation, robot_base_parameters
+from frictionid_core.systems.system import RobotInfo, System
+
+# Robot data: zero-phase 50 Hz Butterworth on position (excitation trajectories are slow; the
+# lower cut-off cuts the noise of q̈) and no decimation: the model evaluates the Stribeck dip
+# at the (decimated) velocity while the measured torque would be low-passed by the decimation
+# filter, and at a fast reversal (|q̈| ≈ 9 rad/s² crosses a 0.025 rad/s dip in ~5 ms) even the
+# 200 Hz anti-alias filter of decimation by 2 biases vs and δ. 200 samples are trimmed at each
+# end: the edge transient of the forward–backward 50 Hz filter (odd-reflection padding flips
+# the sign of q̈ at the edge) still biases q̈ after 50 ms.
+ROBOT_PREPROCESSING = Preprocessing(cutoff_hz=50.0, order=4, decimate=1, trim_start=200, trim_end=200)
+# Rows with |q̇| below this (rad/s) are left out: near a reversal the sign of the estimated
+# velocity is unreliable, and one wrong sign is a 2·Fs outlier that biases vs and δ.
+ROBOT_MIN_SPEED = 3e-3
+
+# Rows of the excitation test: one in this many samples.
+_CHECK_STRIDE = 10
+
+
+def robot_system(robot, name: str, joint_map: dict[str, str] | None = None, base=None,
+                 preprocessing: Preprocessing = ROBOT_PREPROCESSING) -> System:
+    """The full-robot system ``name`` of ``robot`` (a RobotModel); ``base``: its base parameters
+    (default: computed)."""
+    base = base or robot_base_parameters(robot)
+    info = RobotInfo(robot, base)
+    names = tuple(base_parameter_names(base))
+    nominal = base.from_standard(robot.parameters())
+    # Bounds only matter for solvers searching every parameter (use --varpro instead).
+    bounds = {n: (-max(1.0, 10.0 * abs(v)), max(1.0, 10.0 * abs(v))) for n, v in zip(names, nominal)}
+
+    def columns(p: Prepared, joints: list[str]) -> np.ndarray:
+        rows = info.base_columns(p.q, p.qd, p.qdd, joints)
+        _check_rank(rows, p.qd, joints, list(names), name)
+        return rows
+
+    return System(name, tuple(robot.joints), columns, names, bounds, preprocessing, dict(joint_map or {}),
+                  ROBOT_MIN_SPEED, info)
+
+
+def _check_rank(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list[str], name: str) -> None:
+    """Raise when the rigid + Coulomb/viscous columns of the data are rank-deficient."""
+    nj, n = len(joints), qd.shape[0]
+    sel = np.arange(0, n, _CHECK_STRIDE)
+    rigid = np.concatenate([rows[j * n + sel] for j in range(nj)], axis=0)
+    fric = np.zeros((rigid.shape[0], 2 * nj))
+    for j in range(nj):
+        v = qd[sel, j]
+        fric[j * sel.size : (j + 1) * sel.size, 2 * j] = v
+        fric[j * sel.size : (j + 1) * sel.size, 2 * j + 1] = np.sign(v)
+    fnames = [f"{j}/{p}" for j in joints for p in ("Fv", "Fc")]
+    check_excitation(np.hstack([rigid, fric]), names + fnames, f"system '{name}'")
