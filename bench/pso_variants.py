@@ -91,8 +91,8 @@ def main(argv=None) -> int:
         "+ no clamp (mealpy's rule)": dict(greedy=True, random_walls=True, clamp=None),
     }
     print(f"median final cost over {a.seeds} seeds, population 50 x 100 generations")
-    for label, (kind, asym) in MODELS.items():
-        model = build_model(series, "emps", kind, asym)
+    for label, (friction, asym) in MODELS.items():
+        model = build_model(series, "emps", friction, asym)
         lo, hi = model.bounds()
         problem = Problem(list(model.names), lo, hi, model.batch_cost)
         print(f"\n{label}")

@@ -60,12 +60,12 @@ def main() -> None:
     print(f"\nwall time of a position-only simulation of {runs['estimation'].t.size} samples "
           f"(best of {args.repeat})")
     rng = np.random.default_rng(0)
-    for kind, asym in (("coulomb", False), ("coulomb", True), ("tustin", False), ("stribeck", True)):
+    for friction, asym in (("coulomb", False), ("coulomb", True), ("tustin", False), ("stribeck", True)):
         for clock in ("true", "benchmark"):
-            sim = EmpsSimulator(runs["validation"], kind, asym, clock=clock, substeps=args.substeps)
+            sim = EmpsSimulator(runs["validation"], friction, asym, clock=clock, substeps=args.substeps)
             base = {"M": 95.0, "Fv": 200.0, "Fc": 20.0, "Fs": 25.0, "vs": 0.005, "delta": 1.5, "offset": -3.0}
             x = np.array([base[n.removesuffix("_pos").removesuffix("_neg")] for n in sim.names])
-            line = f"{kind + ('-asym' if asym else ''):<15}{clock:<10}"
+            line = f"{friction + ('-asym' if asym else ''):<15}{clock:<10}"
             for P in (1, args.pop):
                 pop = x * (1.0 + 0.05 * rng.uniform(-1, 1, (P, x.size)))
                 sim.position_cost(pop)  # warm-up (compiles on first use)

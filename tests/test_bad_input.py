@@ -303,6 +303,14 @@ def test_unknown_system(tmp_path, capsys, synthetic):
     assert "unknown system 'scara'" in msg and "emps" in msg
 
 
+def test_joint_map_on_a_system_without_one(tmp_path, capsys, synthetic):
+    save_csv(synthetic(), tmp_path / "s.csv")
+    msg = fails(["identify", tmp_path / "s.csv", "--system", "emps", "--joint-map", "a=b"], capsys)
+    assert "system 'emps' takes no joint map" in msg
+    msg = fails(["identify", tmp_path / "s.csv", "--system", "tx40", "--joint-map", "a:b"], capsys)
+    assert "--joint-map item 'a:b'" in msg
+
+
 def test_small_bag_is_readable_before_corruption(small_bag):
     # Guards the corrupt-bag tests above against passing for an unrelated reason.
     from frictionid_core.io import load

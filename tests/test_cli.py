@@ -45,6 +45,7 @@ def test_identify_writes_json(csv_file, tmp_path, capsys):
     for key in ("system", "friction", "asymmetric", "solver", "source", "params", "std", "metrics"):
         assert key in r, key
     assert (r["system"], r["friction"], r["asymmetric"], r["solver"]) == ("emps", "coulomb", False, "ls")
+    assert r["joint_map"] == {}  # always present: validate rebuilds the system from system + joint_map
     assert r["source"] == str(csv_file)
     assert set(r["params"]) == set(TRUE) == set(r["std"])
     for key in ("relerr_pct", "r2", "rmse", "cond"):

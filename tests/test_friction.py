@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import FRICTIONS, all_models, get_model, smooth_sign
+from frictionid_core.friction import FRICTIONS, LAWS, all_models, get_model, smooth_sign
 from frictionid_core.identify import build_model
 from frictionid_core.linear import least_squares
 
@@ -103,6 +103,32 @@ def test_all_models_are_the_eight_combinations():
     assert len(labels) == 8 and len(set(labels)) == 8
     assert set(FRICTIONS) == {"coulomb", "threlfall", "tustin", "stribeck"}
     assert [m.is_linear for m in all_models()] == [True, True] + [False] * 6
+
+
+def test_the_registry_is_the_one_description_of_each_law():
+    """Names, parameters (linear first), one distinct integer code per law (the compiled
+    kernels' agreement with the numpy law is tested in test_identify_optim and test_simulation),
+    and a numpy dip exactly when the law has nonlinear parameters."""
+    assert FRICTIONS == tuple(LAWS) and all(law.name == name for name, law in LAWS.items())
+    for name, law in LAWS.items():
+        assert law.params == NAMES[name] == law.linear + law.nonlinear
+        assert set(law.linear) <= {"Fv", "Fc", "Fs"} and not set(law.nonlinear) & {"Fv", "Fc", "Fs"}
+        assert (law.dip is None) == (not law.nonlinear)
+    assert sorted(law.code for law in LAWS.values()) == list(range(len(LAWS)))
+    with pytest.raises(FrictionIdError, match="coulomb model has no nonlinear part"):
+        get_model("coulomb").dip(np.ones((1, 1)), np.ones(3))
+
+
+@pytest.mark.parametrize("model", [m for m in all_models() if not m.is_linear], ids=lambda m: m.label)
+def test_dip_is_the_law_dip_and_vanishes_with_speed(model):
+    """FrictionModel.dip is the registry's dip: 1 at v = 0 (the level is Fs, or 0 without Fs),
+    decreasing with speed below vs or v0 (0.01 here), vanishing far beyond it."""
+    law = model.law
+    theta = np.array([[0.01] + [1.5] * (len(law.nonlinear) - 1)])
+    a = np.array([0.0, 0.001, 0.005, 0.009, 10.0])
+    d = model.dip(theta, a)[0]
+    np.testing.assert_array_equal(d, law.dip(a[None, :], theta)[0])
+    assert d[0] == 1.0 and np.all(np.diff(d[:4]) < 0) and d[-1] < 1e-12
 
 
 @pytest.mark.parametrize("model", all_models(), ids=lambda m: m.label)

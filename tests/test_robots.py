@@ -18,7 +18,7 @@ from frictionid_core.robots.excitation import (DWELL_SPEEDS, DwellTrajectory, Fo
 from frictionid_core.robots.synth import expected_parameters, synthesize
 from frictionid_core.robots.tx40 import (DH, FIRST_MOMENT, INERTIA, MASS, ROTOR_INERTIA, build_tx40,
                                          joint2_effective_parameters)
-from frictionid_core.systems import get_system, observe, parse_joint_map
+from frictionid_core.systems import as_system, get_system, observe, parse_joint_map
 
 UR5 = "ur_description/urdf/ur5_robot.urdf"
 
@@ -118,6 +118,20 @@ def test_data_joints_must_match_the_model(ur5_path):
         mapped.check_joints(["a", "shoulder_pan_joint"])
     with pytest.raises(InputError, match="expected BAG_NAME=MODEL_NAME"):
         parse_joint_map("a:b")
+
+
+def test_robot_systems_are_built_once_per_name_and_joint_map(ur5_path):
+    """The base parameters are computed once per system; a joint map is a field of the System."""
+    assert get_system("tx40") is get_system("tx40")
+    mapped = get_system("tx40", {"j2": "joint_2"})
+    assert mapped is get_system("tx40", {"j2": "joint_2"}) and mapped is not get_system("tx40")
+    assert mapped.joint_map == {"j2": "joint_2"} and get_system("tx40").joint_map == {}
+    assert mapped.model_joints(["joint_1", "j2"]) == ["joint_1", "joint_2"]
+    with pytest.raises(FrictionIdError, match="takes no joint map"):
+        get_system("tx40-j2", {"j2": "joint_2"})
+    with pytest.raises(FrictionIdError, match="joint map goes with a system name"):
+        as_system(mapped, {"j2": "joint_2"})
+    assert as_system(mapped) is mapped and as_system("tx40", {"j2": "joint_2"}) is mapped
 
 
 def test_trajectory_beyond_the_limits_is_refused(tx40):
@@ -260,8 +274,9 @@ def _parser():
 
 
 def test_cli_excite_synth_identify_compare(tmp_path, ur5_path, capsys):
-    """excite → synth (renamed joints, asymmetric friction) → identify with a joint map → compare."""
-    from frictionid_core.identify import identify
+    """excite → synth (renamed joints, asymmetric friction) → identify with a joint map → validate
+    → compare."""
+    from frictionid_core.identify import identify, validate
     from frictionid_core.io import load
 
     parser, handlers = _parser()
@@ -286,6 +301,12 @@ def test_cli_excite_synth_identify_compare(tmp_path, ur5_path, capsys):
     r = identify(series, system=system, joint_map=joint_map, friction="coulomb", asymmetric=True,
                  solver="ls").to_dict()
     assert (r["system"], r["joint_map"]) == (system, joint_map)
+    # validate rebuilds the system with its joint map, also from a result of the former format
+    # that packed the map into the system name
+    packed = {k: v for k, v in r.items() if k != "joint_map"}
+    packed["system"] = f"{system}?map=" + ",".join(f"{b}={m}" for b, m in joint_map.items())
+    assert validate(series, packed) == validate(series, r)
+    assert validate(series, r)["relerr_pct"] == pytest.approx(r["metrics"]["relerr_pct"], rel=1e-12)
     (tmp_path / "r.json").write_text(json.dumps(r))
     for k in range(6):
         j = load_urdf(ur5_path).joints[k]

@@ -86,9 +86,10 @@ def test_population_of_identical_sets_equals_single(runs):
         assert np.all(many.metrics[key] == one.metrics[key])
 
 
-@pytest.mark.parametrize("kind, asym", [("coulomb", False), ("coulomb", True), ("tustin", False), ("stribeck", True)])
-def test_population_members_equal_individual_runs(runs, kind, asym):
-    sim = EmpsSimulator(runs["validation"], kind, asym)
+@pytest.mark.parametrize("friction, asym",
+                         [("coulomb", False), ("coulomb", True), ("tustin", False), ("stribeck", True)])
+def test_population_members_equal_individual_runs(runs, friction, asym):
+    sim = EmpsSimulator(runs["validation"], friction, asym)
     base = {"M": 95.0, "Fv": 200.0, "Fc": 20.0, "Fs": 25.0, "vs": 0.005, "delta": 1.5, "offset": -3.0}
     x = np.array([base[n.removesuffix("_pos").removesuffix("_neg")] for n in sim.names])
     rng = np.random.default_rng(3)
