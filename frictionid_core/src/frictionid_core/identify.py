@@ -35,8 +35,8 @@ class Identification:
     joint_map: dict[str, str] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        d = {k: getattr(self, k) for k in ("system", "joint_map", "friction", "asymmetric", "solver", "source", "joints",
-                                          "params", "std", "metrics", "wall_s")}
+        d = {k: getattr(self, k) for k in ("system", "joint_map", "friction", "asymmetric", "solver", "source",
+                                          "joints", "params", "std", "metrics", "wall_s")}
         d.update(self.extra)
         return d
 
@@ -57,9 +57,8 @@ def build_model(series: JointSeries, system: str | System, friction: str, asymme
 
 
 def identify(series: JointSeries, *, system: str | System = "emps", joint_map: dict[str, str] | None = None,
-             friction: str = "coulomb",
-             asymmetric: bool = False, solver: str = "ls", seed: int = 0, varpro: bool | None = None,
-             warm_start: bool = True, preprocessing: Preprocessing | None = None,
+             friction: str = "coulomb", asymmetric: bool = False, solver: str = "ls", seed: int = 0,
+             varpro: bool | None = None, warm_start: bool = True, preprocessing: Preprocessing | None = None,
              bounds: dict[str, tuple[float, float]] | None = None, **solver_options) -> Identification:
     """Identify the parameters of ``system`` with ``friction`` from ``series``.
 
@@ -208,7 +207,8 @@ def validate(series: JointSeries, params: dict) -> dict[str, float]:
     with the identification's system (and joint map), pre-processed as in the identification."""
     try:
         settings = Preprocessing(**params["preprocessing"]) if "preprocessing" in params else None
-        model = build_model(series, result_system(params), params["friction"], bool(params["asymmetric"]), settings)
+        model = build_model(series, result_system(params), params["friction"], bool(params["asymmetric"]),
+                            settings)
         values = params["params"]
         x = np.array([values[n] for n in model.names], dtype=float)
     except KeyError as exc:

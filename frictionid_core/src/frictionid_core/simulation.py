@@ -498,13 +498,14 @@ class EmpsSimulator:
         shape = (P, n) if full else (0, 0)
         out_v, out_a, out_u = np.empty(shape), np.empty(shape), np.empty(shape)
         d = self.data
+        law = self.friction.law.code
         # one chunk per core, at least 8 members each (the kernel vectorises across members)
         n_chunks = max(1, min(_workers(), P // 8))
         bounds = np.linspace(0, P, n_chunks + 1).round().astype(int)
 
         def run(lo: int, hi: int) -> None:
             rows = slice(lo, hi) if full else slice(0, 0)
-            _simulate_chunk(self.friction.law.code, self.friction.asymmetric, self.eps, np.ascontiguousarray(theta_t[:, lo:hi]),
+            _simulate_chunk(law, self.friction.asymmetric, self.eps, np.ascontiguousarray(theta_t[:, lo:hi]),
                             p[lo:hi, 0].copy(), off[lo:hi].copy(), d.gtau, d.kp, d.kv, self.saturation,
                             self.periods, self.t_ctrl, self.qg, self.ext, self.pulse_at_samples, *self.initial,
                             self.substeps, full, out_q[lo:hi], out_v[rows], out_a[rows], out_u[rows])
@@ -562,7 +563,8 @@ def simulate_emps(data, params, friction: str | FrictionModel = "coulomb", asymm
 def simulate_identification(data, result: dict, *, clock: str = "true", **options) -> EmpsSimulation:
     """Simulate the parameters of a ``frictionid identify`` result (its JSON as a dict)."""
     try:
-        system, friction, asym, values = result["system"], result["friction"], bool(result["asymmetric"]), result["params"]
+        system, friction, values = result["system"], result["friction"], result["params"]
+        asym = bool(result["asymmetric"])
     except (KeyError, TypeError) as exc:
         raise FrictionIdError(f"parameter file lacks {exc}; "
                               "expected the JSON written by 'frictionid identify'") from None

@@ -169,8 +169,8 @@ def report_for_result(result: dict, system, prior: str = "model") -> dict:
         beta = np.array([result["params"][n] for n in system.rigid_names])
     except KeyError as exc:
         raise FrictionIdError(f"result lacks base parameter {exc}") from None
-    pri = None if prior == "model" else generic_prior(info.robot)
-    rep = check_consistency(info.robot, info.base, beta, pri)
+    pri = None if prior == "model" else generic_prior(info.model)
+    rep = check_consistency(info.model, info.base, beta, pri)
     return dict(rep.to_dict(), system=system.name, prior=prior)
 
 

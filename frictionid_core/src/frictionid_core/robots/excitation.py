@@ -473,7 +473,7 @@ def optimise_excitation(system, robot, *, moving: list[str] | None = None, hold:
 def robot_of(system, system_name: str):
     """The RobotModel behind a system (robot systems, tx40-j2), and its default moving joints."""
     if system.robot is not None:
-        return system.robot.robot, None
+        return system.robot.model, None
     if system_name == "tx40-j2":
         from frictionid_core.robots.tx40 import build_tx40
 

@@ -22,18 +22,18 @@ from frictionid_core.timeseries import JointSeries
 class RobotInfo:
     """The robot behind a robot system: its model and base parameters."""
 
-    robot: object  # frictionid_core.robots.model.RobotModel
+    model: object  # frictionid_core.robots.model.RobotModel
     base: object  # frictionid_core.robots.base.BaseParameters
 
     def base_columns(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, joints: list[str]) -> np.ndarray:
         """Base regressor rows (J·N, r), joint-major in the order of the model joints ``joints``;
         q, q̇, q̈ (N, J) hold every model joint in that order (rad, rad/s, rad/s²)."""
-        index = {j: k for k, j in enumerate(self.robot.joints)}
+        index = {j: k for k, j in enumerate(self.model.joints)}
         order = [index[j] for j in joints]
         n = q.shape[0]
-        qm, qdm, qddm = (np.empty((n, self.robot.nv)) for _ in range(3))
+        qm, qdm, qddm = (np.empty((n, self.model.nv)) for _ in range(3))
         qm[:, order], qdm[:, order], qddm[:, order] = q, qd, qdd
-        Y = self.base.reduce(self.robot.regressor(qm, qdm, qddm))  # (N, nv, r)
+        Y = self.base.reduce(self.model.regressor(qm, qdm, qddm))  # (N, nv, r)
         return np.concatenate([Y[:, m, :] for m in order], axis=0)
 
 
