@@ -175,39 +175,3 @@ def report_for_result(result: dict, prior: str = "model") -> dict:
     pri = None if prior == "model" else generic_prior(info.robot)
     rep = check_consistency(info.robot, info.base, beta, pri)
     return dict(rep.to_dict(), system=result["system"], prior=prior)
-
-
-def register(subparsers):
-    """Add ``consistency``: physical-consistency report of a robot identification result.
-
-        frictionid consistency RESULT.json [--prior model|generic] [--json OUT]   (exit 3: not found feasible)
-    """
-    from pathlib import Path
-
-    p = subparsers.add_parser("consistency", help="physical consistency of identified robot base parameters")
-    p.add_argument("result", type=Path, help="JSON written by 'frictionid identify --system tx40|urdf:PATH'")
-    p.add_argument("--prior", choices=("model", "generic"), default="model",
-                   help="standard parameters to stay close to: the model's own (default) or generic bodies")
-    p.add_argument("--json", type=Path, help="write the report as JSON to this file")
-    return _cmd_consistency
-
-
-def _cmd_consistency(args) -> int:
-    import json
-
-    try:
-        result = json.loads(args.result.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise FrictionIdError(f"{args.result}: cannot read the result ({exc})") from None
-    rep = report_for_result(result, args.prior)
-    print(f"physical consistency of {args.result} ({rep['system']}): "
-          f"{'FEASIBLE' if rep['feasible'] else 'NOT FOUND FEASIBLE'} — {rep['method']}")
-    print(f"{'body':<14}{'mass':>10}{'λmin(J)':>12}{'triangle':>10}{'ok':>5}")
-    for j, b in rep["bodies"].items():
-        print(f"{j:<14}{b['mass']:>10.4g}{b['pseudo_inertia_min_eig']:>12.3g}"
-              f"{str(b.get('triangle_inequalities', '—')):>10}{'yes' if b['consistent'] else 'NO':>5}")
-    print("rotor Ia:", ", ".join(f"{j} {r['Ia']:.4g}" for j, r in rep["rotors"].items()))
-    print(f"max |A·π − β̂| = {rep['base_residual_max']:.3g}")
-    if args.json is not None:
-        args.json.write_text(json.dumps(rep, indent=2) + "\n")
-    return 0 if rep["feasible"] else 3
