@@ -298,14 +298,11 @@ def _raise_interrupt(signum, frame):
 
 def main(argv: list[str] | None = None) -> int:
     """Standalone entry point (``python -m frictionid_ros.replay``), same arguments as ``frictionid replay``."""
+    from frictionid_core.cli import run_handler
+
     parser = argparse.ArgumentParser(prog="frictionid-replay", description=DESCRIPTION)
     add_arguments(parser)
-    args = parser.parse_args(argv)
-    try:
-        return handler(args)
-    except FrictionIdError as exc:
-        print(f"frictionid: error: {exc}", file=sys.stderr)
-        return 2
+    return run_handler(handler, parser.parse_args(argv))
 
 
 if __name__ == "__main__":

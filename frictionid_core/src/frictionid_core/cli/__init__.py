@@ -22,6 +22,8 @@ from importlib import import_module
 
 from frictionid_core.cli._common import run_handler
 
+__all__ = ["COMMANDS", "PLUGIN_GROUP", "build_parser", "main", "run_handler"]
+
 # name → (module in this package, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
     "identify": ("identify", "identify friction (and rigid-body) parameters from data"),
@@ -71,7 +73,7 @@ def _add_plugins(sub, wanted: set[str], handlers: dict[str, Handler]) -> None:
         if ep.name in COMMANDS:
             continue
         if ep.name not in wanted:
-            sub.add_parser(ep.name, help=f"command from {ep.module} ('frictionid {ep.name} --help')")
+            sub.add_parser(ep.name, help=f"command of the plugin {ep.module} (see 'frictionid {ep.name} --help')")
             continue
         try:
             handlers[ep.name] = ep.load()(sub)
