@@ -9,7 +9,8 @@ from contextlib import redirect_stdout
 import numpy as np
 import pytest
 
-from frictionid_core.cli import main, print_table
+from frictionid_core.cli import main
+from frictionid_core.cli._common import print_table
 from frictionid_core.io.bag import write_joint_state_bag
 from frictionid_core.io.csv import save_csv
 from frictionid_core.timeseries import JointSeries
@@ -181,3 +182,74 @@ def test_argparse_rejects_unknown_friction_model(csv_file, capsys):
         main(["identify", str(csv_file), "--friction", "dahl"])
     assert exc.value.code == 2
     assert "dahl" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------- help and plugins
+HEAVY = ("numpy", "scipy", "numba", "pinocchio", "rosbags", "rclpy", "matplotlib")
+# The --friction choices come from the friction registry, a numpy module (~0.1 s to import).
+NEEDS_NUMPY = {"identify", "synth"}
+
+
+def _help_imports(*argv: str) -> tuple[str, list[str]]:
+    """Run ``frictionid ARGV`` in a fresh interpreter; its stdout and the heavy packages it imported."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    src = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(src / "frictionid_core" / "src"),
+                                                       str(src / "frictionid_ros"), os.environ.get("PYTHONPATH", "")]))
+    code = ("import sys; from frictionid_core.cli import main\n"
+            "try:\n    main(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
+            f"print('IMPORTED', *sorted(m for m in {HEAVY!r} if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code, *argv], env=env, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    text, _, imported = out.stdout.rpartition("IMPORTED")
+    return text, imported.split()
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["identify", "--help"], ["validate", "--help"],
+                                  ["simulate", "--help"], ["study", "--help"], ["synth", "--help"],
+                                  ["replay", "--help"]])
+def test_help_imports_no_numerical_or_ros_package(argv):
+    """--help builds the parser only: none of scipy, numba, Pinocchio, rosbags, rclpy, matplotlib is
+    imported, and numpy only by the commands whose --friction choices come from the friction registry."""
+    text, imported = _help_imports(*argv)
+    assert "usage: frictionid" in text
+    assert imported == (["numpy"] if argv[0] in NEEDS_NUMPY else []), imported
+
+
+def test_top_level_help_lists_core_and_plugin_commands():
+    from importlib.metadata import entry_points
+
+    from frictionid_core.cli import COMMANDS
+
+    text, _ = _help_imports("--help")
+    plugins = [ep.name for ep in entry_points(group="frictionid.commands")]
+    for name in [*COMMANDS, *plugins]:
+        assert f"\n    {name} " in text, name
+    assert "identify friction (and rigid-body) parameters" in text
+
+
+def test_command_help_shows_its_options():
+    text, _ = _help_imports("identify", "--help")
+    assert "--friction {coulomb,threlfall,tustin,stribeck}" in text and "--solver {ls,lm," in text
+
+
+def test_unknown_command_is_an_argparse_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["identfy", "x"])
+    assert exc.value.code == 2
+    assert "invalid choice: 'identfy'" in capsys.readouterr().err
+
+
+def test_build_parser_gives_handlers_of_the_named_commands_only():
+    from frictionid_core.cli import build_parser
+
+    parser, handlers = build_parser(["validate"])
+    assert list(handlers) == ["validate"]
+    args = parser.parse_args(["validate", "run.csv", "--params", "p.json", "--joints", "a, b"])
+    assert args.source == "run.csv" and str(args.params) == "p.json" and args.joints == "a, b"
+    with pytest.raises(SystemExit):  # identify's options were not built
+        parser.parse_args(["identify", "run.csv", "--solver", "de"])

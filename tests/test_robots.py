@@ -3,7 +3,6 @@ synthesis, consistency and the bad-input messages (issue "Manipulators with Pino
 
 from __future__ import annotations
 
-import argparse
 import json
 
 import numpy as np
@@ -266,11 +265,9 @@ def test_consistency_of_true_and_of_impossible_base_parameters(tx40):
 
 # ------------------------------------------------------------------------- CLI
 def _parser():
-    from frictionid_core.robots import register_all
+    from frictionid_core.cli import build_parser
 
-    parser = argparse.ArgumentParser(prog="frictionid")
-    sub = parser.add_subparsers(dest="command", required=True)
-    return parser, register_all(sub)
+    return build_parser(["excite", "synth", "compare"])
 
 
 def test_cli_excite_synth_identify_compare(tmp_path, ur5_path, capsys):

@@ -6,13 +6,13 @@ Reference figures: SPEC §5.1 parameters; thesis Table 6.12 (benchmark clock); S
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from frictionid_core.cli import build_parser
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import all_models
 from frictionid_core.simulation import (
@@ -21,7 +21,6 @@ from frictionid_core.simulation import (
     EmpsSimulator,
     friction_batch,
     load_emps,
-    register,
     simulate_emps,
     simulate_identification,
 )
@@ -155,8 +154,8 @@ def test_identify_result_and_cli(runs, tmp_path, capsys):
     sim = simulate_identification(runs["estimation"], result, clock="benchmark")
     assert sim.metrics["position_relerr_pct"] == pytest.approx(0.01375, abs=3e-4)
 
-    parser = argparse.ArgumentParser(prog="frictionid")
-    handler = register(parser.add_subparsers(dest="command"))
+    parser, handlers = build_parser(["simulate"])
+    handler = handlers["simulate"]
     params = tmp_path / "r.json"
     params.write_text(json.dumps(result))
     out = tmp_path / "s.json"

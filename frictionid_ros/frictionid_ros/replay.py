@@ -11,7 +11,8 @@ deserialisation). ROS 1 messages are converted once, before publishing. Header s
 an identification on the replayed data sees the recorded time base.
 
 Registered with the core CLI through the entry point group ``frictionid.commands``
-(``replay = frictionid_ros.replay:register``); importing this module does not import rclpy.
+(``replay = frictionid_ros.replay:register``); importing this module imports neither rclpy nor
+the bag readers (``frictionid replay --help`` stays fast).
 """
 
 from __future__ import annotations
@@ -26,7 +27,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.io.bag import FLOAT_ARRAY, JOINT_STATE, joint_state_topic, open_reader, topic_listing
 
 NS = 1_000_000_000
 DESCRIPTION = ("Publish a bag's JointState (and effort) topic with rclpy, re-stamped to now "
@@ -83,6 +83,8 @@ def _ros1_to_cdr(msg, msgtype: str) -> bytes:
     """A ROS 1 message (rosbags object) as ROS 2 CDR, through rclpy's own types."""
     from rclpy.serialization import serialize_message
 
+    from frictionid_core.io.bag import JOINT_STATE
+
     if msgtype == JOINT_STATE:
         from sensor_msgs.msg import JointState
 
@@ -107,6 +109,8 @@ def load_stream(bag: str | Path, *, topic: str | None = None, effort_topic: str 
 
     ``duration`` [s] keeps only the messages of the first seconds of the JointState topic.
     """
+    from frictionid_core.io.bag import FLOAT_ARRAY, JOINT_STATE, joint_state_topic, open_reader, topic_listing
+
     path = Path(bag)
     if not path.exists():
         raise InputError(f"{path}: no such file or directory")
@@ -173,6 +177,8 @@ def publish_stream(node, stream: Stream, *, rate: float = 1.0, loops: int = 1, q
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
+
+    from frictionid_core.io.bag import FLOAT_ARRAY, JOINT_STATE
 
     if rate < 0:
         raise FrictionIdError(f"--rate must be >= 0, got {rate}")
@@ -292,14 +298,11 @@ def _raise_interrupt(signum, frame):
 
 def main(argv: list[str] | None = None) -> int:
     """Standalone entry point (``python -m frictionid_ros.replay``), same arguments as ``frictionid replay``."""
+    from frictionid_core.cli import run_handler
+
     parser = argparse.ArgumentParser(prog="frictionid-replay", description=DESCRIPTION)
     add_arguments(parser)
-    args = parser.parse_args(argv)
-    try:
-        return handler(args)
-    except FrictionIdError as exc:
-        print(f"frictionid: error: {exc}", file=sys.stderr)
-        return 2
+    return run_handler(handler, parser.parse_args(argv))
 
 
 if __name__ == "__main__":

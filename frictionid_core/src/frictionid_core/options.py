@@ -10,8 +10,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import FRICTIONS
 from frictionid_core.optim import CALL_METHODS, SOLVERS
+
+# Clocks of the EMPS closed-loop simulation (frictionid_core.simulation): the recorded stamps,
+# or the benchmark's constant period.
+CLOCKS = ("true", "benchmark")
 
 
 def check_choice(field: str, value: str, choices, what: str | None = None) -> str:
@@ -54,6 +57,8 @@ class SolveOptions:
     pop: int = 0
 
     def __post_init__(self) -> None:
+        from frictionid_core.friction import FRICTIONS
+
         check_choice("friction", self.friction, FRICTIONS, "friction model")
         check_choice("solver", self.solver, SOLVERS)
         for name in ("budget", "pop"):

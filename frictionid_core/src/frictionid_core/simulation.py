@@ -34,10 +34,8 @@ simulated in one call by a numba kernel (vectorised across members, chunks in th
 
 from __future__ import annotations
 
-import json
 import math
 import os
-import sys
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,10 +45,10 @@ from numba import njit
 
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import COULOMB, STRIBECK, THRELFALL, TUSTIN, FrictionModel, get_model
+from frictionid_core.options import CLOCKS
 from frictionid_core.preprocess import central_difference, lowpass_position
 from frictionid_core.timeseries import JointSeries
 
-CLOCKS = ("true", "benchmark")
 SATURATION_V = 10.0
 SKIP = 49  # samples left out of the metrics (the benchmark's n_border = 50, 1-based)
 CUTOFF_HZ = 100.0  # Butterworth on the measured position (5 × the 20 Hz loop bandwidth)
@@ -572,60 +570,3 @@ def simulate_identification(data, result: dict, *, clock: str = "true", **option
         raise FrictionIdError(f"only the EMPS can be simulated; the parameters are for system '{system}'")
     sim = EmpsSimulator(data, friction, asym, clock=clock, offset="offset" in values, **options)
     return sim.simulate(values)
-
-
-# ---------------------------------------------------------------------------- CLI
-def register(subparsers):
-    """Add ``simulate`` to the ``frictionid`` sub-commands; returns its handler(args) -> exit code.
-
-        frictionid simulate emps --params r.json --data FILE [--clock true|benchmark] [--tec S]
-                                 [--substeps N] [--json S.json]
-    """
-    p = subparsers.add_parser("simulate", help="closed-loop simulation of identified parameters (EMPS)")
-    p.add_argument("system", choices=["emps"], help="system to simulate")
-    p.add_argument("--params", type=Path, required=True, help="JSON written by 'frictionid identify'")
-    p.add_argument("--data", type=Path, required=True, help="EMPS run: MAT file or bag with /joint_reference")
-    p.add_argument("--clock", choices=CLOCKS, default="true",
-                   help="true: recorded stamps (default); benchmark: the benchmark's constant tec = t(10)−t(9)")
-    p.add_argument("--tec", type=float,
-                   help="benchmark-clock period, s (default t(10)−t(9) of the stamps; a bag's stamps are rounded "
-                        "to 1 ns: 9.99983961121758e-4 reproduces the MAT file of the estimation run)")
-    p.add_argument("--substeps", type=int, default=10, help="RK4 steps per controller period (default 10)")
-    p.add_argument("--json", type=Path, help="write the result as JSON to this file")
-    return _cmd_simulate
-
-
-def _cmd_simulate(args) -> int:
-    try:
-        result = json.loads(Path(args.params).read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise FrictionIdError(f"{args.params}: cannot read parameters ({exc})") from None
-    data = load_emps(args.data)
-    sim = simulate_identification(data, result, clock=args.clock, substeps=args.substeps, tec=args.tec)
-    metrics = dict(sim.metrics, clock=sim.clock)
-    out = {"system": "emps", "friction": result.get("friction"), "asymmetric": result.get("asymmetric"),
-           "params": dict(zip(sim.names, map(float, sim.params))), "params_file": str(args.params),
-           "source": data.source, "clock": sim.clock, "settings": sim.settings, "samples": int(sim.t.size),
-           "metrics": metrics}
-    print_simulation(out)
-    if args.json is not None:
-        tmp = args.json.with_name(args.json.name + ".tmp")
-        tmp.write_text(json.dumps(out, indent=2, allow_nan=True) + "\n")
-        tmp.replace(args.json)
-    return 0
-
-
-def print_simulation(out: dict, stream=None) -> None:
-    """A small table of the simulation metrics, stating the clock."""
-    stream = stream or sys.stdout
-    m = out["metrics"]
-    if out["clock"] == "benchmark":
-        clock = f"benchmark (constant tec = {out['settings']['tec'] * 1e3:.9f} ms)"
-    else:
-        clock = "true (recorded stamps)"
-    model = f"{out['friction']}{' (asymmetric)' if out['asymmetric'] else ''}"
-    print(f"EMPS closed-loop simulation · {model} · clock {clock}", file=stream)
-    print(f"data: {out['source']}", file=stream)
-    print(f"{'relative error':<16}{'%':>14}", file=stream)
-    for key in METRIC_KEYS:
-        print(f"{key.removesuffix('_relerr_pct'):<16}{m[key]:>14.6g}", file=stream)

@@ -12,20 +12,25 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import FRICTIONS
+from frictionid_core.jsonfile import write_json
+
+if TYPE_CHECKING:  # numpy and the optimisers are imported by the functions that use them
+    import numpy as np
 
 ALGORITHMS = ("de", "pso", "ga", "aco", "bbo")
 RUNS_FILE = "runs.jsonl"
+
+# progress(finished, total, elapsed_s): called after each finished run.
+Progress = Callable[[int, int, float], None]
 
 
 @dataclass(frozen=True)
@@ -113,11 +118,12 @@ def finished_keys(out_dir: Path) -> set[str]:
 
 
 def run_study(specs: list[RunSpec], out_dir: Path, *, workers: int | None = None, scheduler: str | None = None,
-              progress=sys.stderr) -> int:
+              progress: Progress | None = None) -> int:
     """Run the ``specs`` not finished yet in ``out_dir``; returns how many ran now.
 
     Local processes by default (all cores), or a Dask cluster at ``scheduler`` (tcp://host:port).
     Each finished run is appended and flushed at once: an interruption loses only the runs in flight.
+    ``progress(finished, total, elapsed_s)`` is called after each run.
     """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -135,14 +141,13 @@ def run_study(specs: list[RunSpec], out_dir: Path, *, workers: int | None = None
             sink.write(json.dumps(record) + "\n")
             sink.flush()
             os.fsync(sink.fileno())
-            _progress(progress, n, total, time.perf_counter() - t0)
+            if progress is not None:
+                progress(n, total, time.perf_counter() - t0)
 
         if scheduler:
             _run_dask(todo, scheduler, write)
         else:
             _run_local(todo, workers or os.cpu_count() or 1, write)
-    if progress:
-        print(file=progress)
     return total
 
 
@@ -151,6 +156,8 @@ def _run_local(todo: list[RunSpec], workers: int, write) -> None:
         for n, spec in enumerate(todo, 1):
             write(run_one(spec), n)
         return
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
     with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker) as pool:
         pending = set()
         queue = iter(todo)
@@ -184,16 +191,6 @@ def _run_dask(todo: list[RunSpec], scheduler: str, write) -> None:
             write(fut.result(), n)
 
 
-def _progress(stream, n: int, total: int, elapsed: float) -> None:
-    if stream is None:
-        return
-    eta = elapsed / n * (total - n)
-    width = 30
-    bar = "#" * int(width * n / total)
-    print(f"\r[{bar:<{width}}] {n}/{total} runs, {elapsed:5.0f} s elapsed, ETA {eta:4.0f} s", end="", file=stream,
-          flush=True)
-
-
 # ------------------------------------------------------------------------------------ analysis
 def load_runs(out_dir: Path) -> list[dict]:
     path = Path(out_dir) / RUNS_FILE
@@ -215,6 +212,7 @@ def _label(run: dict) -> str:
 def analyse(out_dir: Path, metric: str = "sim_val_true_pct") -> dict:
     """Rank table, Friedman tests (across algorithms and across models) and pairwise
     Wilcoxon p-values of ``metric`` over the runs in ``out_dir``; writes ``summary.json``."""
+    import numpy as np
     from scipy import stats
 
     runs = load_runs(out_dir)
@@ -251,12 +249,14 @@ def analyse(out_dir: Path, metric: str = "sim_val_true_pct") -> dict:
     best = min(runs, key=lambda r: r[metric])
     summary["best_run"] = {k: best[k] for k in ("algorithm", "friction", "asymmetric", "seed", metric,
                                                 "sim_val_benchmark_pct", "osa_est_pct")}
-    (Path(out_dir) / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_json(Path(out_dir) / "summary.json", summary)
     return summary
 
 
 def convergence(runs: list[dict]) -> dict[str, dict[str, np.ndarray]]:
     """Per algorithm: median over runs of f_min(G) normalised by each run's final cost, and mean dist_mean(G)."""
+    import numpy as np
+
     out = {}
     for a in sorted({r["algorithm"] for r in runs}):
         mine = [r for r in runs if r["algorithm"] == a]

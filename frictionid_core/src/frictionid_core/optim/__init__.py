@@ -27,39 +27,64 @@ Population methods evaluate each generation with a single ``batch_cost`` call.
 
 from __future__ import annotations
 
-import inspect
-from collections.abc import Callable
-
-import numpy as np
+from collections.abc import Callable, Iterator, Mapping
+from importlib import import_module
+from typing import TYPE_CHECKING
 
 from frictionid_core.errors import OptimError
-from frictionid_core.optim import aco, bbo, bo, de, dt, ga, hybrid, lm, pso
-from frictionid_core.optim.problem import OptimResult, Problem
 
-METHODS: dict[str, Callable[..., OptimResult]] = {
-    "ga": ga.solve,
-    "aco": aco.solve,
-    "bbo": bbo.solve,
-    "de": de.solve,
-    "pso": pso.solve,
-    "lm": lm.solve,
-    "bo": bo.solve,
-    "dt": dt.solve,
-    "hybrid": hybrid.solve,
-}
+if TYPE_CHECKING:
+    import numpy as np
+
+    from frictionid_core.optim.problem import OptimResult, Problem
 
 POPULATION_METHODS = ("ga", "aco", "bbo", "de", "pso")
 # Methods whose budget is a number of cost calls (the population methods count generations).
 CALL_METHODS = ("lm", "bo", "dt")
 # Every solver id of identify(): "ls" (closed-form least squares) then the optimisers.
 SOLVERS = ("ls", "lm", "ga", "aco", "bbo", "de", "pso", "bo", "dt", "hybrid")
-assert set(SOLVERS) == {"ls", *METHODS}
 BUDGETS = ("pop", "generations", "calls")
+
+
+class _Methods(Mapping):
+    """Method id → its ``solve`` function; each method's module (``optim/<id>.py``) is
+    imported on first use, so importing this package stays light."""
+
+    _ids = ("ga", "aco", "bbo", "de", "pso", "lm", "bo", "dt", "hybrid")
+
+    def __getitem__(self, method: str) -> Callable[..., OptimResult]:
+        if method not in self._ids:
+            raise KeyError(method)
+        return import_module(f"{__name__}.{method}").solve
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._ids)
+
+    def __len__(self) -> int:
+        return len(self._ids)
+
+    def __contains__(self, method: object) -> bool:
+        return method in self._ids
+
+
+METHODS: Mapping[str, Callable[..., OptimResult]] = _Methods()
+assert set(SOLVERS) == {"ls", *METHODS}
 
 __all__ = ["METHODS", "POPULATION_METHODS", "OptimResult", "Problem", "minimize"]
 
 
+def __getattr__(name: str):
+    """``Problem`` and ``OptimResult`` from :mod:`frictionid_core.optim.problem`, imported on first use."""
+    if name in ("Problem", "OptimResult"):
+        from frictionid_core.optim import problem
+
+        return getattr(problem, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 def _keyword_options(solve: Callable) -> frozenset[str]:
+    import inspect
+
     return frozenset(
         name for name, p in inspect.signature(solve).parameters.items() if p.kind is p.KEYWORD_ONLY
     )
@@ -127,6 +152,10 @@ def minimize(
         OptimError: unknown method or option, bad bounds, bad budget, or every
             evaluation returned NaN/inf.
     """
+    import numpy as np
+
+    from frictionid_core.optim.problem import Problem
+
     if method not in METHODS:
         raise OptimError(f"unknown optimiser {method!r}; available: {', '.join(METHODS)}")
     if not isinstance(problem, Problem):

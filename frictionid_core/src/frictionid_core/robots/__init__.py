@@ -20,19 +20,4 @@ Pinocchio is imported only when a robot model is built.
 
 from frictionid_core.robots.model import RobotModel, example_robot_data_dir, load_urdf
 
-__all__ = ["RobotModel", "example_robot_data_dir", "load_urdf", "COMMANDS"]
-
-# CLI sub-commands of this package: name → module with register(subparsers) -> handler.
-COMMANDS = {
-    "excite": "frictionid_core.robots.excitation",
-    "synth": "frictionid_core.robots.synth",
-    "consistency": "frictionid_core.robots.consistency",
-    "compare": "frictionid_core.robots.compare",
-}
-
-
-def register_all(subparsers) -> dict:
-    """Register every robot sub-command; returns {name: handler}."""
-    from importlib import import_module
-
-    return {name: import_module(mod).register(subparsers) for name, mod in COMMANDS.items()}
+__all__ = ["RobotModel", "example_robot_data_dir", "load_urdf"]

@@ -17,8 +17,6 @@ that recording; at a given noise level σ shrinks only as 1/√(duration).
 
 from __future__ import annotations
 
-import json
-import math
 from pathlib import Path
 
 import numpy as np
@@ -87,60 +85,3 @@ def noise_floor(series, result: dict, truth: dict) -> dict:
     ident = validate(series, result)["relerr_pct"]
     floor = validate(series, dict(result, params={n: exp[n] for n in result["params"]}))["relerr_pct"]
     return {"relerr_pct": ident, "floor_relerr_pct": floor, "ratio": ident / floor}
-
-
-def register(subparsers):
-    """Add ``compare``: identified parameters vs the ground truth of synthetic data.
-
-        frictionid compare RESULT.json --truth bags/tx40_truth.json [--bag tx40_excitation]
-                           [--validation BAG [--validation-truth-bag NAME]] [--json OUT]
-    """
-    p = subparsers.add_parser("compare", help="compare identified parameters with the ground truth of synthetic data")
-    p.add_argument("result", type=Path, help="JSON written by 'frictionid identify'")
-    p.add_argument("--truth", type=Path, required=True,
-                   help="truth JSON ('frictionid synth --truth' or bags/tx40_truth.json)")
-    p.add_argument("--bag", help="recording of a multi-bag truth file (default: the result's source)")
-    p.add_argument("--validation", type=Path, help="validation recording: also report the OSA error vs its noise floor")
-    p.add_argument("--joints", help="joints to load from the validation recording (default: the result's)")
-    p.add_argument("--json", type=Path, help="write the comparison as JSON to this file")
-    return _cmd_compare
-
-
-def _fmt(x: float, digits: int = 6) -> str:
-    return "—" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{digits}g}"
-
-
-def _cmd_compare(args) -> int:
-    try:
-        result = json.loads(args.result.read_text())
-        truth_all = json.loads(args.truth.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise FrictionIdError(f"cannot read {exc}") from None
-    truth = select_truth(truth_all, args.bag or result.get("source"))
-    out = compare(result, truth)
-    print(f"{args.result} vs truth ({args.truth}{'' if not args.bag else ' · ' + args.bag})")
-    print(f"{'parameter':<22} {'estimate':>12} {'truth':>12} {'error %':>9} {'σ %':>9} {'err/σ':>7}  determined")
-    for name, r in out["parameters"].items():
-        print(f"{name:<22} {_fmt(r['estimate']):>12} {_fmt(r['truth']):>12} {_fmt(r['relerr_pct'], 3):>9} "
-              f"{_fmt(r['sigma_pct'], 3):>9} {_fmt(r['z'], 3):>7}  {'yes' if r['determined'] else 'no'}")
-    s = out["summary"]
-    print(f"{s['determined']} of {s['parameters']} parameters determined (σ < 1 % of |truth|): max |error| "
-          f"{_fmt(s['max_abs_relerr_pct_determined'])} %; max |z| over all {_fmt(s['max_abs_z'])}")
-    tol = f"{RESOLVE_TOLERANCE_PCT:g} %"
-    print(f"{s['resolvable_5pct']} of {s['parameters']} resolvable to {tol} ({Z95:g} σ < {tol} of |truth|): "
-          f"max |error| {_fmt(s['max_abs_relerr_pct_resolvable_5pct'])} %; the other "
-          f"{s['parameters'] - s['resolvable_5pct']} cannot be placed within {tol} with 95 % confidence "
-          f"on this recording")
-    if args.validation is not None:
-        from frictionid_core.io import load
-
-        joints = [j.strip() for j in args.joints.split(",")] if args.joints else result.get("joints")
-        series = load(args.validation, joints=joints)
-        vtruth = select_truth(truth_all, str(args.validation))
-        out["validation"] = dict(noise_floor(series, result, vtruth), source=str(args.validation))
-        v = out["validation"]
-        print(f"validation {args.validation}: OSA relative error {v['relerr_pct']:.5g} % vs noise floor "
-              f"{v['floor_relerr_pct']:.5g} % (true parameters): ratio {v['ratio']:.4f}")
-    if args.json is not None:
-        args.json.write_text(json.dumps(out, indent=2, allow_nan=True) + "\n")
-    return 0

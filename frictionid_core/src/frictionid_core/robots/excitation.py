@@ -22,7 +22,6 @@ plateaus to the Fourier part, at the speeds and time shares of the c-optimal des
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -469,7 +468,7 @@ def optimise_excitation(system, robot, *, moving: list[str] | None = None, hold:
     return ExcitationResult(traj, float(10**final), float(10**initial), count[0])
 
 
-# --------------------------------------------------------------------- CLI
+# ---------------------------------------------------------------- robots
 def robot_of(system, system_name: str):
     """The RobotModel behind a system (robot systems, tx40-j2), and its default moving joints."""
     if system.robot is not None:
@@ -479,77 +478,3 @@ def robot_of(system, system_name: str):
 
         return build_tx40(), ["joint_2"]
     raise FrictionIdError(f"system '{system_name}' has no robot model; use tx40, tx40-j2 or urdf:PATH")
-
-
-def _parse_hold(text: str | None) -> dict[str, float]:
-    out = {}
-    for item in filter(None, (s.strip() for s in (text or "").split(","))):
-        j, sep, v = item.partition("=")
-        try:
-            out[j.strip()] = float(v)
-        except ValueError:
-            raise FrictionIdError(f"--hold item '{item}': expected JOINT=RAD") from None
-        if not sep:
-            raise FrictionIdError(f"--hold item '{item}': expected JOINT=RAD")
-    return out
-
-
-def register(subparsers):
-    """Add ``excite``: optimise a Fourier excitation trajectory and write it (.npz or .csv).
-
-        frictionid excite --system tx40 --out traj.npz [--joints J,…] [--hold J=RAD,…]
-                          [--harmonics 5] [--period 10] [--duration 20] [--evals 1500] [--seed 0]
-                          [--dwell SECONDS [--dwell-vs 0.05]]
-    """
-    p = subparsers.add_parser("excite", help="optimise a Fourier excitation trajectory within the joint limits")
-    p.add_argument("--system", required=True,
-                   help="tx40 | tx40-j2 | urdf:PATH (the model whose columns are conditioned)")
-    p.add_argument("--out", type=Path, required=True, help="trajectory file: .npz (coefficients) or .csv (samples)")
-    p.add_argument("--joints", help="joints that move (default: all; tx40-j2: joint_2)")
-    p.add_argument("--hold", help="positions of the joints that do not move, JOINT=RAD,… (default 0)")
-    p.add_argument("--harmonics", type=int, default=5, help="Fourier harmonics L (default 5)")
-    p.add_argument("--period", type=float, default=10.0, help="fundamental period 2π/ω_f, s (default 10)")
-    p.add_argument("--duration", type=float, default=20.0, help="trajectory length, s (default 20)")
-    p.add_argument("--evals", type=int, default=1500, help="criterion evaluations (default 1500)")
-    p.add_argument("--starts", type=int, default=20, help="random starting shapes (default 20)")
-    p.add_argument("--margin", type=float, default=0.05, help="safety margin on the limits, fraction (default 0.05)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--rate", type=float, default=1000.0, help="sample rate of a .csv output, Hz (default 1000)")
-    p.add_argument("--dwell", type=float, default=0.0,
-                   help="append this many seconds of constant-velocity plateaus (±0.2, 0.6, 1.25, 2.5 × "
-                        "--dwell-vs) after the Fourier part, for the Stribeck shapes (default 0: none)")
-    p.add_argument("--dwell-vs", type=float, default=0.05, help="nominal Stribeck speed vs, rad/s (default 0.05)")
-    p.add_argument("--json", type=Path, help="write a report as JSON to this file")
-    return _cmd_excite
-
-
-def _cmd_excite(args) -> int:
-    from frictionid_core.systems import get_system
-
-    system = get_system(args.system)
-    robot, default_moving = robot_of(system, args.system)
-    moving = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else default_moving
-    res = optimise_excitation(system, robot, moving=moving, hold=_parse_hold(args.hold), harmonics=args.harmonics,
-                              period=args.period, duration=args.duration, evals=args.evals, starts=args.starts,
-                              seed=args.seed, margin=args.margin)
-    traj = res.trajectory
-    if not args.dwell >= 0:
-        raise InputError(f"--dwell must be ≥ 0 s, got {args.dwell:g}")
-    if args.dwell > 0:
-        traj = add_dwell(robot, traj, args.dwell, args.dwell_vs, args.margin)
-    traj.save(args.out, args.rate)
-    t, q, qd, qdd = traj.sample(args.rate)
-    print(f"excitation for {args.system} ({robot.name}): cond {res.cond_initial:.4g} → {res.cond:.4g} "
-          f"after {res.evaluations} evaluations; written to {args.out}")
-    if args.dwell > 0:
-        print(f"then {args.dwell:g} s of plateaus at ± {', '.join(f'{v:.4g}' for v in traj.speeds)} rad/s "
-              f"({', '.join(f'{h:.3g}' for h in traj.plateau_s)} s each sign, entry ramp {traj.entry_s:g} s); "
-              f"{traj.duration:g} s in all")
-    print(f"{'joint':<14}{'q min':>10}{'q max':>10}{'|q̇| max':>10}{'lim':>8}{'|q̈| max':>10}{'lim':>8}")
-    for k, j in enumerate(robot.joints):
-        print(f"{j:<14}{q[:, k].min():>10.4g}{q[:, k].max():>10.4g}{np.abs(qd[:, k]).max():>10.4g}"
-              f"{robot.velocity_limit[k]:>8.3g}{np.abs(qdd[:, k]).max():>10.4g}{robot.acceleration_limit[k]:>8.3g}")
-    if args.json is not None:
-        report = dict(res.to_dict(), system=args.system, out=str(args.out), trajectory=traj.to_dict())
-        args.json.write_text(json.dumps(report, indent=2) + "\n")
-    return 0

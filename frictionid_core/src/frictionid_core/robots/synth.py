@@ -8,13 +8,13 @@ returned beside the data so identification results can be compared with it.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import FRICTIONS, get_model
+from frictionid_core.jsonfile import read_json
 from frictionid_core.timeseries import JointSeries
 
 DEFAULT_POSITION_NOISE = 1e-6  # rad, robots without a noise table (≈ 0.057e-3 deg)
@@ -175,106 +175,5 @@ def expected_parameters(truth: dict, system: str, joints: list[str] | None = Non
     return out
 
 
-def truth_friction(truth: dict) -> tuple[str | None, bool | None, dict[str, dict[str, float]]]:
-    """(friction law, asymmetric, {joint: {parameter: value}}) of a ground truth, of its
-    ``friction`` block or of bare per-joint parameters (law and asymmetry then None)."""
-    block = truth["friction"] if isinstance(truth.get("friction"), dict) else truth
-    if "params" in block:
-        return block.get("kind"), block.get("asymmetric"), block["params"]
-    return None, None, block
-
-
-# --------------------------------------------------------------------- CLI
-def _read_friction(path: Path) -> tuple[dict, str | None, bool | None]:
-    try:
-        d = json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(f"{path}: cannot read friction parameters ({exc})") from None
-    friction, asymmetric, params = truth_friction(d)
-    return params, friction, asymmetric
-
-
-def _parse_values(text: str | None, n: int, what: str) -> np.ndarray | None:
-    if text is None:
-        return None
-    try:
-        vals = [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise FrictionIdError(f"{what} '{text}': expected a number or {n} comma-separated numbers") from None
-    if len(vals) not in (1, n):
-        raise FrictionIdError(f"{what}: expected 1 or {n} values, got {len(vals)}")
-    return np.array(vals)
-
-
-def register(subparsers):
-    """Add ``synth``: trajectory → synthetic JointState bag (+ ground-truth JSON).
-
-        frictionid synth TRAJ --system tx40 --out BAG [--friction stribeck] [--asymmetric]
-                         [--friction-params F.json] [--offsets J=V,…] [--position-noise RAD[,…]]
-                         [--torque-noise 0.05] [--rate 1000] [--seed 0] [--truth T.json] [--names A,B,…]
-    """
-    p = subparsers.add_parser("synth",
-                              help="synthesise a JointState bag from a trajectory (Pinocchio + friction + noise)")
-    p.add_argument("trajectory", type=Path,
-                   help="trajectory from 'frictionid excite' (.npz) or CSV (t, q:<joint>, …)")
-    p.add_argument("--system", required=True, help="robot: tx40 | tx40-j2 (the TX40) | urdf:PATH")
-    p.add_argument("--out", type=Path, required=True, help="bag directory to create (MCAP)")
-    p.add_argument("--friction", default="stribeck", choices=FRICTIONS, help="friction law (default stribeck)")
-    p.add_argument("--asymmetric", action="store_true", help="asymmetric friction (v > 0 and v < 0 parameters)")
-    p.add_argument("--friction-params", type=Path,
-                   help="JSON {joint: {Fv: …, Fc: …}} or a truth file (default for the TX40: SPEC §6)")
-    p.add_argument("--offsets", help="constant torque offsets JOINT=N·m,… (default 0)")
-    p.add_argument("--position-noise",
-                   help="1σ position noise, rad: one value or one per joint (default: SPEC for the TX40, else 1e-6)")
-    p.add_argument("--torque-noise", type=float, default=DEFAULT_TORQUE_NOISE,
-                   help="1σ torque noise, N·m (default 0.05)")
-    p.add_argument("--rate", type=float, default=1000.0, help="sample rate, Hz (default 1000)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    p.add_argument("--names",
-                   help="joint names written in the bag, comma-separated in model order (default: model names)")
-    p.add_argument("--truth", type=Path, help="write the ground truth as JSON here")
-    return _cmd_synth
-
-
-def _cmd_synth(args) -> int:
-    from frictionid_core.io.bag import write_joint_state_bag
-    from frictionid_core.robots.excitation import load_trajectory, robot_of
-    from frictionid_core.systems import get_system
-
-    robot, _ = robot_of(get_system(args.system), args.system)
-    traj = load_trajectory(args.trajectory)
-    params, kind, asym = (None, None, None)
-    if args.friction_params is not None:
-        params, kind, asym = _read_friction(args.friction_params)
-        if kind is not None and (kind != args.friction or bool(asym) != args.asymmetric):
-            raise FrictionIdError(f"{args.friction_params} holds {kind}{' (asymmetric)' if asym else ''} parameters; "
-                                  f"pass --friction {kind}{' --asymmetric' if asym else ''}")
-    offsets = {}
-    for item in filter(None, (s.strip() for s in (args.offsets or "").split(","))):
-        j, _, v = item.partition("=")
-        try:
-            offsets[j.strip()] = float(v)
-        except ValueError:
-            raise FrictionIdError(f"--offsets item '{item}': expected JOINT=VALUE") from None
-    bad = [j for j in offsets if j not in robot.joints]
-    if bad:
-        raise InputError(f"--offsets: joint(s) {bad} not in {robot.name} {robot.joints}")
-    names = None
-    if args.names:
-        given = [n.strip() for n in args.names.split(",")]
-        if len(given) != robot.nv:
-            raise FrictionIdError(f"--names: {robot.nv} names needed (model order {robot.joints}), got {len(given)}")
-        names = dict(zip(robot.joints, given))
-    series, truth = synthesize(robot, traj, friction=args.friction, asymmetric=args.asymmetric, friction_params=params,
-                               offsets=offsets, position_noise=_parse_values(args.position_noise, robot.nv,
-                                                                             "--position-noise"),
-                               torque_noise=args.torque_noise, rate=args.rate, seed=args.seed, names=names,
-                               source=str(args.out))
-    truth["trajectory_file"] = str(args.trajectory)
-    write_joint_state_bag(args.out, series)
-    if args.truth is not None:
-        args.truth.write_text(json.dumps(truth, indent=2) + "\n")
-    print(f"{args.out}: {len(series)} samples × {len(series.joints)} joints of {robot.name} at {args.rate:g} Hz, "
-          f"{args.friction}{' (asymmetric)' if args.asymmetric else ''} friction"
-          + (f"; truth in {args.truth}" if args.truth else ""))
-    return 0
+from frictionid_core.friction import FRICTIONS, get_model
+from frictionid_core.jsonfile import read_json

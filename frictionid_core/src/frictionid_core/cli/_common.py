@@ -1,0 +1,134 @@
+"""What several commands share: source arguments, value parsing, tables, JSON output, error handling.
+
+Imports only the standard library and ``frictionid_core.errors`` at module level (it is
+loaded for ``frictionid --help``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import warnings
+from pathlib import Path
+
+from frictionid_core.errors import FrictionIdError
+
+EXIT_INPUT = 2  # bad input: one line on stderr
+EXIT_INTERNAL = 1  # a bug
+
+# ------------------------------------------------------------------- arguments
+def add_json_argument(p: argparse.ArgumentParser, what: str = "the result") -> None:
+    p.add_argument("--json", type=Path, help=f"write {what} as JSON to this file")
+
+
+def add_source_arguments(p: argparse.ArgumentParser) -> None:
+    """SOURCE and the options choosing what to read from it (identify, validate)."""
+    p.add_argument("source", help="MAT (EMPS), CSV, rosbag2 directory / .mcap / .db3, or ROS 1 .bag")
+    p.add_argument("--topic", help="JointState topic of a bag (default /joint_states, else the only one)")
+    p.add_argument("--joints", help="comma-separated joint names to use, in order (default: all)")
+    p.add_argument("--effort-topic", help="separate effort topic (JointState or Float64MultiArray)")
+    p.add_argument("--strict-time", action="store_true",
+                   help="fail on duplicated or out-of-order time stamps instead of repairing them")
+    add_json_argument(p)
+
+
+def load_source(args):
+    """The JointSeries named by :func:`add_source_arguments`' options."""
+    from frictionid_core.io import load
+
+    return load(args.source, topic=args.topic, joints=split_list(args.joints) or None,
+                effort_topic=args.effort_topic, strict_time=args.strict_time)
+
+
+def split_list(text: str | None) -> list[str] | None:
+    """``"a, b,c"`` → ``["a", "b", "c"]`` (empty items dropped); None stays None."""
+    return None if text is None else [item.strip() for item in text.split(",") if item.strip()]
+
+
+def parse_joint_values(text: str | None, option: str, unit: str = "VALUE") -> dict[str, float]:
+    """``"j1=0.5,j2=-1"`` → ``{"j1": 0.5, "j2": -1.0}``; FrictionIdError naming ``option`` otherwise."""
+    out = {}
+    for item in split_list(text) or []:
+        joint, sep, value = item.partition("=")
+        try:
+            if not sep:
+                raise ValueError
+            out[joint.strip()] = float(value)
+        except ValueError:
+            raise FrictionIdError(f"{option} item '{item}': expected JOINT={unit}") from None
+    return out
+
+
+def parse_bounds(items: list[str]) -> dict[str, tuple[float, float]]:
+    """``--bounds NAME=LO:HI`` items → {name: (lo, hi)}."""
+    out = {}
+    for item in items:
+        name, _, rng = item.partition("=")
+        lo, _, hi = rng.partition(":")
+        try:
+            out[name.strip()] = (float(lo), float(hi))
+        except ValueError:
+            raise FrictionIdError(f"--bounds '{item}': expected NAME=LO:HI, e.g. vs=1e-4:1") from None
+    return out
+
+
+# ---------------------------------------------------------------------- output
+def fmt(x, digits: int = 6) -> str:
+    """A number with ``digits`` significant digits; None and NaN as "—"."""
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "—"
+    return f"{x:.{digits}g}" if isinstance(x, (int, float)) else str(x)
+
+
+def metrics_line(metrics: dict) -> str:
+    return "metrics: " + ", ".join(f"{k} {fmt(v)}" for k, v in metrics.items())
+
+
+def print_table(result: dict, out=None) -> None:
+    """A readable table of an identification's parameters (± σ) and metrics (to ``out``, default stdout)."""
+    out = sys.stdout if out is None else out
+    head = (f"{result['system']} · {result['friction']}{' (asymmetric)' if result['asymmetric'] else ''}"
+            f" · solver {result['solver']}")
+    print(head, file=out)
+    print(f"source: {result['source']}", file=out)
+    print(f"{'parameter':<16}{'value':>14}{'σ':>12}", file=out)
+    for name, value in result["params"].items():
+        print(f"{name:<16}{fmt(value):>14}{fmt(result['std'].get(name)):>12}", file=out)
+    print(metrics_line(result["metrics"]), file=out)
+
+
+def save_json(path: Path | None, data) -> None:
+    """Write ``data`` to ``path`` (the ``--json`` option) atomically; nothing when ``path`` is None."""
+    if path is not None:
+        from frictionid_core.jsonfile import write_json
+
+        write_json(path, data)
+
+
+# ---------------------------------------------------------------------- errors
+def run_handler(handler, args: argparse.Namespace) -> int:
+    """``handler(args)``'s exit code; a FrictionIdError becomes one line on stderr and exit code 2,
+    any other exception one line and exit code 1 (the traceback with FRICTIONID_DEBUG=1).
+    Library warnings are printed as ``frictionid: warning: …`` lines."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        try:
+            code = handler(args)
+        except FrictionIdError as exc:
+            code = EXIT_INPUT
+            print(f"frictionid: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        except BrokenPipeError:  # output piped into head & co.
+            sys.stderr.close()
+            code = 0
+        except Exception as exc:  # a bug, not bad input: one line unless debugging
+            if os.environ.get("FRICTIONID_DEBUG"):
+                raise
+            code = EXIT_INTERNAL
+            print(f"frictionid: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} "
+                  "(set FRICTIONID_DEBUG=1 for the traceback)", file=sys.stderr)
+        for w in caught:
+            if issubclass(w.category, UserWarning):
+                print(f"frictionid: warning: {w.message}", file=sys.stderr)
+    return code

@@ -1,0 +1,83 @@
+"""``frictionid identify SOURCE [--system S] [--friction F] [--solver X] [--json OUT]``."""
+
+from __future__ import annotations
+
+import argparse
+
+from frictionid_core.cli._common import (add_source_arguments, load_source, parse_bounds,
+                                         print_table, save_json)
+from frictionid_core.errors import FrictionIdError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    from frictionid_core.friction import FRICTIONS
+    from frictionid_core.optim import SOLVERS
+    from frictionid_core.options import CLOCKS
+
+    add_source_arguments(p)
+    p.add_argument("--system", default="emps",
+                   help="inverse dynamic model: emps | friction-only | tx40-j2 | tx40 | urdf:PATH (default emps)")
+    p.add_argument("--joint-map", help="bag joint → model joint names when they differ: a=b,c=d")
+    p.add_argument("--friction", default="coulomb", choices=FRICTIONS, help="friction model (default coulomb)")
+    p.add_argument("--asymmetric", action="store_true", help="separate parameters for v > 0 and v < 0")
+    p.add_argument("--solver", default="ls", choices=SOLVERS, help="optimiser (default ls: linear least squares)")
+    p.add_argument("--seed", type=int, default=0, help="random seed of stochastic solvers (default 0)")
+    p.add_argument("--budget", type=int, help="generations (population solvers) or calls (bo, dt)")
+    p.add_argument("--pop", type=int, help="population size of population solvers")
+    p.add_argument("--bounds", action="append", default=[], metavar="NAME=LO:HI",
+                   help="search bounds of a parameter or family (e.g. vs=1e-4:1); repeatable")
+    p.add_argument("--cutoff", type=float, help="Butterworth cut-off on position, Hz (default: the system's)")
+    p.add_argument("--decimate", type=int, help="decimation factor (default: the system's)")
+    p.add_argument("--trim", type=int, help="samples dropped at the start (default: the system's)")
+    p.add_argument("--output-error", action="store_true",
+                   help="EMPS: minimise the closed-loop simulated position error, starting from the IDM result")
+    p.add_argument("--clock", choices=CLOCKS, default="true",
+                   help="simulation clock of --output-error (default true)")
+    p.add_argument("--varpro", action=argparse.BooleanOptionalAction, default=None,
+                   help="variable projection: search only vs/delta/v0, solve the linear parameters in closed form "
+                        "(default: on for tx40 and urdf:PATH, off otherwise)")
+    p.add_argument("--warm-start", action=argparse.BooleanOptionalAction, default=True,
+                   help="global solvers evaluate the closed-form start (never worse than the nested linear model) "
+                        "first; --no-warm-start: purely random initial population, the thesis protocol (default on)")
+
+
+def _preprocessing(args):
+    """The system's pre-processing with the --cutoff/--decimate/--trim overrides, or None."""
+    from dataclasses import replace
+
+    from frictionid_core.systems import get_system
+
+    changes = {k: v for k, v in (("cutoff_hz", args.cutoff), ("decimate", args.decimate),
+                                 ("trim_start", args.trim)) if v is not None}
+    if not changes:
+        return None
+    if changes.get("decimate", 1) < 1 or changes.get("trim_start", 0) < 0:
+        raise FrictionIdError("--decimate must be ≥ 1 and --trim ≥ 0")
+    return replace(get_system(args.system).preprocessing, **changes)
+
+
+def run(args) -> int:
+    from frictionid_core.options import budget_options
+
+    opts = budget_options(args.solver, args.budget, args.pop)
+    if args.output_error:
+        from frictionid_core.output_error import identify_output_error
+
+        if args.system != "emps":
+            raise FrictionIdError(f"--output-error needs the EMPS closed-loop model; got system '{args.system}'")
+        result = identify_output_error(args.source, friction=args.friction, asymmetric=args.asymmetric,
+                                       solver=args.solver if args.solver != "ls" else "lm", seed=args.seed,
+                                       clock=args.clock, bounds=parse_bounds(args.bounds), **opts).to_dict()
+    else:
+        from frictionid_core.identify import identify
+        from frictionid_core.systems import parse_joint_map
+
+        series = load_source(args)
+        result = identify(series, system=args.system, joint_map=parse_joint_map(args.joint_map),
+                          friction=args.friction,
+                          asymmetric=args.asymmetric, solver=args.solver, seed=args.seed, varpro=args.varpro,
+                          warm_start=args.warm_start, bounds=parse_bounds(args.bounds),
+                          preprocessing=_preprocessing(args), **opts).to_dict()
+    print_table(result)
+    save_json(args.json, result)
+    return 0
