@@ -66,7 +66,7 @@ def _feed(inputs: Inputs, n: int = 1000, skip=(), effort: bool = True, names=("b
 
 
 def _inputs(cfg) -> Inputs:
-    inputs = Inputs(cfg, warn=lambda text: None)
+    inputs = Inputs(lambda: cfg, warn=lambda text: None)
     inputs.setup(list(cfg.joints))
     return inputs
 

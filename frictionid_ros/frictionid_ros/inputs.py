@@ -12,18 +12,15 @@ import time
 
 import numpy as np
 
-from frictionid_ros.buffer import NO_EFFORT, NO_POSITION, NO_VELOCITY, JointRing, NameMap, put
-from frictionid_ros.config import Config
+from frictionid_ros.buffer import NO_EFFORT, NO_POSITION, NO_VELOCITY, JointRing, NameMap, put, stamp_ns
 from frictionid_ros.feedforward import FeedForward
 
-NS = 1_000_000_000
 LATENCY_WINDOW = 4096  # feed-forward latencies kept for the percentiles [samples]
 
 
 def _stamp_ns(msg) -> int:
     """Header stamp of ``msg`` [ns], or now (system clock) when it is zero."""
-    st = msg.header.stamp
-    return st.sec * NS + st.nanosec or time.time_ns()
+    return stamp_ns(msg.header.stamp) or time.time_ns()
 
 
 class Inputs:
@@ -31,11 +28,12 @@ class Inputs:
 
     Buffers are created when the joints are known (:meth:`setup`: from the configuration or the
     first joint state). ``v`` is the velocity of the feed-forward [rad/s | m/s], ``ff_stamp`` the
-    stamp of the message that set it [ns]. ``warn`` logs a rejected message (once per reason).
+    stamp of the message that set it [ns]. ``settings()`` returns the node's current
+    :class:`~frictionid_ros.config.Config`; ``warn`` logs a rejected message (once per reason).
     """
 
-    def __init__(self, cfg: Config, warn):
-        self.cfg = cfg
+    def __init__(self, settings, warn):
+        self._settings = settings
         self._warn = warn
         self.ring: JointRing | None = None
         self.effort_ring: JointRing | None = None
@@ -54,10 +52,11 @@ class Inputs:
     @property
     def joints(self) -> list[str]:
         """Buffered joints (the configured ones before the first message)."""
-        return self.ring.joints if self.ring is not None else list(self.cfg.joints)
+        return self.ring.joints if self.ring is not None else list(self._settings().joints)
 
     def setup(self, joints: list[str]) -> None:
-        cfg = self.cfg
+        """Create the buffers, name maps and feed-forward of ``joints`` (in this order)."""
+        cfg = self._settings()
         nj = len(joints)
         self._map = NameMap(joints)
         if cfg.effort_topic:
@@ -92,14 +91,14 @@ class Inputs:
         names = msg.name
         if ring is None:
             if not names:
-                self.reject(f"'{self.cfg.joint_states_topic}': JointState without joint names")
+                self.reject(f"'{self._settings().joint_states_topic}': JointState without joint names")
                 return False
             self.setup(list(names))
             ring = self.ring
         try:
             idx = self._map.index(names)
         except KeyError as exc:
-            self.reject(f"'{self.cfg.joint_states_topic}': {exc.args[0]}")
+            self.reject(f"'{self._settings().joint_states_topic}': {exc.args[0]}")
             return False
         n = len(names)
         t_ns = _stamp_ns(msg)
@@ -137,7 +136,7 @@ class Inputs:
     def effort(self, msg, t_rx: int) -> None:
         """Buffer a JointState (by stamp) or an unstamped Float64MultiArray (by receipt ``t_rx`` [ns]) effort."""
         ring = self.effort_ring
-        topic = self.cfg.effort_topic
+        topic = self._settings().effort_topic
         if ring is None:
             return self.reject(f"'{topic}': effort before the joint names are known")
         if hasattr(msg, "name"):  # JointState
@@ -160,7 +159,7 @@ class Inputs:
     def reference(self, msg) -> bool:
         """Take the desired velocity of a reference JointState (else differentiate its positions);
         True if it set the feed-forward velocity."""
-        topic = self.cfg.reference_topic
+        topic = self._settings().reference_topic
         if self._ref_map is None:
             self.reject(f"'{topic}': reference before the joint names are known")
             return False
@@ -222,7 +221,7 @@ class Inputs:
         self._rate_mark = (now, self.received)
         ring = self.ring
         count = ring.count if ring else 0
-        cap = ring.capacity if ring else self.cfg.capacity
+        cap = ring.capacity if ring else self._settings().capacity
         span = 0.0
         if ring is not None and count > 1:
             span = (int(ring.t_ns[ring.last_row(0)]) - int(ring.t_ns[ring.last_row(count - 1)])) * 1e-9

@@ -10,9 +10,9 @@ with warnings.catch_warnings():
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
     from frictionid_interfaces.msg import IdentifiedParameters, JointFriction
 
+from frictionid_ros.buffer import NS
 from frictionid_ros.store import JointParams, Results, shared_parameters
 
-NS = 1_000_000_000
 NAN = float("nan")
 
 

@@ -58,7 +58,8 @@ with warnings.catch_warnings():
 from frictionid_core.errors import FrictionIdError
 
 from frictionid_ros import config as cfgmod
-from frictionid_ros.inputs import NS, Inputs
+from frictionid_ros.buffer import NS
+from frictionid_ros.inputs import Inputs
 from frictionid_ros.messages import diagnostic_array, parameters_msg
 from frictionid_ros.service import IdentifyService
 from frictionid_ros.store import ActiveParameters, Results
@@ -101,7 +102,7 @@ class FrictionIdNode(Node):
         self.cfg = cfg = self._declare_parameters()
         self._log = self.get_logger()
         self._logged_errors: set = set()
-        self.inputs = Inputs(cfg, self._log.warning)
+        self.inputs = Inputs(lambda: self.cfg, self._log.warning)
         # Active parameters: restored from the results file so the feed-forward resumes.
         self.active = ActiveParameters(cfg.results_file, self._on_parameters, self._log)
         self.active.restore()
@@ -195,7 +196,7 @@ class FrictionIdNode(Node):
             cfg = cfgmod.make_config(values)
         except FrictionIdError as exc:
             return SetParametersResult(successful=False, reason=str(exc))
-        self.cfg = self.inputs.cfg = replace(
+        self.cfg = replace(
             self.cfg, solve=cfg.solve, window_seconds=cfg.window_seconds, min_samples=cfg.min_samples,
             max_missing_pct=cfg.max_missing_pct, smoothing_eps=cfg.smoothing_eps)
         if self.inputs.ff is not None:

@@ -14,9 +14,8 @@ import numpy as np
 from frictionid_core.errors import InputError
 from frictionid_core.options import SolveOptions
 
+from frictionid_ros.buffer import stamp_ns
 from frictionid_ros.config import Config, solve_options
-
-NS = 1_000_000_000
 
 
 @dataclass(frozen=True)
@@ -49,11 +48,6 @@ class Job:
         return kwargs
 
 
-def time_ns(stamp) -> int:
-    """A builtin_interfaces/Time as ns since the epoch."""
-    return int(stamp.sec) * NS + int(stamp.nanosec)
-
-
 def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
     """Validate an Identify request against the node's settings ``cfg`` and ``buffered`` joints.
 
@@ -72,7 +66,7 @@ def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
                             asymmetric=bool(req.asymmetric or default.asymmetric), solver=req.solver or default.solver,
                             seed=seed, budget=int(req.budget), population=int(req.population))
     ws = float(req.window_seconds)
-    start, end = time_ns(req.window_start), time_ns(req.window_end)
+    start, end = stamp_ns(req.window_start), stamp_ns(req.window_end)
     if not math.isfinite(ws) or ws < 0.0:
         raise InputError(f"window_seconds must be >= 0, got {ws}")
     if ws > 0.0 and (start or end):

@@ -12,15 +12,16 @@ from frictionid_core.io.align import align_effort
 from frictionid_core.io.checks import MIN_SAMPLES, check_series, stamp_gaps
 from frictionid_core.timeseries import JointSeries
 
-from frictionid_ros.buffer import NO_EFFORT, NO_POSITION, NO_VELOCITY, JointRing
+from frictionid_ros.buffer import NO_EFFORT, NO_POSITION, NO_VELOCITY, NS, JointRing
 from frictionid_ros.config import Config
-from frictionid_ros.request import NS, Job
+from frictionid_ros.request import Job
 
 
 @dataclass
 class Selection:
-    """A window ready to identify: ``series`` (time from ``start_ns``), its first and last stamps
-    [ns since the epoch] and notes on what was done to the data."""
+    """A window ready to identify: ``series`` (``t`` [s] from the window's first buffered stamp),
+    the stamps of its first and last samples [ns since the epoch] and notes on what was done to
+    the data (effort alignment, stamp repairs, lost samples)."""
 
     series: JointSeries
     start_ns: int
