@@ -51,7 +51,8 @@ class Job:
 def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
     """Validate an Identify request against the node's settings ``cfg`` and ``buffered`` joints.
 
-    Seed: > 0 as given, 0 the configured seed, < 0 a random one. Raises InputError naming the field.
+    Seed: > 0 as given, 0 the configured seed, < 0 a random one. Raises FrictionIdError (InputError
+    for joints and window) naming the field.
     """
     joints = list(req.joints) or list(buffered)
     unknown = [j for j in joints if j not in buffered]
