@@ -1,6 +1,6 @@
 """Bounded, preallocated ring buffers of joint samples (no ROS import).
 
-One writer (the subscription callback) appends rows in place, readers take copies of a time
+Stamps are ns since the epoch (int64). One writer (the subscription callback) appends rows in place, readers take copies of a time
 window under a short lock. Nothing is allocated per message except what numpy needs for
 a fancy-index take into a preallocated row.
 """
@@ -12,10 +12,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+NS = 1_000_000_000  # ns per second
+
 # Row flags: which fields of a message were missing (empty or shorter than ``name``).
 NO_POSITION = 1
 NO_VELOCITY = 2
 NO_EFFORT = 4
+
+
+def stamp_ns(stamp) -> int:
+    """A builtin_interfaces/Time (``sec``, ``nanosec``) as ns since the epoch."""
+    return stamp.sec * NS + stamp.nanosec
 
 
 class NameMap:

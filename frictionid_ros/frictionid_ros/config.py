@@ -16,9 +16,12 @@ from pathlib import Path
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import FRICTIONS
 from frictionid_core.optim import SOLVERS
-from frictionid_core.options import check_choice
+from frictionid_core.options import SolveOptions, check_choice
 
 NODE_NAME = "frictionid"
+
+# ROS name → SolveOptions field, for the parameters and the ~/identify request (other names agree).
+CORE_NAMES = {"friction_model": "friction", "population": "pop"}
 
 QOS_CHOICES = ("sensor_data", "reliable")
 VELOCITY_SOURCES = ("measured", "reference")
@@ -71,10 +74,7 @@ class Config:
 
     joints: tuple[str, ...]
     system: str
-    friction_model: str
-    asymmetric: bool
-    solver: str
-    seed: int
+    solve: SolveOptions  # the defaults of ~/identify: friction_model, asymmetric, solver, seed
     input_executor: str
     identification_worker: str
     buffer_seconds: float
@@ -104,6 +104,20 @@ class Config:
 
 def _choice(name: str, value: str, choices, what: str = "") -> str:
     return check_choice(f"parameter '{name}'", value, choices, what or name)
+
+
+def solve_options(where: str, **fields) -> SolveOptions:
+    """:class:`SolveOptions` from ROS-named ``fields`` (friction_model, asymmetric, solver, seed, budget,
+    population), validated by the core; an error names the ROS field (``{where} 'friction_model': …``)."""
+    try:
+        return SolveOptions(**{CORE_NAMES.get(k, k): v for k, v in fields.items()})
+    except FrictionIdError as exc:
+        text = str(exc)
+        for ros in fields:
+            core = CORE_NAMES.get(ros, ros)
+            if text.startswith((core + ":", core + " ")):
+                raise FrictionIdError(f"{where} '{ros}'{text[len(core):]}") from None
+        raise FrictionIdError(f"{where}: {text}") from None
 
 
 def check_system(name: str) -> str:
@@ -144,10 +158,8 @@ def make_config(values: dict) -> Config:
     return Config(
         joints=joints,
         system=check_system(str(v["system"])),
-        friction_model=_choice("friction_model", v["friction_model"], FRICTIONS, "friction model"),
-        asymmetric=bool(v["asymmetric"]),
-        solver=_choice("solver", v["solver"], SOLVERS, "solver"),
-        seed=int(v["seed"]),
+        solve=solve_options("parameter", friction_model=str(v["friction_model"]), asymmetric=bool(v["asymmetric"]),
+                            solver=str(v["solver"]), seed=int(v["seed"])),
         input_executor=_choice("input_executor", v["input_executor"], EXECUTORS, "executor"),
         identification_worker=_choice("identification_worker", v["identification_worker"], WORKERS, "worker"),
         buffer_seconds=float(v["buffer_seconds"]),

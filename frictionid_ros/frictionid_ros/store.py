@@ -9,7 +9,8 @@ The results file is JSON: the last identification exactly as ``Identification.to
   of the last identification and when it ran [ns since the epoch].
 
 A plain ``frictionid identify --json`` file (no ``per_joint``) is accepted by :func:`read_results`.
-Files are written atomically (temporary file + ``os.replace``).
+Files are written atomically (temporary file + ``os.replace``). :class:`ActiveParameters` holds
+the node's active parameters and saves them.
 """
 
 from __future__ import annotations
@@ -17,7 +18,9 @@ from __future__ import annotations
 import json
 import math
 import os
-from dataclasses import asdict, dataclass, field
+import threading
+import time
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 from frictionid_core.errors import FrictionIdError
@@ -175,3 +178,66 @@ def read_results(path: Path) -> Results:
             if k not in ("format", "per_joint", "window_start_ns", "window_end_ns", "window_samples", "stamp_ns")}
     return Results(per_joint, last or None, int(data.get("window_start_ns", 0)), int(data.get("window_end_ns", 0)),
                    int(data.get("window_samples", 0)), int(data.get("stamp_ns", 0)))
+
+
+class ActiveParameters:
+    """The node's active parameters, merged per joint over identifications and loads.
+
+    Every change goes to ``on_change(results)`` (feed-forward, publication) under :attr:`lock`
+    and is saved to ``path`` (the ``results_file``); ``log`` reports a failed save (``.error``).
+    """
+
+    def __init__(self, path: Path, on_change, log):
+        self.path = Path(path)
+        self._on_change = on_change
+        self._log = log
+        self.lock = threading.Lock()
+        self.results = Results()
+
+    def file(self, path: str) -> Path:
+        """A service request's file: ``path`` (``~`` expanded) made absolute; empty: :attr:`path`."""
+        return Path(os.path.expanduser(path)).absolute() if path else self.path
+
+    def restore(self) -> None:
+        """Read ``path`` if it exists (at start; ``on_change`` is not called)."""
+        if self.path.exists():
+            try:
+                self.results = read_results(self.path)
+            except FrictionIdError as exc:
+                self._log.error(f"parameters not restored: {exc}")
+
+    def activate(self, results: Results, save: bool = True) -> str:
+        """Merge ``results`` into the active parameters and save them; returns a note for the reply."""
+        with self.lock:
+            self.results = replace(results, per_joint={**self.results.per_joint, **results.per_joint})
+            self._on_change(self.results)
+            if not save:
+                return ""
+            try:
+                return f"; saved to {write_results(self.path, self.results)}"
+            except FrictionIdError as exc:
+                self._log.error(str(exc))
+                return f"; NOT saved: {exc}"
+
+    def save(self, path: Path) -> tuple[bool, str]:
+        """Write the active parameters to ``path``: (success, message)."""
+        with self.lock:
+            results = self.results
+        if not results.per_joint:
+            return False, "no active parameters to save (identify or load first)"
+        try:
+            write_results(path, results)
+        except FrictionIdError as exc:
+            return False, str(exc)
+        return True, f"saved parameters of {sorted(results.per_joint)} to {path}"
+
+    def load(self, path: Path) -> tuple[bool, str]:
+        """Activate the parameters of ``path`` (saved to :attr:`path` unless it is that file): (success, message)."""
+        try:
+            loaded = read_results(path)
+        except FrictionIdError as exc:
+            return False, str(exc)
+        if not loaded.per_joint:
+            return False, f"{path}: no parameters in the file"
+        note = self.activate(replace(loaded, stamp_ns=loaded.stamp_ns or time.time_ns()), save=Path(path) != self.path)
+        return True, f"loaded parameters of {sorted(loaded.per_joint)} from {path}{note}"

@@ -14,6 +14,7 @@ The child exits when its stdin closes, and at once if the node dies (PR_SET_PDEA
 
 from __future__ import annotations
 
+import math
 import os
 import pickle
 import queue
@@ -59,6 +60,32 @@ def run_identification(series, kwargs: dict) -> tuple:
         return ("error", f"solver '{kwargs.get('solver')}' is unavailable ({type(exc).__name__}: {exc})")
     except Exception as exc:  # noqa: BLE001 - reported to the caller, never kills the worker
         return ("crash", f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}")
+
+
+def checked_result(reply: tuple, log_crash) -> dict:
+    """The result dict of a :func:`run_identification` reply; FrictionIdError for an error, a crash
+    (whose full text goes to ``log_crash``) or non-finite parameters."""
+    from frictionid_core.errors import FrictionIdError
+
+    status, payload = reply
+    if status == "error":
+        raise FrictionIdError(payload)
+    if status == "crash":
+        log_crash(f"identification crashed: {payload}")
+        raise FrictionIdError(f"identification failed: {payload.splitlines()[0]}")
+    bad = [k for k, v in payload["params"].items() if not math.isfinite(v)]
+    if bad:
+        raise FrictionIdError(f"identification failed: non-finite parameter(s) {bad}")
+    return payload
+
+
+def rss_kb(pid: int | str = "self") -> int:
+    """Resident memory of a process [kB] (0 if unknown)."""
+    try:
+        with open(f"/proc/{pid}/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") // 1024
+    except (OSError, ValueError, IndexError):
+        return 0
 
 
 def _die_with_parent() -> None:

@@ -20,7 +20,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import FRICTIONS
 from frictionid_core.jsonfile import write_json
 
 if TYPE_CHECKING:  # numpy and the optimisers are imported by the functions that use them
@@ -286,42 +285,3 @@ def format_summary(summary: dict) -> str:
                  f"{summary['metric']} {b[summary['metric']]:.6g} %, benchmark clock {b['sim_val_benchmark_pct']:.6g} %")
     return "\n".join(lines)
 
-
-def register(subparsers):
-    """``frictionid study emps ...``; returns its handler."""
-    p = subparsers.add_parser("study", help="optimisers × friction models × seeds on the EMPS (thesis §6.3)")
-    p.add_argument("system", choices=["emps"])
-    p.add_argument("--algorithms", default=",".join(ALGORITHMS), help="comma-separated (default de,pso,ga,aco,bbo)")
-    p.add_argument("--friction", default="all", help="comma-separated friction laws or 'all' (each sym + asym)")
-    p.add_argument("--seeds", type=int, default=20)
-    p.add_argument("--pop", type=int, default=50)
-    p.add_argument("--generations", type=int, default=100)
-    p.add_argument("--estimation", default="bags/emps_estimation")
-    p.add_argument("--validation", default="bags/emps_validation")
-    p.add_argument("--out", type=Path, required=True, help="output directory (resumable)")
-    p.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
-    p.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT (default: local processes)")
-    return _cmd_study
-
-
-def _cmd_study(args) -> int:
-    from frictionid_core.optim import METHODS
-
-    algos = [a.strip() for a in args.algorithms.split(",") if a.strip()]
-    unknown = [a for a in algos if a not in METHODS]
-    if unknown:
-        raise FrictionIdError(f"unknown algorithm(s) {unknown}; available: {', '.join(METHODS)}")
-    frictions = list(FRICTIONS) if args.friction == "all" else [f.strip() for f in args.friction.split(",")]
-    bad = [f for f in frictions if f not in FRICTIONS]
-    if bad:
-        raise FrictionIdError(f"unknown friction model(s) {bad}; choose from {', '.join(FRICTIONS)} or 'all'")
-    for path in (args.estimation, args.validation):
-        if not Path(path).exists():
-            raise FrictionIdError(f"{path}: no such file or directory")
-    specs = plan(algos, frictions, args.seeds, args.estimation, args.validation, args.pop, args.generations)
-    t0 = time.perf_counter()
-    ran = run_study(specs, args.out, workers=args.workers, scheduler=args.scheduler)
-    print(f"{ran} runs done now, {len(specs) - ran} were already finished; {time.perf_counter() - t0:.1f} s")
-    summary = analyse(args.out)
-    print(format_summary(summary))
-    return 0

@@ -77,6 +77,13 @@ class JointSeries:
         return JointSeries(self.t, list(joints), pick(self.position), pick(self.effort),
                            pick(self.velocity), self.source, extras, dict(self.meta), list(self.notes))
 
+    def take(self, index: np.ndarray) -> JointSeries:
+        """Samples at ``index`` (integer indices or a boolean mask of length N) as a new series."""
+        pick = lambda a: None if a is None else a[index]  # noqa: E731
+        return JointSeries(self.t[index], list(self.joints), self.position[index], self.effort[index],
+                           pick(self.velocity), self.source, {k: v[index] for k, v in self.extras.items()},
+                           dict(self.meta), list(self.notes))
+
     def slice(self, start: int, stop: int) -> JointSeries:
         """Samples ``start:stop`` (indices) as a new series."""
         cut = lambda a: None if a is None else a[start:stop]  # noqa: E731

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from frictionid_core.errors import InputError
+from frictionid_core.io.align import align_effort
 from frictionid_core.timeseries import JointSeries
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -85,7 +86,7 @@ def load_bag(path: Path, *, topic: str | None = None, effort_topic: str | None =
         series, t0_ns = _read_joint_states(reader, path, topic, need=("position", "effort") if effort_topic is None else ("position",))
         if effort_topic is not None:
             t_eff, eff = _read_effort(reader, path, effort_topic, topics[effort_topic], series.joints)
-            series = _attach_effort(series, (t_eff - t0_ns) * 1e-9, eff, effort_topic)
+            series = align_effort(series, (t_eff - t0_ns) * 1e-9, eff, f"effort topic '{effort_topic}'")
         for name, (side_topic, field) in (extras or {}).items():
             side_series, side_t0 = _read_joint_states(reader, path, side_topic, need=(field,))
             t_side = side_series.t + (side_t0 - t0_ns) * 1e-9
@@ -194,22 +195,6 @@ def _read_effort(reader, path: Path, topic: str, msgtype: str, joints: list[str]
     if not rows:
         raise InputError(f"{path}: effort topic '{topic}' has no messages")
     return np.asarray(t, dtype=np.int64), np.vstack(rows)
-
-
-def _attach_effort(series: JointSeries, t: np.ndarray, eff: np.ndarray, topic: str) -> JointSeries:
-    """Interpolate the effort topic (times t, s, on the series' time base) at the JointState stamps."""
-    order = np.argsort(t, kind="stable")
-    t, eff = t[order], eff[order]
-    inside = (series.t >= t[0]) & (series.t <= t[-1])
-    if inside.sum() < 3:
-        raise InputError(f"{series.source}: effort topic '{topic}' does not overlap the joint states in time")
-    idx = np.flatnonzero(inside)
-    out = series.slice(idx[0], idx[-1] + 1)
-    out.effort = np.column_stack([np.interp(out.t, t, eff[:, j]) for j in range(eff.shape[1])])
-    dropped = len(series) - len(out)
-    if dropped:
-        out.notes.append(f"{dropped} joint-state samples outside the effort topic '{topic}' time range dropped")
-    return out
 
 
 def write_joint_state_bag(

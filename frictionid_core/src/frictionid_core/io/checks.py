@@ -1,8 +1,9 @@
-"""Sanity checks shared by every loader: finite samples, ordered unique stamps."""
+"""Sanity checks shared by every loader: finite samples, ordered unique stamps; lost samples."""
 
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -10,6 +11,7 @@ from frictionid_core.errors import InputError
 from frictionid_core.timeseries import JointSeries
 
 MIN_SAMPLES = 3
+GAP_FACTOR = 1.5  # an interval longer than this many median periods is a gap
 
 
 def check_series(series: JointSeries, *, strict_time: bool = False) -> JointSeries:
@@ -54,7 +56,7 @@ def _order_stamps(series: JointSeries, strict: bool) -> JointSeries:
     keep = np.concatenate(([True], np.diff(t_sorted) > 0))
     idx = order[keep]
     n_dropped = len(series) - idx.size
-    out = _take(series, idx)
+    out = series.take(idx)
     msgs = []
     if n_back:
         msgs.append(f"{n_back} out-of-order time stamps: samples re-sorted by time")
@@ -69,7 +71,32 @@ def _order_stamps(series: JointSeries, strict: bool) -> JointSeries:
     return out
 
 
-def _take(s: JointSeries, idx: np.ndarray) -> JointSeries:
-    pick = lambda a: None if a is None else a[idx]  # noqa: E731
-    return JointSeries(s.t[idx], list(s.joints), s.position[idx], s.effort[idx], pick(s.velocity),
-                       s.source, {k: v[idx] for k, v in s.extras.items()}, dict(s.meta), list(s.notes))
+@dataclass(frozen=True)
+class StampGaps:
+    """Samples apparently lost between the stamps of a series (see :func:`stamp_gaps`)."""
+
+    samples: int  # samples present
+    missing: int  # samples estimated lost in the gaps
+    gaps: int  # intervals longer than GAP_FACTOR median periods
+    longest: float  # longest interval [s]
+    period: float  # median interval [s]
+
+    @property
+    def missing_pct(self) -> float:
+        """Share of the expected samples that are missing [%]."""
+        return 100.0 * self.missing / (self.samples + self.missing)
+
+    def __str__(self) -> str:
+        return (f"about {self.missing} of {self.samples + self.missing} samples ({self.missing_pct:.2f} %) lost or "
+                f"late ({self.gaps} gaps, longest {self.longest * 1e3:.1f} ms at a {self.period * 1e3:.3g} ms period)")
+
+
+def stamp_gaps(series: JointSeries) -> StampGaps:
+    """Lost samples estimated from the stamps of a checked series (increasing ``t``, >= 2 samples):
+    an interval longer than GAP_FACTOR median periods is a gap that lost round(interval / period) - 1."""
+    dt = np.diff(series.t)
+    period = float(np.median(dt))
+    gaps = dt > GAP_FACTOR * period
+    n_gaps = int(np.count_nonzero(gaps))
+    missing = int(np.round(dt[gaps] / period).sum()) - n_gaps
+    return StampGaps(len(series), missing, n_gaps, float(dt.max()), period)

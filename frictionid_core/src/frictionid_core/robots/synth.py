@@ -175,5 +175,18 @@ def expected_parameters(truth: dict, system: str, joints: list[str] | None = Non
     return out
 
 
-from frictionid_core.friction import FRICTIONS, get_model
-from frictionid_core.jsonfile import read_json
+
+def truth_friction(truth: dict) -> tuple[str | None, bool | None, dict[str, dict[str, float]]]:
+    """(friction law, asymmetric, {joint: {parameter: value}}) of a ground truth, of its
+    ``friction`` block or of bare per-joint parameters (law and asymmetry then None)."""
+    block = truth["friction"] if isinstance(truth.get("friction"), dict) else truth
+    if "params" in block:
+        return block.get("kind"), block.get("asymmetric"), block["params"]
+    return None, None, block
+
+
+def read_friction_params(path: str | Path) -> tuple[dict, str | None, bool | None]:
+    """Per-joint friction parameters from JSON ``{joint: {Fv: …, Fc: …}}``, a ``friction`` block
+    ``{"kind", "asymmetric", "params"}`` or a truth file: (params, law or None, asymmetric or None)."""
+    friction, asymmetric, params = truth_friction(read_json(path, "friction parameters"))
+    return params, friction, asymmetric
