@@ -202,6 +202,8 @@ class Drive:
     def _aligned(self, series: JointSeries) -> JointSeries:
         """``series`` with its columns in the drive's joint order."""
         joints = list(self.joints)
+        if series.joints == joints:
+            return series
         if set(series.joints) == set(joints):
             return series.select(joints)
         known = [j for j in series.joints if j in self.joints]
