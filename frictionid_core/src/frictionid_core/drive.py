@@ -42,7 +42,7 @@ import numpy as np
 
 from frictionid_core.errors import InputError
 from frictionid_core.timeseries import JointSeries
-from frictionid_core.yamlfile import check_keys, read_yaml
+from frictionid_core.yamlfile import check_keys, joint_names, read_yaml
 
 SIDES = ("joint", "motor")
 DRIVE_KEYS = ("name", "joints", "side", "gear_ratio", "coupling", "effort_scale", "position_offset",
@@ -78,13 +78,7 @@ class Drive:
 
     def __post_init__(self) -> None:
         where = self.source or "drive"
-        if (not isinstance(self.joints, (list, tuple)) or not self.joints
-                or not all(isinstance(j, str) and j for j in self.joints)):
-            raise InputError(f"{where}: key 'joints' must be a non-empty list of joint names, got {self.joints!r}")
-        joints = tuple(self.joints)
-        dup = sorted({j for j in joints if joints.count(j) > 1})
-        if dup:
-            raise InputError(f"{where}: key 'joints' repeats {dup}")
+        joints = joint_names(self.joints, where)
         for key in ("side", "friction_on"):
             if getattr(self, key) not in SIDES:
                 raise InputError(f"{where}: key '{key}' is {getattr(self, key)!r}; choose one of {', '.join(SIDES)}")

@@ -1,4 +1,4 @@
-"""User YAML files (drive models, log layouts): one reader and one key check with clear errors."""
+"""User YAML files (drive models, log layouts): one reader and the checks they share, with clear errors."""
 
 from __future__ import annotations
 
@@ -35,3 +35,14 @@ def check_keys(data: dict, known, where: str, required=()) -> None:
     missing = [k for k in required if k not in data]
     if missing:
         raise InputError(f"{where}: required key(s) {missing} missing")
+
+
+def joint_names(value, where: str) -> tuple[str, ...]:
+    """Key ``joints``: a non-empty list of distinct names, as a tuple; else InputError naming ``where``."""
+    if (not isinstance(value, (list, tuple)) or not value
+            or not all(isinstance(j, str) and j for j in value)):
+        raise InputError(f"{where}: key 'joints' must be a non-empty list of joint names, got {value!r}")
+    dup = sorted({j for j in value if value.count(j) > 1})
+    if dup:
+        raise InputError(f"{where}: key 'joints' repeats {dup}")
+    return tuple(value)

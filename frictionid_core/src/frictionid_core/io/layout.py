@@ -26,7 +26,7 @@ import numpy as np
 from frictionid_core.errors import InputError
 from frictionid_core.io.csv import read_table
 from frictionid_core.timeseries import JointSeries
-from frictionid_core.yamlfile import check_keys, read_yaml
+from frictionid_core.yamlfile import check_keys, joint_names, read_yaml
 
 LAYOUT_KEYS = ("header", "time", "rate_hz", "joints", "position", "velocity", "effort", "effort_file",
                "delimiter")
@@ -70,13 +70,7 @@ class Layout:
         where = self.source or "layout"
         if not isinstance(self.header, bool):
             raise InputError(f"{where}: key 'header' must be true or false, got {self.header!r}")
-        if (not isinstance(self.joints, (list, tuple)) or not self.joints
-                or not all(isinstance(j, str) and j for j in self.joints)):
-            raise InputError(f"{where}: key 'joints' must be a non-empty list of joint names, got {self.joints!r}")
-        joints = tuple(self.joints)
-        dup = sorted({j for j in joints if joints.count(j) > 1})
-        if dup:
-            raise InputError(f"{where}: key 'joints' repeats {dup}")
+        joints = joint_names(self.joints, where)
         if (self.time_column is None) == (self.rate_hz is None):
             raise InputError(f"{where}: give exactly one of 'time' (a time column) and 'rate_hz' "
                              "(evenly spaced samples)")
