@@ -152,7 +152,8 @@ class Drive:
         ``series`` has one column per drive joint: either named as the drive's joints (any order)
         or named as in the log and already in the drive's order (names are kept). Motor side:
         ``q = R⁻¹·q_m + position_offset``, ``q̇ = R⁻¹·q̇_m``, ``τ = Rᵀ·(effort_scale·e)``; joint side:
-        ``q = q_rec + position_offset``, ``τ = effort_scale·e``. What was done goes to ``notes``.
+        ``q = q_rec + position_offset``, ``τ = effort_scale·e``. What was done goes to ``notes``;
+        ``extras`` and ``meta`` pass through unchanged.
         """
         s = self._aligned(series)
         scaled = s.effort * np.array(self.effort_scale)
