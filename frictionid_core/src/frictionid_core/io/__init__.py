@@ -3,12 +3,17 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from frictionid_core.errors import InputError
 from frictionid_core.io.checks import check_series
 from frictionid_core.timeseries import JointSeries
 
+if TYPE_CHECKING:
+    from frictionid_core.io.layout import Layout
+
 __all__ = ["load"]
+BAG_SUFFIXES = (".mcap", ".db3", ".bag")
 
 
 def load(
@@ -19,6 +24,7 @@ def load(
     effort_topic: str | None = None,
     strict_time: bool = False,
     extras: dict[str, tuple[str, str]] | None = None,
+    layout: str | Path | Layout | None = None,
 ) -> JointSeries:
     """Load joint measurements from a MAT (EMPS), CSV, rosbag2 (MCAP/sqlite3) or ROS 1 bag.
 
@@ -30,6 +36,8 @@ def load(
             default: the JointState's effort field.
         strict_time: fail on duplicated or out-of-order stamps instead of repairing them.
         extras: bags only: {name: (topic, field)} side JointState signals kept in ``series.extras``.
+        layout: a CSV (or other delimited text file) not in frictionid's own format: a
+            :class:`~frictionid_core.io.layout.Layout` or its YAML file (see that module).
 
     Raises:
         InputError: naming the file, topic, joint or field at fault.
@@ -38,7 +46,14 @@ def load(
     if not path.exists():
         raise InputError(f"{path}: no such file or directory")
     suffix = path.suffix.lower()
-    if suffix == ".mat":
+    if layout is not None:
+        from frictionid_core.io.layout import Layout, load_layout, read_with_layout
+
+        if path.is_dir() or suffix == ".mat" or suffix in BAG_SUFFIXES:
+            raise InputError(f"{path}: a layout applies to CSV and other delimited text files, not to "
+                             f"{'a directory' if path.is_dir() else repr(suffix)}")
+        series = read_with_layout(path, layout if isinstance(layout, Layout) else load_layout(layout))
+    elif suffix == ".mat":
         from frictionid_core.io.mat import load_emps_mat
 
         series = load_emps_mat(path)
@@ -46,7 +61,7 @@ def load(
         from frictionid_core.io.csv import load_csv
 
         series = load_csv(path)
-    elif path.is_dir() or suffix in {".mcap", ".db3", ".bag"}:
+    elif path.is_dir() or suffix in BAG_SUFFIXES:
         from frictionid_core.io.bag import load_bag
 
         series = load_bag(path, topic=topic, effort_topic=effort_topic, extras=extras)

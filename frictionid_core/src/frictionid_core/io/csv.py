@@ -3,6 +3,9 @@
 Columns: ``time`` (or ``t``, s), then per joint ``<joint>.position``, ``<joint>.effort`` and
 optionally ``<joint>.velocity``. A single joint may use bare ``position``/``effort``/``velocity``
 (joint name ``joint``).
+
+Other delimited text files are read through a layout (:mod:`frictionid_core.io.layout`); both
+use :func:`read_table`.
 """
 
 from __future__ import annotations
@@ -18,18 +21,7 @@ from frictionid_core.timeseries import JointSeries
 
 def load_csv(path: Path) -> JointSeries:
     """Load a CSV file written in the layout above."""
-    try:
-        with open(path, encoding="utf-8") as fh, warnings.catch_warnings():
-            warnings.simplefilter("ignore", UserWarning)  # "input contained no data": reported below
-            header = fh.readline().strip()
-            data = np.loadtxt(fh, delimiter=",", ndmin=2)
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise InputError(f"{path}: not a readable numeric CSV ({exc})") from None
-    cols = [c.strip() for c in header.split(",")]
-    if data.shape[0] == 0:
-        raise InputError(f"{path}: no samples below the header")
-    if data.shape[1] != len(cols):
-        raise InputError(f"{path}: header has {len(cols)} columns but rows have {data.shape[1]}")
+    cols, data = read_table(path, header=True, delimiter=",")
     tcol = next((c for c in ("time", "t") if c in cols), None)
     if tcol is None:
         raise InputError(f"{path}: no 'time' column; columns are {cols}")
@@ -62,3 +54,85 @@ def save_csv(series: JointSeries, path: Path) -> None:
             cols.append(f"{j}.velocity")
             data.append(series.velocity[:, i])
     np.savetxt(path, np.column_stack(data), delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
+
+
+def detect_delimiter(line: str) -> str:
+    """The delimiter of a data line: ``;`` if it has one (``,`` may then be a decimal mark), else
+    ``,``, else a tab, else ``" "`` (any run of whitespace)."""
+    return next((d for d in (";", ",", "\t") if d in line), " ")
+
+
+def read_table(path: Path, *, header: bool, delimiter: str | None = None) -> tuple[list[str] | None, np.ndarray]:
+    """Column names (``header``: the first line names the columns, else None) and the numbers
+    (rows, columns) of a delimited text file.
+
+    ``delimiter``: ``,``, ``;``, a tab or ``" "`` (any whitespace); None detects it from the first
+    data line (:func:`detect_delimiter`). Blank lines and ``#`` comments are skipped. A cell that is
+    not a number gives an InputError naming the file, line (from 1) and column (from 0).
+    """
+    try:
+        with open(path, encoding="utf-8-sig") as fh, warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "input contained no data": reported below
+            head = fh.readline() if header else ""
+            start = fh.tell()
+            delimiter = delimiter or detect_delimiter(_first_data_line(fh) or head)
+            fh.seek(start)
+            data = np.loadtxt(fh, delimiter=_numpy_delimiter(delimiter), ndmin=2)
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{path}: not a readable numeric CSV ({exc})") from None
+    except ValueError:
+        raise _first_bad_cell(path, header, delimiter) from None
+    except OSError as exc:
+        raise InputError(f"{path}: not a readable numeric CSV ({exc.strerror or exc})") from None
+    if data.shape[0] == 0:
+        raise InputError(f"{path}: no samples" + (" below the header" if header else ""))
+    if not header:
+        return None, data
+    names = _cells(head, delimiter)
+    if len(names) != data.shape[1]:
+        raise InputError(f"{path}: header has {len(names)} columns but rows have {data.shape[1]}")
+    return names, data
+
+
+def _numpy_delimiter(delimiter: str) -> str | None:
+    return None if delimiter == " " else delimiter
+
+
+def _cells(line: str, delimiter: str) -> list[str]:
+    """The stripped (and unquoted) cells of one line."""
+    return [c.strip().strip('"').strip() for c in line.strip().split(_numpy_delimiter(delimiter))]
+
+
+def _first_data_line(fh) -> str:
+    """The next line with data (readline, not iteration: the caller seeks back)."""
+    while line := fh.readline():
+        if line.split("#", 1)[0].strip():
+            return line
+    return ""
+
+
+def _first_bad_cell(path: Path, header: bool, delimiter: str) -> InputError:
+    """The error for the first cell numpy could not read (error path only: a Python scan)."""
+    with open(path, encoding="utf-8-sig") as fh:
+        lines = enumerate(fh, start=1)
+        names = _cells(next(lines, (0, ""))[1], delimiter) if header else []
+        first = None
+        for lineno, line in lines:
+            text = line.split("#", 1)[0]
+            if not text.strip():
+                continue
+            cells = _cells(text, delimiter)
+            if first is None:
+                first = (lineno, len(cells))
+            elif len(cells) != first[1]:
+                return InputError(f"{path}: not a readable numeric CSV: line {lineno} has {len(cells)} columns, "
+                                  f"line {first[0]} has {first[1]} (delimiter {delimiter!r})")
+            for col, cell in enumerate(cells):
+                try:
+                    float(cell)
+                except ValueError:
+                    label = f" ('{names[col]}')" if col < len(names) else ""
+                    what = "empty cell" if not cell else f"{cell!r} is not a number"
+                    return InputError(f"{path}: not a readable numeric CSV: line {lineno}, column {col}{label}: "
+                                      f"{what} (delimiter {delimiter!r})")
+    return InputError(f"{path}: not a readable numeric CSV (delimiter {delimiter!r})")
