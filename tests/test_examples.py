@@ -24,14 +24,10 @@ def run_example(name: str, *args) -> str:
     return proc.stdout
 
 
-@pytest.fixture(scope="module")
-def emps_result(tmp_path_factory) -> tuple[str, Path]:
-    out = tmp_path_factory.mktemp("identify")
-    return run_example("identify_from_bag.py", out), out / "emps_coulomb.json"
-
-
-def test_identify_from_bag_prints_the_reference_parameters(emps_result):
-    stdout, path = emps_result
+@pytest.mark.slow
+def test_identify_from_bag_prints_the_reference_parameters(tmp_path):
+    stdout = run_example("identify_from_bag.py", tmp_path)
+    path = tmp_path / "emps_coulomb.json"
     printed = dict(re.findall(r"^(\w+)\s+(-?[\d.]+)\s+±", stdout, re.M))
     assert {k: float(v) for k, v in printed.items()} == EMPS
     assert "relative error 4.08336 %, condition number 25.9883" in stdout
@@ -40,6 +36,7 @@ def test_identify_from_bag_prints_the_reference_parameters(emps_result):
     assert saved["system"] == "emps" and saved["friction"] == "coulomb" and saved["joints"] == ["emps"]
 
 
+@pytest.mark.slow
 def test_validate_and_plot_prints_the_cross_test_and_saves_the_figure(tmp_path):
     import matplotlib.image
 
@@ -65,8 +62,11 @@ def _printed_table(stdout: str) -> np.ndarray:
     return np.array(rows, dtype=float)
 
 
-def test_feedforward_torque_matches_the_node(emps_result, tmp_path):
-    _, path = emps_result
+def test_feedforward_torque_matches_the_node(emps_estimation, tmp_path):
+    from frictionid_core import identify
+
+    path = tmp_path / "emps_coulomb.json"  # what 'frictionid identify --json' writes
+    path.write_text(json.dumps(identify(emps_estimation, system="emps", friction="coulomb").to_dict()))
     stdout = run_example("feedforward_torque.py", path, tmp_path, "--eps", "0.01")
     table = _printed_table(stdout)
     v = np.array([-0.2, -0.05, -0.01, 0.0, 0.01, 0.05, 0.2])  # the script's default velocities

@@ -87,6 +87,7 @@ def test_full_robot_system_refuses_joint2_only_motion():
         build_model(series, "tx40", "coulomb", False)
 
 
+@pytest.mark.slow
 def test_full_robot_friction_within_5_percent_with_variable_projection():
     """On a robot system a population method searches only the friction shapes (12 here) and
     solves the base parameters and the friction levels in closed form; DE 10 × 3 and the LM

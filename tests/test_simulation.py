@@ -149,6 +149,7 @@ def test_series_without_reference_is_rejected():
         EmpsData.from_series(series)
 
 
+@pytest.mark.slow
 def test_identify_result_and_cli(runs, tmp_path, capsys):
     result = {"system": "emps", "friction": "coulomb", "asymmetric": False, "params": REF}
     sim = simulate_identification(runs["estimation"], result, clock="benchmark")
