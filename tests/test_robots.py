@@ -142,6 +142,7 @@ def test_rank_deficient_motion_names_the_unidentifiable_parameters(tx40):
 
 
 # ------------------------------------------------------------------- identification
+@pytest.mark.slow
 def test_noise_free_full_robot_is_recovered_exactly(tx40):
     """Coulomb friction, no noise: the base parameters and friction come back (closed form)."""
     from frictionid_core.identify import identify
@@ -234,6 +235,7 @@ def test_dwell_keeps_held_joints_still(tx40):
 
 
 # ------------------------------------------------------------------- consistency
+@pytest.mark.slow
 def test_consistency_of_true_and_of_impossible_base_parameters(tx40):
     from frictionid_core.robots.consistency import check_consistency, generic_prior
 
