@@ -6,7 +6,7 @@ PIP    := $(PY) -m pip
 STAMP  := $(VENV)/.frictionid-setup
 IFACE_STAMP := $(VENV)/.frictionid-interfaces
 
-.PHONY: setup demo test bags bench-optim clean
+.PHONY: setup demo test test-core bags bench-optim clean
 
 setup: $(STAMP) $(IFACE_STAMP)
 
@@ -30,6 +30,10 @@ demo: setup
 
 test: setup
 	$(VENV)/bin/pytest -q tests
+
+# The quick tier: no ROS node or process, no test over ~3 s (markers in pytest.ini).
+test-core: setup
+	$(VENV)/bin/pytest -q tests -m "not ros and not slow"
 
 bags: setup
 	$(PY) tools/make_emps_bags.py

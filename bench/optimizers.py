@@ -60,7 +60,7 @@ ALGOS = ("ga", "aco", "bbo", "de", "pso")
 POP, GENERATIONS, SEEDS = 50, 100, (0, 1, 2, 3, 4)
 IMPLS = ("frictionid", "scipy", "pymoo", "mealpy")
 
-# targets (SPEC / brief)
+# project targets
 MEALPY_SPEEDUP = 8.0       # each population method >= 8x faster than the same mealpy algorithm
 COST_TOL = 0.01            # ... with a median final cost no worse than mealpy's + 1 %
 VARPRO_SPEEDUP = 20.0      # variable projection (start sample + lm) >= 20x faster than mealpy DE
@@ -229,7 +229,7 @@ def pymoo_worker(job_path: str, out_path: str) -> None:
     from pymoo.core.problem import Problem as PymooProblem
     from pymoo.optimize import minimize as pminimize
 
-    from frictionid_core.identify import build_model
+    from frictionid_core.identification import build_model
     from frictionid_core.io import load
 
     try:
@@ -420,7 +420,7 @@ class MealpyPeer:
 
 # ----------------------------------------------------------------------------- varpro, bo, dt
 def run_varpro(series, fr, asym, model, generations, seeds, warm_up: bool = True) -> dict:
-    from frictionid_core.identify import solve_model
+    from frictionid_core.identification import solve_model
 
     def once(seed):
         # Same footing as the peers: the prebuilt model's cost; the clock covers the whole
@@ -648,7 +648,7 @@ def main(argv=None) -> int:
     import scipy
 
     import frictionid_core
-    from frictionid_core.identify import build_model
+    from frictionid_core.identification import build_model
     from frictionid_core.io import load
 
     labels = ["tustin-asym"] if a.quick else list(MODELS)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from frictionid_core.identify import build_model
+from frictionid_core.identification import build_model
 from frictionid_core.io import load
 from frictionid_core.optim import minimize
 from frictionid_core.optim._engine import PopulationRun

@@ -2,7 +2,7 @@
 
     python bench/simulation.py [--mat DIR] [--pop 50] [--repeat 5]
 
-Prints the four relative errors of the reference parameters (SPEC §5.1, symmetric and
+Prints the four relative errors of the reference parameters (docs/reference.md#emps-idim-ls, symmetric and
 asymmetric Coulomb) on both runs and both clocks, then the wall time of a position-only
 simulation of the whole record for P = 1 and P = --pop parameter sets (best of --repeat,
 after a warm-up call that also compiles the kernel). Data: the bags in bags/, or the MAT
@@ -27,8 +27,8 @@ PUBLISHED = {  # thesis Table 6.12 (benchmark clock, position) and the benchmark
     ("validation", "benchmark", False): "pos 0.0080248",
     ("estimation", "benchmark", True): "pos 0.013769",
     ("validation", "benchmark", True): "pos 0.0079575",
-    ("estimation", "true", False): "pos ≈ 0.0017 (SPEC §5.3)",
-    ("validation", "true", False): "pos ≈ 0.0027 (SPEC §5.3)",
+    ("estimation", "true", False): "pos ≈ 0.0017 (docs/reference.md#emps-simulation)",
+    ("validation", "true", False): "pos ≈ 0.0027 (docs/reference.md#emps-simulation)",
 }
 
 

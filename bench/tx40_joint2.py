@@ -4,7 +4,7 @@
                                           [--protocols thesis,varpro] [--json OUT.json]
 
 Data: bags/tx40_j2_excitation (estimation) and bags/tx40_j2_validation, synthesised by
-tools/make_tx40_bags.py (only joint 2 moves, SPEC §6 noise; ground truth in
+tools/make_tx40_bags.py (only joint 2 moves, docs/reference.md#tx40 noise; ground truth in
 bags/tx40_truth.json). Model: system ``tx40-j2`` (τ = ZZ·q̈ − g·MX·cos θ + g·MY·sin θ +
 Stribeck friction + offset), symmetric Stribeck, seeds 0…runs−1.
 
@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from frictionid_core.identify import identify, validate
+from frictionid_core.identification import identify, validate
 from frictionid_core.io import load
 from frictionid_core.robots.synth import expected_parameters
 

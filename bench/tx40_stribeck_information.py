@@ -3,7 +3,7 @@
 
     .venv/bin/python bench/tx40_stribeck_information.py [--duration 20] [--rate 1000]
 
-For each joint of ``bags/tx40_truth.json`` (SPEC §6 friction, torque noise σ 0.05 N·m) the
+For each joint of ``bags/tx40_truth.json`` (docs/reference.md#tx40 friction, torque noise σ 0.05 N·m) the
 joint's friction torque alone, τ = Fv q̇ + sign(q̇)(Fc + (Fs − Fc) exp(−|q̇/vs|^δ)), is taken as
 the measurement: every other term (inertia, gravity, the other joints) known exactly, the
 velocity noise-free, the noise white at ``--rate`` — an optimistic setting, so the σ printed
@@ -75,7 +75,7 @@ def main(argv=None) -> int:
     noise = truth["noise"]["torque"]
     n = a.duration * a.rate
     robot = build_tx40()
-    vmax = dict(zip(robot.joints, robot.velocity_limit))  # SPEC §6, rad/s
+    vmax = dict(zip(robot.joints, robot.velocity_limit))  # docs/reference.md#tx40, rad/s
     print(f"Stribeck shapes, friction-only Cramér–Rao bound (torque noise {noise} N·m, {a.rate:g} Hz)")
     print(f"{'joint':8} {'Fs-Fc N·m':>9} {'vs':>6} {'δ':>5} | bag ({traj.duration:g} s) "
           f"{'σ vs %':>7} {'σ δ %':>7} "

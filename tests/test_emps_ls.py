@@ -16,7 +16,7 @@ import scipy.io
 from conftest import EMPS_ESTIMATION, EMPS_VALIDATION
 from frictionid_core.cli import main
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.identify import identify, validate
+from frictionid_core.identification import identify, validate
 from frictionid_core.linear import least_squares
 
 REF = {"M": 95.1089, "Fv": 203.5034, "Fc": 20.3935, "offset": -3.1648}

@@ -1,4 +1,4 @@
-"""The 8 friction models against the SPEC formulas, written here independently, per candidate."""
+"""The 8 friction models against the formulas of docs/reference.md#friction-models, written here independently, per candidate."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import FRICTIONS, LAWS, all_models, get_model, smooth_sign
-from frictionid_core.identify import build_model
+from frictionid_core.identification import build_model
 from frictionid_core.linear import least_squares
 
 NAMES = {
@@ -39,7 +39,7 @@ def level(friction: str, p: dict, a: float) -> float:
 
 
 def spec_torque(friction: str, asymmetric: bool, p: dict, v: float) -> float:
-    """SPEC §2.1, one candidate, one velocity."""
+    """docs/reference.md#friction-models, one candidate, one velocity."""
     if not asymmetric:
         return p["Fv"] * v + level(friction, p, abs(v)) * sgn(v)
     if v > 0:

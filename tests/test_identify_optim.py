@@ -9,7 +9,7 @@ import pytest
 from conftest import EMPS_ESTIMATION
 from frictionid_core.cli import main
 from frictionid_core.friction import all_models
-from frictionid_core.identify import build_model, identify
+from frictionid_core.identification import build_model, identify
 
 MODELS = [(m.name, m.asymmetric) for m in all_models()]
 

@@ -172,6 +172,7 @@ def test_serialization_round_trip_keeps_nan():
 # --- rclpy service round trip -----------------------------------------------------
 
 
+@pytest.mark.ros
 def test_identify_service_round_trip():
     ctx = rclpy.Context()
     rclpy.init(context=ctx)

@@ -123,6 +123,7 @@ def surrogate_runs(plane_sphere):
     return runs
 
 
+@pytest.mark.slow
 def test_bo_gets_close_on_sphere(surrogate_runs):
     # GP + LCB models a quadratic bowl well: 30 calls reach cost ~1e-6 (20 random points
     # alone would give ~0.03). Tolerance: distance 0.03 in a 2-wide box.
@@ -131,6 +132,7 @@ def test_bo_gets_close_on_sphere(surrogate_runs):
     assert result.fun < 1e-3
 
 
+@pytest.mark.slow
 def test_dt_gets_close_on_sphere(surrogate_runs):
     # Extra-trees surrogates are piecewise constant: at 30 calls DT is no better than a
     # coarse search (seeds 0-2: cost 0.085, 0.14, 0.011; the thesis saw DT settle only after
@@ -142,6 +144,7 @@ def test_dt_gets_close_on_sphere(surrogate_runs):
 
 
 @pytest.mark.parametrize("method", ["bo", "dt"])
+@pytest.mark.slow
 def test_surrogate_histories_and_reproducibility(surrogate_runs, method):
     full = surrogate_runs[method]
     assert full.nfev == 30

@@ -2,6 +2,8 @@
 
 import json
 
+import pytest
+
 from conftest import EMPS_ESTIMATION, EMPS_VALIDATION
 from frictionid_core.ensemble import grey_black_ensemble
 from frictionid_core.report import build_report
@@ -11,11 +13,12 @@ from frictionid_core.study import plan, run_study
 REFERENCE = {"M": 95.1089, "Fv": 203.5034, "Fc": 20.3935, "offset": -3.1648}
 
 
+@pytest.mark.slow
 def test_black_box_learns_the_grey_box_residual():
     ens = grey_black_ensemble(load_emps(EMPS_ESTIMATION), load_emps(EMPS_VALIDATION), REFERENCE,
                               members=1, hidden=6).to_dict()
     err = ens["errors_pct"]
-    # The grey box alone: SPEC §5.3 true-clock figures (0.0016 % est, 0.0026 % val).
+    # The grey box alone: docs/reference.md#emps-simulation true-clock figures (0.0016 % est, 0.0026 % val).
     assert abs(err["gbm"]["est"] - 0.0016) < 0.0002 and abs(err["gbm"]["val"] - 0.00257) < 0.0002
     # Trained on the estimation residual, the sum must be much better there (measured 3×)...
     assert err["bgbm"]["est"] < 0.6 * err["gbm"]["est"]
@@ -24,6 +27,7 @@ def test_black_box_learns_the_grey_box_residual():
     assert set(ens["weights"]) == {"c", "w1", "w2"}
 
 
+@pytest.mark.slow
 def test_report_writes_html_figures_and_json(tmp_path):
     study = tmp_path / "study"
     run_study(plan(["de", "pso"], ["coulomb"], 1, EMPS_ESTIMATION, EMPS_VALIDATION, pop=10, generations=5),

@@ -158,9 +158,10 @@ def test_rank_deficient_motion_names_the_unidentifiable_parameters(tx40):
 
 
 # ------------------------------------------------------------------- identification
+@pytest.mark.slow
 def test_noise_free_full_robot_is_recovered_exactly(tx40):
     """Coulomb friction, no noise: the base parameters and friction come back (closed form)."""
-    from frictionid_core.identify import identify
+    from frictionid_core.identification import identify
 
     rng = np.random.default_rng(3)
     traj = FourierTrajectory(list(tx40.joints), np.zeros(6), rng.uniform(-1, 1, (6, 4)), rng.uniform(-1, 1, (6, 4)),
@@ -250,6 +251,7 @@ def test_dwell_keeps_held_joints_still(tx40):
 
 
 # ------------------------------------------------------------------- consistency
+@pytest.mark.slow
 def test_consistency_of_true_and_of_impossible_base_parameters(tx40):
     from frictionid_core.robots.consistency import check_consistency, generic_prior
 
@@ -273,7 +275,7 @@ def _parser():
 def test_cli_excite_synth_identify_compare(tmp_path, ur5_path, capsys):
     """excite → synth (renamed joints, asymmetric friction) → identify with a joint map → validate
     → compare."""
-    from frictionid_core.identify import identify, validate
+    from frictionid_core.identification import identify, validate
     from frictionid_core.io import load
 
     parser, handlers = _parser()

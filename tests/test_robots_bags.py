@@ -10,7 +10,7 @@ import pytest
 
 from conftest import BAGS
 from frictionid_core.errors import InputError
-from frictionid_core.identify import build_model, identify
+from frictionid_core.identification import build_model, identify
 from frictionid_core.io import load
 from frictionid_core.robots.compare import compare, noise_floor
 from frictionid_core.robots.synth import expected_parameters, truth_friction
@@ -88,6 +88,7 @@ def test_full_robot_system_refuses_joint2_only_motion():
         build_model(series, "tx40", "coulomb", False)
 
 
+@pytest.mark.slow
 def test_full_robot_friction_within_5_percent_with_variable_projection():
     """On a robot system a population method searches only the friction shapes (12 here) and
     solves the base parameters and the friction levels in closed form; DE 10 × 3 and the LM

@@ -41,12 +41,12 @@ with warnings.catch_warnings():
     from std_srvs.srv import Trigger
 
 from frictionid_core.friction import get_model
-from frictionid_core.identify import identify
+from frictionid_core.identification import identify
 from frictionid_core.io import load
 from frictionid_ros import replay
 from frictionid_ros.config import PARAMETERS
 
-pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+pytestmark = [pytest.mark.ros, pytest.mark.filterwarnings("ignore::DeprecationWarning")]
 
 ROOT = Path(__file__).resolve().parents[1]
 BAG = ROOT / "bags" / "emps_estimation"
@@ -352,6 +352,7 @@ def test_config_yaml_matches_declared_defaults():
         assert type(value) is type(PARAMETERS[name][0]), f"{name}: YAML type must match the declared type"
 
 
+@pytest.mark.slow
 def test_unknown_system_is_a_clear_startup_error(workdir):
     # the shipped YAML (parsed by rcl) then an override: explicit --ros-args come last and win
     for tag, system, needle in (("scara", "scara", "choose one of emps, friction-only, tx40-j2, tx40, urdf:PATH"),
@@ -411,6 +412,7 @@ def test_feedforward_equals_core_model(identified, ros, node):
     assert state.effort[0] == pytest.approx(model.torque(theta, [v_fd], eps=EPS)[0], rel=1e-9)
 
 
+@pytest.mark.slow
 def test_busy_answer_for_a_concurrent_request(identified, ros, node):
     _, stats = identified
     start = stats["first_stamp_ns"]
@@ -454,6 +456,7 @@ def test_bad_requests_fail_with_a_clear_message(identified, ros, node):
     ros.assert_alive(node)
 
 
+@pytest.mark.slow
 def test_bad_data_fail_with_a_clear_message(identified, ros, node, offline):
     series = load(BAG).slice(0, 1000)
     t_ns = 2_000 * NS + np.round(series.t * 1e9).astype(np.int64)
@@ -509,6 +512,7 @@ def test_save_and_load(identified, ros, node, workdir, offline):
     assert res.success, res.message
 
 
+@pytest.mark.slow
 def test_restart_restores_the_last_parameters(identified, ros, node, workdir):
     res, _ = identified
     last = ros.latched_parameters()
@@ -535,6 +539,7 @@ def test_restart_restores_the_last_parameters(identified, ros, node, workdir):
             again.stop(signal.SIGKILL)
 
 
+@pytest.mark.slow
 def test_effort_topic_reference_velocity_and_thread_worker(ros, workdir):
     """Other options: a Float64MultiArray effort topic, joint_states in another joint order, the
     feed-forward from a reference topic on a 50 Hz timer, friction-only, identification in a thread,
@@ -622,6 +627,7 @@ def test_effort_topic_reference_velocity_and_thread_worker(ros, workdir):
             proc.stop(signal.SIGKILL)
 
 
+@pytest.mark.slow
 def test_full_tx40_robot_from_a_replayed_bag(ros, workdir):
     """The six-joint TX40 (Pinocchio base parameters + per-joint Coulomb friction): the node fed
     the bundled excitation bag agrees with the offline identification of the same samples, the

@@ -122,6 +122,8 @@ def test_register_adds_the_replay_parser():
     assert parser.parse_args(["replay", "B"]).loop == 1
 
 
+@pytest.mark.ros
+@pytest.mark.slow
 def test_cli_replay_publishes_to_another_process():
     """`frictionid replay` (core CLI, plugin from the entry point) → a subscriber in this process."""
     from importlib.metadata import entry_points

@@ -1,6 +1,6 @@
-"""EMPS closed-loop simulation (SPEC §5.3) on the bundled bags.
+"""EMPS closed-loop simulation (docs/reference.md#emps-simulation) on the bundled bags.
 
-Reference figures: SPEC §5.1 parameters; thesis Table 6.12 (benchmark clock); SPEC §5.3
+Reference figures: docs/reference.md#emps-idim-ls parameters; thesis Table 6.12 (benchmark clock); docs/reference.md#emps-simulation
 (true clock); benchmark script (velocity 0.229 %, acceleration 8.60 %, force 5.85 %).
 """
 
@@ -149,6 +149,7 @@ def test_series_without_reference_is_rejected():
         EmpsData.from_series(series)
 
 
+@pytest.mark.slow
 def test_identify_result_and_cli(runs, tmp_path, capsys):
     result = {"system": "emps", "friction": "coulomb", "asymmetric": False, "params": REF}
     sim = simulate_identification(runs["estimation"], result, clock="benchmark")

@@ -34,7 +34,7 @@ def test_study_is_resumable_and_analysed(tmp_path):
         # The tiny budget leaves parameters far from optimal, but the closed loop stays stable:
         # errors between the reference's 0.0026 % and a few %.
         assert 0.002 < r["sim_val_true_pct"] < 5
-        # never better than the LS optimum of the Coulomb models (SPEC §5.1)
+        # never better than the LS optimum of the Coulomb models (docs/reference.md#emps-idim-ls)
         assert r["osa_est_pct"] >= (3.1117 if r["asymmetric"] else 4.0833) - 1e-4
 
 

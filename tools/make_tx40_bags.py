@@ -3,8 +3,8 @@
 Usage: python tools/make_tx40_bags.py [OUT_DIR]   (default bags/; existing tx40 bags are replaced)
 
 Four recordings (~20 s) at 1 kHz of the six TX40 joints (sensor_msgs/JointState on
-/joint_states, joints joint_1 … joint_6; position rad with SPEC §6 noise, effort N·m with
-0.05 N·m noise), symmetric Stribeck friction of SPEC §6 (Fs of joints 5, 6 assumed 1.2·Fc):
+/joint_states, joints joint_1 … joint_6; position rad with docs/reference.md#tx40 noise, effort N·m with
+0.05 N·m noise), symmetric Stribeck friction of docs/reference.md#tx40 (Fs of joints 5, 6 assumed 1.2·Fc):
 
   tx40_excitation     all joints follow one period of an optimised Fourier excitation (seed 1,
                       10 s), then 15 s of constant-velocity plateaus at ±(0.01, 0.03, 0.0625,

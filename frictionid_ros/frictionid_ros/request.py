@@ -39,7 +39,7 @@ class Job:
     dry_run: bool = False
 
     def identify_kwargs(self, system: str, preprocessing=None) -> dict:
-        """Keywords of :func:`frictionid_core.identify.identify` for this job."""
+        """Keywords of :func:`frictionid_core.identification.identify` for this job."""
         o = self.options
         kwargs = dict(system=system, friction=o.friction, asymmetric=o.asymmetric, solver=o.solver, seed=o.seed,
                       **o.solver_options())

@@ -1,6 +1,6 @@
 """Identification worker process (no ROS import).
 
-The node runs ``frictionid_core.identify`` in a child process (``python -m frictionid_ros.worker``)
+The node runs ``frictionid_core.identification`` in a child process (``python -m frictionid_ros.worker``)
 rather than a thread: the pipeline is CPU-bound Python/numpy and, in a thread, would take the
 GIL from the 1 kHz input callback (measured: end-to-end feed-forward latency p50 12 ms, p99
 39 ms during an identification instead of < 1 ms), and its temporary arrays would stay in the
@@ -50,7 +50,7 @@ def _recv(stream):
 def run_identification(series, kwargs: dict) -> tuple:
     """One identification → ("ok", result dict) | ("error", message) | ("crash", message)."""
     from frictionid_core.errors import FrictionIdError
-    from frictionid_core.identify import identify
+    from frictionid_core.identification import identify
 
     try:
         return ("ok", identify(series, **kwargs).to_dict())
@@ -101,7 +101,7 @@ def _warm_up() -> None:
     """Import the pipeline and fit a tiny synthetic series once (first real call then ~ms)."""
     import numpy as np
 
-    from frictionid_core.identify import identify
+    from frictionid_core.identification import identify
     from frictionid_core.timeseries import JointSeries
 
     t = np.arange(2000) * 1e-3

@@ -1,4 +1,4 @@
-"""Grey + black-box ensembles of the EMPS position (thesis §6.2, SPEC §7).
+"""Grey + black-box ensembles of the EMPS position (thesis §6.2, docs/reference.md#ensembles).
 
 * GBM  ŷ1: the grey-box closed-loop simulation (:mod:`frictionid_core.simulation`).
 * BGBM ŷ2 = ŷ1 + ê1: a neural NARX-type model of the simulation residual e1 = y − ŷ1,

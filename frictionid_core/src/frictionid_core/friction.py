@@ -1,4 +1,4 @@
-"""The friction laws of SPEC §2.1 (the registry :data:`LAWS`) and the 8 friction models.
+"""The friction laws of docs/reference.md#friction-models (the registry :data:`LAWS`) and the 8 friction models.
 
 Every law maps joint velocity v (m/s or rad/s) to a friction force/torque (N or N·m):
 

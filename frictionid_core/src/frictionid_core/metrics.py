@@ -1,4 +1,4 @@
-"""Fit metrics (SPEC §4): relative error, R², RMSE, error std, improvement."""
+"""Fit metrics (docs/reference.md#metrics): relative error, R², RMSE, error std, improvement."""
 
 from __future__ import annotations
 

@@ -3,7 +3,7 @@
 An inverse dynamic model contributes *rigid* columns (terms linear in the rigid-body
 parameters, e.g. q̈ for a mass); friction contributes columns built from the velocity. Every
 column that depends on measured signals only (q̈, q̇, sign(q̇), their asymmetric masks, 1) is
-computed at full rate and then decimated with the torque (SPEC §5.1 step 6). Terms of
+computed at full rate and then decimated with the torque (docs/reference.md#emps-decimation). Terms of
 nonlinear friction models that depend on searched parameters (the Stribeck/Threlfall dip) are
 evaluated at the decimated velocity.
 

@@ -67,5 +67,5 @@ class SolveOptions:
                 raise FrictionIdError(f"{name} must be an integer >= 0, got {value!r}")
 
     def solver_options(self) -> dict[str, int]:
-        """The budgets as :func:`frictionid_core.identify.identify` keywords."""
+        """The budgets as :func:`frictionid_core.identification.identify` keywords."""
         return budget_options(self.solver, self.budget, self.pop)

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from frictionid_core.identify import Identification, identify
+from frictionid_core.identification import Identification, identify
 from frictionid_core.simulation import EmpsSimulator, load_emps
 
 # Search box around the IDM start: ±50 % of each value (shape parameters included).

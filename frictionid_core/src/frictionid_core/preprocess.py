@@ -1,4 +1,4 @@
-"""Signal preparation for inverse-dynamic identification (SPEC §5.1).
+"""Signal preparation for inverse-dynamic identification (docs/reference.md#emps-idim-ls).
 
 Zero-phase Butterworth on position, central differences for velocity and acceleration,
 edge trimming, and parallel decimation (low-pass + keep 1 of n) of every observation column

@@ -21,7 +21,7 @@ from frictionid_core.metrics import improvement_pct
 
 def model_table(series) -> list[dict]:
     """Thesis Table 6.3: every friction model by local search (ls, or lm with variable projection)."""
-    from frictionid_core.identify import identify
+    from frictionid_core.identification import identify
 
     rows = []
     for m in all_models():
@@ -49,7 +49,7 @@ def figures(series, best_row: dict, sim_val, study_runs: list[dict] | None) -> d
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from frictionid_core.identify import build_model
+    from frictionid_core.identification import build_model
 
     out = {}
     res = best_row["result"]

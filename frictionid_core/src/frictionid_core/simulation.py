@@ -1,4 +1,4 @@
-"""Closed-loop simulation of the EMPS, the benchmark's reference model (SPEC §5.3).
+"""Closed-loop simulation of the EMPS, the benchmark's reference model (docs/reference.md#emps-simulation).
 
 Discrete position controller (period T) with velocity feedback, one-sample delay and ±10 V
 saturation; plant M·q̈ = gtau·(u + pulses) − τ_f(q̇) − offset integrated by RK4 with

@@ -1,4 +1,4 @@
-"""Statistical study of optimisers × friction models on the EMPS (thesis §6.3, SPEC §8).
+"""Statistical study of optimisers × friction models on the EMPS (thesis §6.3, docs/reference.md#statistical-study).
 
 Each run identifies the IDM parameters with one population algorithm at the thesis budget
 (50 × 100) on the estimation data, then reports the OSA torque relative error and the
@@ -80,7 +80,7 @@ def _simulator(path: str, friction: str, asymmetric: bool, clock: str):
 
 def run_one(spec: RunSpec) -> dict:
     """Identify with ``spec`` and evaluate; returns one JSON-ready record."""
-    from frictionid_core.identify import identify, validate
+    from frictionid_core.identification import identify, validate
 
     t0 = time.perf_counter()
     res = identify(_series(spec.estimation), system="emps", friction=spec.friction, asymmetric=spec.asymmetric,

@@ -69,7 +69,7 @@ def run(args) -> int:
                                        solver=args.solver if args.solver != "ls" else "lm", seed=args.seed,
                                        clock=args.clock, bounds=parse_bounds(args.bounds), **opts).to_dict()
     else:
-        from frictionid_core.identify import identify
+        from frictionid_core.identification import identify
         from frictionid_core.systems import parse_joint_map
 
         series = load_source(args)

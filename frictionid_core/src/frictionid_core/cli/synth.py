@@ -21,10 +21,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--friction", default="stribeck", choices=FRICTIONS, help="friction law (default stribeck)")
     p.add_argument("--asymmetric", action="store_true", help="asymmetric friction (v > 0 and v < 0 parameters)")
     p.add_argument("--friction-params", type=Path,
-                   help="JSON {joint: {Fv: …, Fc: …}} or a truth file (default for the TX40: SPEC §6)")
+                   help="JSON {joint: {Fv: …, Fc: …}} or a truth file (default for the TX40: docs/reference.md#tx40)")
     p.add_argument("--offsets", help="constant torque offsets JOINT=N·m,… (default 0)")
     p.add_argument("--position-noise",
-                   help="1σ position noise, rad: one value or one per joint (default: SPEC for the TX40, else 1e-6)")
+                   help="1σ position noise, rad: one value or one per joint (default: the published TX40 noise for the TX40, else 1e-6)")
     p.add_argument("--torque-noise", type=float,
                    help="1σ torque noise, N·m (default 0.05)")
     p.add_argument("--rate", type=float, default=1000.0, help="sample rate, Hz (default 1000)")

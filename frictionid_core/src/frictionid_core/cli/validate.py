@@ -14,7 +14,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from frictionid_core.identify import validate
+    from frictionid_core.identification import validate
     from frictionid_core.jsonfile import read_json
 
     params = read_json(args.params, "parameters")

@@ -3,7 +3,7 @@
     >>> result = minimize(problem, "de", seed=1)            # thesis defaults
     >>> result = minimize(problem, "pso", pop=30, generations=60, topology="ring")
 
-Methods (SPEC §3; thesis settings are each module's defaults):
+Methods (docs/reference.md#optimisers; thesis settings are each module's defaults):
 
 =========  ============================================================  ==============
 id         method                                                        budget

@@ -2,7 +2,7 @@
 
 * :mod:`~frictionid_core.robots.model` — :class:`RobotModel` (any fixed-base URDF via
   :func:`load_urdf`), inverse dynamics, the standard-parameter regressor (+ rotor inertias).
-* :mod:`~frictionid_core.robots.tx40` — the Stäubli TX40 of SPEC §6 (:func:`build_tx40`) and
+* :mod:`~frictionid_core.robots.tx40` — the Stäubli TX40 of docs/reference.md#tx40 (:func:`build_tx40`) and
   the thesis joint-2 model equivalents.
 * :mod:`~frictionid_core.robots.base` — base parameters by QR with column pivoting, the
   excitation (rank) test naming unidentifiable parameters. The identification systems

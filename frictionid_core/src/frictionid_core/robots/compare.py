@@ -75,7 +75,7 @@ def compare(result: dict, truth: dict) -> dict:
 
 def noise_floor(series, result: dict, truth: dict) -> dict:
     """OSA relative error of ``result`` and of the true parameters on ``series``, and their ratio."""
-    from frictionid_core.identify import validate
+    from frictionid_core.identification import validate
     from frictionid_core.robots.synth import expected_parameters
 
     exp = expected_parameters(truth, result["system"], result.get("joints"))

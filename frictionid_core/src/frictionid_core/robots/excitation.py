@@ -118,7 +118,7 @@ class SampledTrajectory:
 
 
 # Plateau speeds (multiples of the nominal vs) and their shares of the plateau time: the
-# c-optimal design for δ at the SPEC joint-2 friction (bench/tx40_stribeck_information.py puts
+# c-optimal design for δ at the published TX40 joint-2 friction (docs/reference.md#tx40-friction) (bench/tx40_stribeck_information.py puts
 # 0.22, 0.36, 0.27, 0.14 of the time at ≈ 0, 0.64, 1.25, 2.4 vs; "≈ 0" becomes 0.2 vs, well
 # above the velocity noise and the slow-row threshold of the robot systems).
 DWELL_SPEEDS = (0.2, 0.6, 1.25, 2.5)

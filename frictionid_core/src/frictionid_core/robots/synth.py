@@ -18,16 +18,16 @@ from frictionid_core.jsonfile import read_json
 from frictionid_core.timeseries import JointSeries
 
 DEFAULT_POSITION_NOISE = 1e-6  # rad, robots without a noise table (≈ 0.057e-3 deg)
-DEFAULT_TORQUE_NOISE = 0.05  # N·m (SPEC §6)
+DEFAULT_TORQUE_NOISE = 0.05  # N·m (docs/reference.md#tx40)
 
 
 def tx40_friction(friction: str, asymmetric: bool) -> dict[str, dict[str, float]]:
-    """SPEC friction of the TX40 for the law ``friction`` (asymmetric: the v < 0 branch has 0.85·Fv,
-    0.85·Fc, 0.85·Fs and the same vs, δ — an assumption, SPEC is symmetric)."""
+    """The published friction of the TX40 (docs/reference.md#tx40-friction) for the law ``friction`` (asymmetric: the v < 0 branch has 0.85·Fv,
+    0.85·Fc, 0.85·Fs and the same vs, δ — an assumption, the published model is symmetric)."""
     from frictionid_core.robots.tx40 import FRICTION, JOINTS
 
     if friction == "threlfall":
-        raise FrictionIdError("SPEC gives no Threlfall parameters for the TX40; pass --friction-params")
+        raise FrictionIdError("the published TX40 model has no Threlfall parameters; pass --friction-params")
     names = get_model(friction, False).names
     out = {}
     for k, j in enumerate(JOINTS):
@@ -65,9 +65,9 @@ def synthesize(robot, trajectory, *, friction: str = "stribeck", asymmetric: boo
 
     Args:
         friction: the friction law; asymmetric: separate v > 0 and v < 0 parameters.
-        friction_params: {model joint: {param: value}} (default: SPEC values for the TX40).
+        friction_params: {model joint: {param: value}} (default: the published values for the TX40).
         offsets: {model joint: N·m} constant torque offsets (default 0).
-        position_noise: 1σ per joint (scalar or (nv,)), rad (default: SPEC for the TX40, else 1e−6).
+        position_noise: 1σ per joint (scalar or (nv,)), rad (default: the published TX40 noise, else 1e−6).
         names: {model joint: name written in the data} (default: model names).
     """
     from frictionid_core.robots.excitation import check_trajectory

@@ -1,4 +1,4 @@
-"""The Stäubli TX40 of SPEC §6 as a Pinocchio model, its friction and noise levels.
+"""The Stäubli TX40 of docs/reference.md#tx40 as a Pinocchio model, its friction and noise levels.
 
 Modified Denavit–Hartenberg (Craig/Khalil, proximal): frame i is reached from frame i−1 by
 Rot_x(α_{i−1})·Trans_x(a_{i−1})·Rot_z(θ_i)·Trans_z(d_i), θ_i = q_i + θoffset_i; the base
@@ -7,8 +7,8 @@ are given in the DH frame; Pinocchio's joint frame *is* the DH frame here, so a 
 ``Inertia.FromDynamicParameters([m, mc, I_O])`` (the inertia about the frame origin, not
 about the centre of mass). Rotor inertias become the model's armature.
 
-Not in SPEC and assumed here (stated in every truth file this package writes):
-acceleration limits; Stribeck Fs of joints 5 and 6 (SPEC gives '—'; we use 1.2·Fc so that vs
+Not in the published model (docs/reference.md#tx40) and assumed here (stated in every truth file this package writes):
+acceleration limits; Stribeck Fs of joints 5 and 6 (the model gives '—'; we use 1.2·Fc so that vs
 and δ of those joints mean something); the wrist 5/6 coupling friction is not modelled.
 """
 
@@ -55,9 +55,9 @@ _DEG = np.pi / 180.0
 LOWER = tuple(x * _DEG for x in (-180.0, -125.0, -138.0, -270.0, -120.0, -270.0))
 UPPER = tuple(x * _DEG for x in (180.0, 125.0, 138.0, 270.0, 133.5, 270.0))
 VELOCITY_LIMIT = tuple(x * _DEG for x in (287.0, 287.0, 430.0, 410.0, 320.0, 700.0))
-ACCELERATION_LIMIT = (10.0, 10.0, 15.0, 20.0, 20.0, 30.0)  # assumed (not in SPEC), rad/s²
+ACCELERATION_LIMIT = (10.0, 10.0, 15.0, 20.0, 20.0, 30.0)  # assumed (not published), rad/s²
 
-# Friction (SPEC §6), symmetric Stribeck: Fv·v + [Fc + (Fs−Fc)·exp(−(|v|/vs)^δ)]·sign(v)
+# Friction (docs/reference.md#tx40), symmetric Stribeck: Fv·v + [Fc + (Fs−Fc)·exp(−(|v|/vs)^δ)]·sign(v)
 FRICTION = {
     "Fv": (7.9379, 5.6948, 1.9804, 1.1141, 1.60, 0.6894),
     "Fc": (6.9822, 7.8301, 6.1939, 2.4063, 3.4092, 1.8313),
@@ -65,7 +65,7 @@ FRICTION = {
     "vs": (0.025, 0.05, 0.05, 0.05, 0.05, 0.05),
     "delta": (2.09, 2.78, 2.72, 1.60, 2.0, 2.0),
 }
-# 1σ noise: position (SPEC, 1e−3 deg) in rad; torque N·m.
+# 1σ noise: position (docs/reference.md#tx40-limits, 1e−3 deg) in rad; torque N·m.
 POSITION_NOISE = tuple(x * 1e-3 * _DEG for x in (0.057, 0.057, 0.122, 0.114, 0.122, 0.172))
 TORQUE_NOISE = 0.05
 
@@ -114,7 +114,7 @@ def build_tx40():
                                 np.array([LOWER[k]]), np.array([UPPER[k]]))
         model.appendBodyToJoint(parent, pin.Inertia.FromDynamicParameters(body_parameters(k)), pin.SE3.Identity())
     model.armature[:] = np.array(ROTOR_INERTIA)
-    return from_pinocchio(model, "tx40", "SPEC §6 (modified DH)", np.array(ACCELERATION_LIMIT))
+    return from_pinocchio(model, "tx40", "docs/reference.md#tx40 (modified DH)", np.array(ACCELERATION_LIMIT))
 
 
 def joint2_columns(q: np.ndarray, qdd: np.ndarray) -> np.ndarray:

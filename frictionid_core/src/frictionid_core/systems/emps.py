@@ -21,7 +21,7 @@ def one_joint(name: str, inertia: str, bounds: tuple[float, float], preprocessin
     return System(name, 1, _inertia_column, (inertia,), {inertia: bounds}, preprocessing)
 
 
-# EMPS (1-DOF prismatic, M in kg): τ = M·q̈ + τ_f(q̇) + offset; protocol of SPEC §5.1 at 1 kHz.
+# EMPS (1-DOF prismatic, M in kg): τ = M·q̈ + τ_f(q̇) + offset; protocol of docs/reference.md#emps-idim-ls at 1 kHz.
 EMPS = one_joint("emps", "M", (0.0, 500.0), Preprocessing(cutoff_hz=100.0, order=4, decimate=10, trim_start=49))
 
 ONE_JOINT = (EMPS,)

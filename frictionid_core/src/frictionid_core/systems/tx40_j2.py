@@ -1,4 +1,4 @@
-"""TX40 joint 2 alone, the thesis model (§5.2, SPEC §2.2):
+"""TX40 joint 2 alone, the thesis model (§5.2, docs/reference.md#inverse-dynamic-models):
 
     τ = ZZ·q̈ + τ_grav(q) + τ_f(q̇) + offset,   τ_grav = −g·MX·cos θ + g·MY·sin θ
 
