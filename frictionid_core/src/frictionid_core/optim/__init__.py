@@ -38,11 +38,13 @@ if TYPE_CHECKING:
 
     from frictionid_core.optim.problem import OptimResult, Problem
 
+# The optimisers, one module ``optim/<id>.py`` each (a new solver: its module and its id here).
+METHOD_IDS = ("lm", "ga", "aco", "bbo", "de", "pso", "bo", "dt", "hybrid")
 POPULATION_METHODS = ("ga", "aco", "bbo", "de", "pso")
 # Methods whose budget is a number of cost calls (the population methods count generations).
 CALL_METHODS = ("lm", "bo", "dt")
 # Every solver id of identify(): "ls" (closed-form least squares) then the optimisers.
-SOLVERS = ("ls", "lm", "ga", "aco", "bbo", "de", "pso", "bo", "dt", "hybrid")
+SOLVERS = ("ls", *METHOD_IDS)
 BUDGETS = ("pop", "generations", "calls")
 
 
@@ -50,7 +52,7 @@ class _Methods(Mapping):
     """Method id → its ``solve`` function; each method's module (``optim/<id>.py``) is
     imported on first use, so importing this package stays light."""
 
-    _ids = ("ga", "aco", "bbo", "de", "pso", "lm", "bo", "dt", "hybrid")
+    _ids = METHOD_IDS
 
     def __getitem__(self, method: str) -> Callable[..., OptimResult]:
         if method not in self._ids:
@@ -68,7 +70,6 @@ class _Methods(Mapping):
 
 
 METHODS: Mapping[str, Callable[..., OptimResult]] = _Methods()
-assert set(SOLVERS) == {"ls", *METHODS}
 
 __all__ = ["METHODS", "POPULATION_METHODS", "OptimResult", "Problem", "minimize"]
 
