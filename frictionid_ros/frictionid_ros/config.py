@@ -13,6 +13,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from frictionid_core.drive import Drive, load_drive
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import FRICTIONS
 from frictionid_core.optim import SOLVERS
@@ -51,6 +52,9 @@ PARAMETERS: dict[str, tuple[object, str, bool]] = {
     "max_missing_pct": (5.0, "refuse a window whose stamps show more than this share of lost samples [%]", False),
     "filter_cutoff_hz": (0.0, "Butterworth cut-off on position [Hz]; 0 = the system's default", True),
     "decimation": (0, "keep 1 sample of n after the anti-alias filter; 0 = the system's default", True),
+    "drive_file": ("", "drive model between joint_states and the model's joints (gear ratios, coupling, effort "
+                       "units, friction on joints or motors): a YAML file or a bundled name (tx40); read at start; "
+                       "empty = none (joint-side data in N·m)", True),
     "joint_states_topic": ("joint_states", "sensor_msgs/JointState input topic", True),
     "qos": ("sensor_data", "QoS of the input topics: sensor_data (best effort) | reliable", True),
     "qos_depth": (100, "history depth of the input subscriptions [messages]", True),
@@ -84,6 +88,7 @@ class Config:
     max_missing_pct: float
     filter_cutoff_hz: float
     decimation: int
+    drive: Drive | None  # from drive_file
     joint_states_topic: str
     qos: str
     qos_depth: int
@@ -132,6 +137,16 @@ def check_system(name: str) -> str:
     return name
 
 
+def _drive(path_or_name: str) -> Drive | None:
+    """The drive of parameter ``drive_file`` (a YAML file or a bundled name), None when empty."""
+    if not path_or_name:
+        return None
+    try:
+        return load_drive(path_or_name)
+    except FrictionIdError as exc:
+        raise FrictionIdError(f"parameter 'drive_file': {exc}") from None
+
+
 def make_config(values: dict) -> Config:
     """Validate raw parameter values (name → value) into a :class:`Config`."""
     v = {name: (default if values.get(name) is None else values[name])
@@ -169,6 +184,7 @@ def make_config(values: dict) -> Config:
         max_missing_pct=float(v["max_missing_pct"]),
         filter_cutoff_hz=float(v["filter_cutoff_hz"]),
         decimation=int(v["decimation"]),
+        drive=_drive(str(v["drive_file"])),
         joint_states_topic=str(v["joint_states_topic"]),
         qos=_choice("qos", v["qos"], QOS_CHOICES, "QoS profile"),
         qos_depth=int(v["qos_depth"]),

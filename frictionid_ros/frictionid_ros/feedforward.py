@@ -2,36 +2,47 @@
 
 τ_ff[j] = FrictionModel.torque(θ_j, v[j], eps) of the core — the identified friction only
 (no rigid-body terms, no ``offset``). Joints without parameters get 0.
+
+With the node's drive (``drive_file``) velocities and the feed-forward are on its recorded side,
+in the units of joint_states: joint velocities q̇ = R⁻¹·v (motor-side log), the friction of
+motor-side parameters (``motor_<k>``) acts on w = C·q̇ and gives the joint torques Cᵀ·f(w),
+which are published as recorded efforts (:meth:`Drive.recorded_effort_matrix`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from frictionid_core.friction import FrictionModel
 from frictionid_core.errors import FrictionIdError
+from frictionid_core.friction import FrictionModel
 
 from frictionid_ros.store import JointParams
 
 
 class FeedForward:
-    """Friction torque of joints ``joints`` [N·m | N] at velocities v [rad/s | m/s].
+    """Friction torque of joints ``joints`` [N·m | N, or the drive's effort unit] at velocities v
+    [rad/s | m/s, or the drive's recorded side].
 
-    Joints sharing a friction model are evaluated with one core call: ``torque`` of a (g, k)
+    Owners sharing a friction model are evaluated with one core call: ``torque`` of a (g, k)
     parameter block at the g velocities gives a (g, g) array whose diagonal is the answer.
     """
 
-    def __init__(self, joints: list[str], eps: float = 0.0):
+    def __init__(self, joints: list[str], eps: float = 0.0, drive=None):
         self.joints = list(joints)
         self.eps = float(eps)
-        self._groups: tuple[tuple[FrictionModel, np.ndarray, np.ndarray], ...] = ()
+        self.drive = drive
+        # (groups (model, owner indices, parameters), drive maps (order, A, B) or None)
+        self._state: tuple[tuple, tuple | None] = ((), None)
         self.active: tuple[str, ...] = ()
 
     def set_params(self, per_joint: dict[str, JointParams]) -> list[str]:
-        """Use ``per_joint`` (joints not in :attr:`joints` are ignored); returns problems found."""
+        """Use ``per_joint`` (by joint, or by motor under a drive; other names are ignored);
+        returns problems found."""
+        problems: list[str] = []
+        owners, maps = self._owners(per_joint, problems)
         groups: dict[FrictionModel, tuple[list[int], list[list[float]]]] = {}
-        problems, active = [], []
-        for i, j in enumerate(self.joints):
+        active = []
+        for i, j in enumerate(owners):
             p = per_joint.get(j)
             if p is None:
                 continue
@@ -45,18 +56,51 @@ class FeedForward:
             rows.append(vec)
             active.append(j)
         # One immutable tuple, swapped atomically: readers in other threads never see a half update.
-        self._groups = tuple((m, np.array(idx, dtype=np.intp), np.array(rows, dtype=float))
-                             for m, (idx, rows) in groups.items())
+        self._state = (tuple((m, np.array(idx, dtype=np.intp), np.array(rows, dtype=float))
+                             for m, (idx, rows) in groups.items()), maps)
         self.active = tuple(active)
         return problems
 
+    def _owners(self, per_joint: dict, problems: list[str]) -> tuple[list[str], tuple | None]:
+        """Who owns friction parameters, in evaluation order, and the drive maps (None: the
+        joints themselves). Maps: ``order`` (the joint of each drive joint), A (velocities of the
+        owners = A·v[order]) and B (efforts at ``order`` = B·f)."""
+        drive = self.drive
+        if drive is None:
+            return self.joints, None
+        names = list(drive.joints)
+        if sorted(self.joints) == sorted(names):
+            order = [self.joints.index(j) for j in names]
+        elif len(self.joints) == len(names) and not set(self.joints) & set(names):
+            order = list(range(len(names)))  # the log's names, in the drive's order
+        else:
+            problems.append(f"feed-forward: joints {self.joints} do not match drive '{drive.name}' joints {names}")
+            return [], None
+        A, B = drive.joint_velocity_matrix(), drive.recorded_effort_matrix()
+        if any(m in per_joint for m in drive.motor_names()):  # friction on the motors: f(C·q̇) → Cᵀ·f
+            return drive.motor_names(), (np.array(order), drive.C @ A, B @ drive.C.T)
+        return [self.joints[k] for k in order], (np.array(order), A, B)
+
     def torque(self, v: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-        """Friction torque (J,) at velocities v (J,); non-finite velocities give 0."""
+        """Friction torque (J,) at velocities v (J,); non-finite velocities give 0 (under a drive,
+        0 from every owner whose velocity they enter)."""
         out = np.zeros(len(self.joints)) if out is None else out
         out.fill(0.0)
-        for model, idx, params in self._groups:
-            vv = v[idx]
-            tau = model.torque(params, vv, self.eps)
-            out[idx] = np.diagonal(tau)
+        groups, maps = self._state
+        if maps is None:
+            self._friction(groups, v, out)
+        else:
+            order, A, B = maps
+            vd = v[order]
+            bad = ~np.isfinite(vd)
+            f = self._friction(groups, A @ np.where(bad, 0.0, vd), np.zeros(len(order)))
+            f[(A[:, bad] != 0.0).any(axis=1)] = 0.0
+            out[order] = B @ f
         np.nan_to_num(out, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
+        return out
+
+    def _friction(self, groups, v: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """Each owner's friction at its velocity v[owner] into ``out``."""
+        for model, idx, params in groups:
+            out[idx] = np.diagonal(model.torque(params, v[idx], self.eps))
         return out

@@ -98,6 +98,7 @@ class IdentifyService:
         sel = window_series(job, cfg, inputs.ring, self._topics["joint_states"], inputs.effort_ring,
                             self._topics.get("effort", ""))
         kwargs = job.identify_kwargs(cfg.system, self._pre)
+        kwargs["drive"] = cfg.drive  # read-only: the one of start-up
         reply = (self._worker.run(sel.series, kwargs, self.stopping) if self._worker is not None
                  else run_identification(sel.series, kwargs))
         return checked_result(reply, self._log.error), sel

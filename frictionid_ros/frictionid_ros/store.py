@@ -23,6 +23,7 @@ import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
+from frictionid_core.drive import friction_rows
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import get_model
 
@@ -64,9 +65,10 @@ def split_identification(result: dict, stamp_ns: int = 0) -> dict[str, JointPara
     With several joints, names ``<joint>/<name>`` go to their joint; unprefixed (shared, e.g.
     rigid-body) parameters stay only in the top-level ``params``. With one joint every
     parameter belongs to it. Metrics are those of the whole fit; ``samples`` is per joint.
+    Under a drive with friction on the motors the parameters are per motor (``motor_<k>``).
     """
     try:
-        joints = list(result["joints"])
+        joints = friction_rows(result)
         params, std = dict(result["params"]), dict(result.get("std") or {})
         system, friction = str(result["system"]), str(result["friction"])
         asym, solver = bool(result["asymmetric"]), str(result.get("solver", ""))

@@ -137,6 +137,15 @@ class Drive:
         """Joint torques ``τ = Cᵀ·u``, N·m, for referred motor torques ``u`` (N, J) or (J,)."""
         return np.asarray(u, dtype=float) @ self.C
 
+    def joint_velocity_matrix(self) -> np.ndarray:
+        """M (J, J) with joint velocities ``q̇ = M·v`` of recorded velocities v: R⁻¹ on the motor side, else 1."""
+        return self._R_inv if self.side == "motor" else np.eye(len(self.joints))
+
+    def recorded_effort_matrix(self) -> np.ndarray:
+        """M (J, J) with recorded efforts ``e = M·τ`` of joint torques τ (N·m):
+        diag(1/effort_scale)·R⁻ᵀ on the motor side, else diag(1/effort_scale)."""
+        return (self._R_inv.T if self.side == "motor" else np.eye(len(self.joints))) / np.array(self.effort_scale)[:, None]
+
     def coupled_motors(self) -> list[int]:
         """0-based indices of the motors that turn with more than one joint."""
         return [int(k) for k in np.flatnonzero(np.count_nonzero(self.R, axis=1) > 1)]
@@ -146,16 +155,17 @@ class Drive:
         return [f"motor_{k + 1}" for k in range(len(self.joints))]
 
     # ------------------------------------------------------------- whole series
-    def to_joint_side(self, series: JointSeries) -> JointSeries:
+    def to_joint_side(self, series: JointSeries, joint_map: dict[str, str] | None = None) -> JointSeries:
         """Joint angles (rad), velocities (rad/s) and torques (N·m) from a log recorded on ``side``.
 
-        ``series`` has one column per drive joint: either named as the drive's joints (any order)
-        or named as in the log and already in the drive's order (names are kept). Motor side:
+        ``series`` has one column per drive joint: either named as the drive's joints (any order;
+        through ``joint_map`` {log name: drive joint} when given) or named as in the log and
+        already in the drive's order. Log names are kept; columns come out in the drive's order. Motor side:
         ``q = R⁻¹·q_m + position_offset``, ``q̇ = R⁻¹·q̇_m``, ``τ = Rᵀ·(effort_scale·e)``; joint side:
         ``q = q_rec + position_offset``, ``τ = effort_scale·e``. What was done goes to ``notes``;
         ``extras`` and ``meta`` pass through unchanged.
         """
-        s = self._aligned(series)
+        s = self._aligned(series, joint_map)
         scaled = s.effort * np.array(self.effort_scale)
         if self.side == "motor":
             q = s.position @ self._R_inv.T + np.array(self.position_offset)
@@ -194,16 +204,18 @@ class Drive:
                 "effort_scale": list(self.effort_scale), "position_offset": list(self.position_offset),
                 "friction_on": self.friction_on}
 
-    def _aligned(self, series: JointSeries) -> JointSeries:
-        """``series`` with its columns in the drive's joint order."""
+    def _aligned(self, series: JointSeries, joint_map: dict[str, str] | None = None) -> JointSeries:
+        """``series`` with its columns in the drive's joint order (log names mapped through
+        ``joint_map`` to the drive's joints)."""
         joints = list(self.joints)
-        if series.joints == joints:
-            return series
-        if set(series.joints) == set(joints):
-            return series.select(joints)
-        known = [j for j in series.joints if j in self.joints]
+        for named in (series.joints, [(joint_map or {}).get(j, j) for j in series.joints]):
+            if named == joints:
+                return series
+            if sorted(named) == sorted(joints):
+                return series.select([series.joints[named.index(j)] for j in joints])
+        known = [j for j in named if j in self.joints]
         if known or len(series.joints) != len(joints):
-            missing = [j for j in joints if j not in series.joints]
+            missing = [j for j in joints if j not in named]
             raise InputError(f"{series.source}: the data joints {series.joints} do not match {self._label} "
                              f"joints {joints}" + (f" (missing {missing})" if known else ""))
         return series
@@ -229,6 +241,20 @@ def drive_from_dict(data: dict, source: str = "") -> Drive:
                  coupling=coupling, effort_scale=data.get("effort_scale"),
                  position_offset=data.get("position_offset"), friction_on=data.get("friction_on", "joint"),
                  name=str(name), source=source)
+
+
+def result_drive(result: dict) -> Drive | None:
+    """The drive of an identification result (its ``drive`` key, an older result has none), or None."""
+    data = result.get("drive")
+    return drive_from_dict(data, "the result's drive") if data else None
+
+
+def friction_rows(result: dict) -> list[str]:
+    """Who owns the friction and offset parameters of an identification result (the ``<name>/``
+    prefixes): the drive's motors (``motor_<k>``) when its friction acts on the motors, else the
+    result's joints."""
+    drive = result_drive(result)
+    return drive.motor_names() if drive is not None and drive.friction_on == "motor" else list(result["joints"])
 
 
 def bundled_drives() -> list[str]:

@@ -7,6 +7,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from frictionid_core.drive import Drive
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import get_model
 from frictionid_core.linear import least_squares
@@ -59,12 +60,17 @@ def build_model(series: JointSeries, system: str | System, friction: str, asymme
 def identify(series: JointSeries, *, system: str | System = "emps", joint_map: dict[str, str] | None = None,
              friction: str = "coulomb", asymmetric: bool = False, solver: str = "ls", seed: int = 0,
              varpro: bool | None = None, warm_start: bool = True, preprocessing: Preprocessing | None = None,
-             bounds: dict[str, tuple[float, float]] | None = None, **solver_options) -> Identification:
+             bounds: dict[str, tuple[float, float]] | None = None, drive: Drive | None = None,
+             **solver_options) -> Identification:
     """Identify the parameters of ``system`` with ``friction`` from ``series``.
 
     Args:
         system: a system name (see :data:`frictionid_core.systems.SYSTEM_NAMES`) or a System.
         joint_map: {data joint: model joint} of a robot system named by ``system``.
+        drive: the log's transmission (:func:`frictionid_core.drive.load_drive`): the log is taken
+            to the joint side first; with ``friction_on: motor`` friction, offsets and rotor
+            inertias are per motor (``motor_<k>/…``, fit in the referred motor torques) and the
+            metrics are on the joint torques Cᵀ·u.
         friction: the friction law (one of :data:`frictionid_core.friction.FRICTIONS`).
         solver: ``ls`` (models linear in their parameters) or any method of
             :mod:`frictionid_core.optim` (lm, ga, aco, bbo, de, pso, bo, dt, hybrid).
@@ -82,12 +88,12 @@ def identify(series: JointSeries, *, system: str | System = "emps", joint_map: d
         **solver_options: budgets (pop, generations, calls) and method options.
     """
     t0 = time.perf_counter()
-    sys_ = as_system(system, joint_map)
+    sys_ = as_system(system, joint_map, drive)
     settings = preprocessing or sys_.preprocessing
     if varpro is None:
         varpro = sys_.robot is not None
     model = build_model(series, sys_, friction, asymmetric, settings, bounds)
-    extra: dict = {"preprocessing": asdict(settings)}
+    extra: dict = {"preprocessing": asdict(settings), "drive": sys_.drive.to_dict() if sys_.drive else None}
     if solver == "ls" or (varpro and model.is_linear):
         if not model.is_linear:
             raise FrictionIdError(
@@ -106,13 +112,18 @@ def identify(series: JointSeries, *, system: str | System = "emps", joint_map: d
         extra["warm_start"] = warm_start
         std = _jacobian_std(model, x)
         cond = float(np.linalg.cond(model.design(x[None])[0]))
-    metrics = fit_metrics(model.obs.y, model.predict(x))
+    metrics = fit_metrics(*_joint_torques(model, x))
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
     metrics["samples"] = int(model.obs.y.size)
     return Identification(sys_.name, friction, asymmetric, solver, series.source, list(series.joints),
                           dict(zip(model.names, map(float, x))), std, metrics, time.perf_counter() - t0, extra,
                           dict(sys_.joint_map))
+
+
+def _joint_torques(model: IdentificationModel, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(measured, predicted) joint torque rows of parameters ``x`` (motor rows mapped by Cᵀ)."""
+    return model.obs.joint_torques(model.obs.y), model.obs.joint_torques(model.predict(x))
 
 
 def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpro: bool = False,
@@ -204,7 +215,7 @@ def _jacobian_std(model: IdentificationModel, x: np.ndarray) -> dict[str, float]
 
 def validate(series: JointSeries, params: dict) -> dict[str, float]:
     """Cross-test: metrics of the identified ``params`` (an :meth:`Identification.to_dict`) on ``series``,
-    with the identification's system (and joint map), pre-processed as in the identification."""
+    with the identification's system (joint map and drive), pre-processed as in the identification."""
     try:
         settings = Preprocessing(**params["preprocessing"]) if "preprocessing" in params else None
         model = build_model(series, result_system(params), params["friction"], bool(params["asymmetric"]),
@@ -213,6 +224,6 @@ def validate(series: JointSeries, params: dict) -> dict[str, float]:
         x = np.array([values[n] for n in model.names], dtype=float)
     except KeyError as exc:
         raise FrictionIdError(f"parameter file lacks {exc}; expected the JSON written by 'frictionid identify'") from None
-    metrics = fit_metrics(model.obs.y, model.predict(x))
+    metrics = fit_metrics(*_joint_torques(model, x))
     metrics["samples"] = int(model.obs.y.size)
     return metrics

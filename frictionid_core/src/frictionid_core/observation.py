@@ -35,6 +35,10 @@ class Observation:
             asymmetric V_pos = q̇·O⁺, S_pos = sign(q̇)·O⁺, V_neg, S_neg, and the constant
             ``one`` (decimated like the others: the anti-alias filter's DC gain is 0.989); each (Nd,).
         t: decimated sample times, s (Nd,).
+        coupling: None when the rows are joint torques; under a drive whose friction acts on the
+            motors (rows = referred motor torques u = C⁻ᵀ·τ, ``joints`` = its motor names) the
+            drive's C (J, J), which :meth:`joint_torques` maps back with.
+        data_joints: the data joints behind the rows, in row order (default: ``joints``).
     """
 
     joints: list[str]
@@ -44,11 +48,26 @@ class Observation:
     velocity: np.ndarray
     columns: list[dict[str, np.ndarray]]
     t: np.ndarray
+    coupling: np.ndarray | None = None
+    data_joints: list[str] | None = None
 
     @property
     def n_samples(self) -> int:
         """Decimated samples per joint (Nd)."""
         return self.velocity.shape[0]
+
+    @property
+    def torque_joints(self) -> list[str]:
+        """The joint of each block of :meth:`joint_torques` (the data joints)."""
+        return list(self.data_joints or self.joints)
+
+    def joint_torques(self, rows: np.ndarray) -> np.ndarray:
+        """Joint torques τ = Cᵀ·u of torque rows (…, J·Nd) (``y`` or predictions), joint-major in
+        :attr:`torque_joints` order; the rows themselves when they are joint torques."""
+        if self.coupling is None:
+            return rows
+        u = rows.reshape(rows.shape[:-1] + (len(self.joints), self.n_samples))
+        return np.einsum("mj,...mn->...jn", self.coupling, u).reshape(rows.shape)
 
 
 def velocity_columns(qd: np.ndarray) -> np.ndarray:

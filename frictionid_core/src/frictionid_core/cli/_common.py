@@ -34,6 +34,25 @@ def add_source_arguments(p: argparse.ArgumentParser) -> None:
     add_json_argument(p)
 
 
+def add_drive_argument(p: argparse.ArgumentParser,
+                       role: str = "the log is taken to the joint side with it (default: none, a joint-side log "
+                                   "in N·m)") -> None:
+    """``--drive FILE|NAME``: the log's transmission (gear ratios, coupling, effort units); ``role``
+    ends its help."""
+    p.add_argument("--drive", metavar="FILE|NAME",
+                   help=f"drive model (gear ratios, coupling, effort units, friction on joints or motors): a YAML "
+                        f"file or a bundled drive (tx40); {role}")
+
+
+def drive_option(args):
+    """The Drive named by ``--drive``, or None."""
+    if args.drive is None:
+        return None
+    from frictionid_core.drive import load_drive
+
+    return load_drive(args.drive)
+
+
 def load_source(args):
     """The JointSeries named by :func:`add_source_arguments`' options."""
     from frictionid_core.io import load
@@ -93,6 +112,10 @@ def print_table(result: dict, out=None) -> None:
             f" · solver {result['solver']}")
     print(head, file=out)
     print(f"source: {result['source']}", file=out)
+    if result.get("drive"):
+        d = result["drive"]
+        print(f"drive: {d.get('name') or 'unnamed'} ({d['side']}-side log, friction on the {d['friction_on']}s"
+              f"{', coupling ' + str(d['coupling']) if d.get('coupling') else ''})", file=out)
     print(f"{'parameter':<16}{'value':>14}{'σ':>12}", file=out)
     for name, value in result["params"].items():
         print(f"{name:<16}{fmt(value):>14}{fmt(result['std'].get(name)):>12}", file=out)

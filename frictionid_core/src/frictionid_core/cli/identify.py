@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from frictionid_core.cli._common import (add_source_arguments, load_source, parse_bounds,
-                                         print_table, save_json)
+from frictionid_core.cli._common import (add_drive_argument, add_source_arguments, drive_option, load_source,
+                                         parse_bounds, print_table, save_json)
 from frictionid_core.errors import FrictionIdError
 
 
@@ -18,6 +18,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--system", default="emps",
                    help="inverse dynamic model: emps | friction-only | tx40-j2 | tx40 | urdf:PATH (default emps)")
     p.add_argument("--joint-map", help="bag joint → model joint names when they differ: a=b,c=d")
+    add_drive_argument(p)
     p.add_argument("--friction", default="coulomb", choices=FRICTIONS, help="friction model (default coulomb)")
     p.add_argument("--asymmetric", action="store_true", help="separate parameters for v > 0 and v < 0")
     p.add_argument("--solver", default="ls", choices=SOLVERS, help="optimiser (default ls: linear least squares)")
@@ -63,8 +64,9 @@ def run(args) -> int:
     if args.output_error:
         from frictionid_core.output_error import identify_output_error
 
-        if args.system != "emps":
-            raise FrictionIdError(f"--output-error needs the EMPS closed-loop model; got system '{args.system}'")
+        if args.system != "emps" or args.drive is not None:
+            raise FrictionIdError(f"--output-error needs the EMPS closed-loop model without a drive; got system "
+                                  f"'{args.system}'" + (f" and drive '{args.drive}'" if args.drive else ""))
         result = identify_output_error(args.source, friction=args.friction, asymmetric=args.asymmetric,
                                        solver=args.solver if args.solver != "ls" else "lm", seed=args.seed,
                                        clock=args.clock, bounds=parse_bounds(args.bounds), **opts).to_dict()
@@ -77,7 +79,7 @@ def run(args) -> int:
                           friction=args.friction,
                           asymmetric=args.asymmetric, solver=args.solver, seed=args.seed, varpro=args.varpro,
                           warm_start=args.warm_start, bounds=parse_bounds(args.bounds),
-                          preprocessing=_preprocessing(args), **opts).to_dict()
+                          preprocessing=_preprocessing(args), drive=drive_option(args), **opts).to_dict()
     print_table(result)
     save_json(args.json, result)
     return 0

@@ -1,13 +1,13 @@
 """``frictionid synth TRAJ --system tx40 --out BAG [--friction stribeck] [--asymmetric] [--friction-params F.json]
 [--offsets J=V,…] [--position-noise RAD[,…]] [--torque-noise 0.05] [--rate 1000] [--seed 0] [--truth T.json]
-[--names A,B,…]``: trajectory → synthetic JointState bag (+ ground-truth JSON)."""
+[--names A,B,…] [--drive FILE|NAME]``: trajectory → synthetic JointState bag (+ ground-truth JSON)."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from frictionid_core.cli._common import parse_joint_values, save_json, split_list
+from frictionid_core.cli._common import add_drive_argument, drive_option, parse_joint_values, save_json, split_list
 from frictionid_core.errors import FrictionIdError, InputError
 
 
@@ -32,6 +32,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--names",
                    help="joint names written in the bag, comma-separated in model order (default: model names)")
     p.add_argument("--truth", type=Path, help="write the ground truth as JSON here")
+    add_drive_argument(p, "the bag then holds what the drive logs (e.g. motor angles, efforts in its units); with "
+                          "friction_on: motor, friction acts per motor and --friction-params names motor_<k>")
 
 
 def _per_joint(text: str | None, n: int, option: str) -> list[float] | None:
@@ -75,11 +77,14 @@ def run(args) -> int:
                                offsets=offsets,
                                position_noise=_per_joint(args.position_noise, robot.nv, "--position-noise"),
                                rate=args.rate, seed=args.seed, names=names, source=str(args.out),
+                               drive=drive_option(args),
                                **({} if args.torque_noise is None else {"torque_noise": args.torque_noise}))
     truth["trajectory_file"] = str(args.trajectory)
     write_joint_state_bag(args.out, series)
     save_json(args.truth, truth)
     print(f"{args.out}: {len(series)} samples × {len(series.joints)} joints of {robot.name} at {args.rate:g} Hz, "
           f"{args.friction}{' (asymmetric)' if args.asymmetric else ''} friction"
+          + (f" on the {truth['drive']['friction_on']}s, {truth['drive']['side']}-side log of drive "
+             f"'{truth['drive']['name']}'" if "drive" in truth else "")
           + (f"; truth in {args.truth}" if args.truth else ""))
     return 0

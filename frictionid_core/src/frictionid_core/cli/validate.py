@@ -5,12 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from frictionid_core.cli._common import add_source_arguments, load_source, metrics_line, save_json
+from frictionid_core.cli._common import (add_drive_argument, add_source_arguments, drive_option, load_source,
+                                         metrics_line, save_json)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_source_arguments(p)
     p.add_argument("--params", type=Path, required=True, help="JSON written by 'frictionid identify'")
+    add_drive_argument(p, "default: the result's")
 
 
 def run(args) -> int:
@@ -18,10 +20,14 @@ def run(args) -> int:
     from frictionid_core.jsonfile import read_json
 
     params = read_json(args.params, "parameters")
+    drive = drive_option(args)
+    if drive is not None:
+        params = {**params, "drive": drive.to_dict()}
     series = load_source(args)
     metrics = validate(series, params)
     out = {"source": series.source, "params_file": str(args.params), "system": params.get("system"),
-           "friction": params.get("friction"), "asymmetric": params.get("asymmetric"), "metrics": metrics}
+           "friction": params.get("friction"), "asymmetric": params.get("asymmetric"), "drive": params.get("drive"),
+           "metrics": metrics}
     print(f"cross-test of {args.params} on {series.source}")
     print(metrics_line(metrics))
     save_json(args.json, out)

@@ -141,12 +141,15 @@ def random_samples(robot, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray
     return q, qd, qdd
 
 
-def robot_base_parameters(robot, samples: int | None = None, seed: int = 0) -> BaseParameters:
-    """Base parameters of ``robot`` (standard parameters + rotor inertias) from random samples."""
-    names = robot.parameter_names()
+def robot_base_parameters(robot, samples: int | None = None, seed: int = 0, rows=None) -> BaseParameters:
+    """Base parameters of ``robot`` (standard parameters + rotor inertias) from random samples;
+    ``rows``: another regressor of the robot (``parameter_names()``, ``regressor(q, q̇, q̈)``,
+    e.g. :class:`~frictionid_core.robots.motor_side.MotorSide`) instead of the robot's own."""
+    rows = rows or robot
+    names = rows.parameter_names()
     n = samples or max(50, 4 * len(names) // robot.nv + 10)
     q, qd, qdd = random_samples(robot, n, seed)
-    Y = robot.regressor(q, qd, qdd)  # (n, nv, P)
+    Y = rows.regressor(q, qd, qdd)  # (n, nv, P)
     return base_parameters(Y.reshape(-1, Y.shape[-1]), names)
 
 

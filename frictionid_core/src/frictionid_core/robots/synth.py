@@ -4,6 +4,12 @@
 sampled at ``rate`` Hz; the recorded position is q + noise. The ground truth (standard and
 base parameters, friction, offsets, noise, the thesis joint-2 equivalents for the TX40) is
 returned beside the data so identification results can be compared with it.
+
+With a drive (:mod:`frictionid_core.drive`) the data are what that drive logs (motor angles,
+efforts in its units: :meth:`~frictionid_core.drive.Drive.to_recorded_side` of the noisy joint
+side). With its friction on the motors, friction acts per motor on w = C·q̇ and the rotor
+inertias (the model's armature, one per motor) on ẇ = C·q̈:
+τ = rnea_bodies + Cᵀ·(Ia ⊙ C·q̈) + Cᵀ·f(C·q̇) + offset.
 """
 
 from __future__ import annotations
@@ -60,25 +66,31 @@ def synthesize(robot, trajectory, *, friction: str = "stribeck", asymmetric: boo
                friction_params: dict[str, dict[str, float]] | None = None, offsets: dict[str, float] | None = None,
                position_noise: float | np.ndarray | None = None, torque_noise: float = DEFAULT_TORQUE_NOISE,
                rate: float = 1000.0, seed: int = 0, names: dict[str, str] | None = None,
-               source: str = "synthetic") -> tuple[JointSeries, dict]:
+               source: str = "synthetic", drive=None) -> tuple[JointSeries, dict]:
     """Data of ``robot`` following ``trajectory`` (see the module doc) and its ground truth.
 
     Args:
         friction: the friction law; asymmetric: separate v > 0 and v < 0 parameters.
-        friction_params: {model joint: {param: value}} (default: the published values for the TX40).
-        offsets: {model joint: N·m} constant torque offsets (default 0).
+        friction_params: {model joint: {param: value}}, or {motor: …} (``motor_<k>``) under a
+            drive with friction on the motors (default: the published values for the TX40,
+            motor k taking joint k's).
+        offsets: {model joint: N·m} constant joint torque offsets (default 0).
         position_noise: 1σ per joint (scalar or (nv,)), rad (default: the published TX40 noise, else 1e−6).
         names: {model joint: name written in the data} (default: model names).
+        drive: a Drive whose joints are the robot's: the data are its log (module doc).
     """
     from frictionid_core.robots.excitation import check_trajectory
 
     if friction not in FRICTIONS:
         raise FrictionIdError(f"unknown friction model '{friction}'; choose one of {', '.join(FRICTIONS)}")
     check_trajectory(robot, trajectory, rate)
+    motors = _motor_side(robot, drive)
     if friction_params is None:
         if robot.name != "tx40":
             raise InputError(f"no default friction for {robot.name}: give per-joint friction parameters")
         friction_params = tx40_friction(friction, asymmetric)
+        if motors is not None:
+            friction_params = {m: friction_params[j] for m, j in zip(motors.motors, robot.joints)}
     if position_noise is None:
         if robot.name == "tx40":
             from frictionid_core.robots.tx40 import POSITION_NOISE
@@ -95,24 +107,52 @@ def synthesize(robot, trajectory, *, friction: str = "stribeck", asymmetric: boo
     order = [trajectory.joints.index(j) for j in robot.joints]
     q, qd, qdd = q[:, order], qd[:, order], qdd[:, order]
     tau = robot.inverse_dynamics(q, qd, qdd)
-    tau += friction_torques(friction, asymmetric, friction_params, robot.joints, qd)
+    if motors is None:
+        tau += friction_torques(friction, asymmetric, friction_params, robot.joints, qd)
+    else:  # rotor inertias and friction on the motors: τ = Cᵀ·(Ia ⊙ ẇ + f(w))
+        tau += motors.rotor_torques(qdd, robot.armature) - qdd * robot.armature
+        tau += friction_torques(friction, asymmetric, friction_params, motors.motors, qd @ motors.C.T) @ motors.C
     tau += np.array([offsets[j] for j in robot.joints])
     rng = np.random.default_rng(seed)
     position = q + rng.standard_normal(q.shape) * sigma_q
     effort = tau + rng.standard_normal(tau.shape) * torque_noise
     data_names = [(names or {}).get(j, j) for j in robot.joints]
-    series = JointSeries(t, data_names, position, effort, source=source)
+    series = JointSeries(t, list(robot.joints), position, effort, source=source)
+    if drive is not None:
+        series = drive.to_recorded_side(series)  # in the drive's joint order
+    rename = dict(zip(robot.joints, data_names))
+    series.joints = [rename[j] for j in series.joints]
     truth = ground_truth(robot, friction, asymmetric, friction_params, offsets, sigma_q, torque_noise, rate, seed,
-                         trajectory, data_names)
+                         trajectory, data_names, motors)
+    if drive is not None:
+        truth["drive"] = drive.to_dict()
     return series, truth
 
 
+def _motor_side(robot, drive):
+    """The robot's motor rows under ``drive`` when its friction acts on the motors, else None."""
+    if drive is None:
+        return None
+    if sorted(drive.joints) != sorted(robot.joints):
+        raise InputError(f"drive '{drive.name}' joints {list(drive.joints)} are not the joints of {robot.name} "
+                         f"{robot.joints}")
+    if drive.friction_on != "motor":
+        return None
+    from frictionid_core.robots.motor_side import MotorSide
+
+    return MotorSide(robot, drive)
+
+
 def ground_truth(robot, friction, asymmetric, friction_params, offsets, sigma_q, torque_noise, rate, seed,
-                 trajectory, data_names) -> dict:
-    """The JSON-ready ground truth of a synthetic recording."""
+                 trajectory, data_names, motors=None) -> dict:
+    """The JSON-ready ground truth of a synthetic recording (``motors``: its MotorSide when
+    friction and rotor inertias act on the motors: ``friction`` then holds each motor's, the
+    standard and base parameters are those of the motor rows, ``motor_offsets`` = C⁻ᵀ·offsets)."""
     from frictionid_core.robots.base import base_parameter_names, robot_base_parameters
 
-    base = robot_base_parameters(robot)
+    rows = motors or robot
+    base = robot_base_parameters(robot, rows=motors)
+    owners = motors.motors if motors is not None else robot.joints
     model = get_model(friction, asymmetric)
     truth = {
         "robot": robot.name,
@@ -122,14 +162,18 @@ def ground_truth(robot, friction, asymmetric, friction_params, offsets, sigma_q,
         "rate_hz": rate,
         "seed": seed,
         "friction": {"kind": friction, "asymmetric": asymmetric,  # "kind": the truth files' format
-                     "params": {j: {n: float(friction_params[j][n]) for n in model.names} for j in robot.joints}},
+                     "params": {j: {n: float(friction_params[j][n]) for n in model.names} for j in owners}},
         "offsets": offsets,
         "noise": {"position_rad": dict(zip(robot.joints, map(float, sigma_q))), "torque": float(torque_noise)},
-        "standard_parameters": dict(zip(robot.parameter_names(), map(float, robot.parameters()))),
+        "standard_parameters": dict(zip(rows.parameter_names(), map(float, robot.parameters()))),
         "base_parameters": dict(zip(base_parameter_names(base), map(float, base.from_standard(robot.parameters())))),
         "base_combinations": dict(zip(base_parameter_names(base), base.describe().values())),
         "limits": robot.limits_table(),
     }
+    if motors is not None:
+        truth["friction"]["on"] = "motor"
+        u = np.array([offsets[j] for j in robot.joints]) @ np.linalg.inv(motors.C)
+        truth["motor_offsets"] = dict(zip(motors.motors, map(float, u)))
     moving = [j for j, moves in zip(trajectory.joints, trajectory.moves()) if moves]
     truth["moving_joints"] = moving
     if robot.name == "tx40":
@@ -155,7 +199,8 @@ def expected_parameters(truth: dict, system: str, joints: list[str] | None = Non
     """The truth under the parameter names an identification of ``system`` reports.
 
     ``system``: ``tx40-j2`` (one joint: ZZ, MX, MY, friction, offset) or a robot system
-    (base parameters, ``<joint>/<friction>``, ``<joint>/offset``; data joint names)."""
+    (base parameters, ``<joint>/<friction>``, ``<joint>/offset``; data joint names; with friction
+    on the motors ``motor_<k>/<friction>`` and ``motor_<k>/offset``)."""
     _, _, friction_params = truth_friction(truth)
     data = dict(zip(truth["joints"], truth["data_joint_names"]))
     out: dict[str, float] = {}
@@ -168,6 +213,11 @@ def expected_parameters(truth: dict, system: str, joints: list[str] | None = Non
         out["offset"] = truth["offsets"]["joint_2"]
         return out
     out.update(truth["base_parameters"])
+    if "motor_offsets" in truth:  # friction and offsets per motor
+        for m, value in truth["motor_offsets"].items():
+            out.update({f"{m}/{n}": v for n, v in friction_params[m].items()})
+            out[f"{m}/offset"] = value
+        return out
     for j in joints or truth["joints"]:
         model_j = {v: k for k, v in data.items()}.get(j, j)
         out.update({f"{j}/{n}": v for n, v in friction_params[model_j].items()})

@@ -4,8 +4,10 @@ systems built on request (``tx40``, ``urdf:PATH``; Pinocchio), each with an opti
 from __future__ import annotations
 
 import functools
+from dataclasses import replace
 from pathlib import Path
 
+from frictionid_core.drive import Drive, result_drive
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.robots.model import load_urdf
 from frictionid_core.robots.tx40 import build_tx40
@@ -23,46 +25,72 @@ SYSTEM_NAMES = (*FIXED_SYSTEMS, "tx40", f"{URDF_PREFIX}PATH")
 _PACKED_MAP = "?map="
 
 
-def get_system(name: str, joint_map: dict[str, str] | None = None) -> System:
+def get_system(name: str, joint_map: dict[str, str] | None = None, drive: Drive | None = None) -> System:
     """The system ``name`` (one of SYSTEM_NAMES, ``urdf:PATH`` naming any fixed-base URDF file).
 
-    ``joint_map`` {data joint: model joint} renames data joints for the robot systems. A robot
-    system is built once per name, URDF modification time and joint map (its base parameters
-    are computed once).
+    ``joint_map`` {data joint: model joint} renames data joints for the robot systems; ``drive``
+    (:mod:`frictionid_core.drive`) converts the log to the joint side, and with friction on the
+    motors makes the motors the fit rows. A robot system is built once per name, URDF
+    modification time, joint map and motor-side drive (its base parameters are computed once).
     """
     joint_map = dict(joint_map or {})
     if name in FIXED_SYSTEMS:
         if joint_map:
             raise FrictionIdError(f"system '{name}' takes no joint map; select joints with --joints")
-        return FIXED_SYSTEMS[name]
+        return with_drive(FIXED_SYSTEMS[name], drive)
     if name == "tx40":
-        return _robot_system(name, None, tuple(joint_map.items()))
-    if name.startswith(URDF_PREFIX):
+        stamp = None
+    elif name.startswith(URDF_PREFIX):
         path = Path(name[len(URDF_PREFIX):]).expanduser()
         if not path.is_file():
             raise FrictionIdError(f"system '{name}': no such URDF file '{path}'")
-        return _robot_system(name, path.stat().st_mtime_ns, tuple(joint_map.items()))
-    raise FrictionIdError(f"unknown system '{name}'; choose one of {', '.join(SYSTEM_NAMES)}")
+        stamp = path.stat().st_mtime_ns
+    else:
+        raise FrictionIdError(f"unknown system '{name}'; choose one of {', '.join(SYSTEM_NAMES)}")
+    motor_drive = drive if drive is not None and drive.friction_on == "motor" else None
+    return with_drive(_robot_system(name, stamp, tuple(joint_map.items()), motor_drive), drive)
 
 
 @functools.lru_cache(maxsize=16)
-def _robot_system(name: str, stamp: int | None, joint_map: tuple[tuple[str, str], ...]) -> System:
+def _robot_system(name: str, stamp: int | None, joint_map: tuple[tuple[str, str], ...],
+                  motor_drive: Drive | None) -> System:
     robot = build_tx40() if name == "tx40" else load_urdf(Path(name[len(URDF_PREFIX):]).expanduser())
-    return robot_system(robot, name, dict(joint_map))
+    return robot_system(robot, name, dict(joint_map), drive=motor_drive)
 
 
-def as_system(system: str | System, joint_map: dict[str, str] | None = None) -> System:
-    """``system`` itself, or the system of that name with ``joint_map``."""
+def with_drive(system: System, drive: Drive | None) -> System:
+    """``system`` reading its logs through ``drive`` (None: as they are).
+
+    A robot system whose rows are not yet the motors of a friction-on-motor drive must be built
+    with it (:func:`get_system`); the other systems have one joint or no rigid-body columns, so
+    their columns hold in the motor rows as they are (C = 1 for one joint)."""
+    if drive is None or drive == system.drive:
+        return system
+    motor_drive = drive if drive.friction_on == "motor" else None
+    if system.robot is not None:
+        built = system.robot.rows.drive if system.robot.rows is not None else None
+        if built != motor_drive:
+            raise FrictionIdError(f"system '{system.name}': its rows were built for another drive; pass the drive "
+                                  "with the system's name (get_system(name, drive=…))")
+    elif motor_drive is not None and system.rigid_names and system.joints != 1:
+        raise FrictionIdError(f"system '{system.name}' cannot put friction on coupled motors "
+                              "(its rigid-body columns are joint torques)")
+    return replace(system, drive=drive)
+
+
+def as_system(system: str | System, joint_map: dict[str, str] | None = None, drive: Drive | None = None) -> System:
+    """``system`` itself (reading its logs through ``drive`` when given), or the system of that
+    name with ``joint_map`` and ``drive``."""
     if isinstance(system, System):
         if joint_map:
             raise FrictionIdError(f"a joint map goes with a system name, not with the System '{system.name}' "
                                   "(it carries its own)")
-        return system
-    return get_system(system, joint_map)
+        return with_drive(system, drive)
+    return get_system(system, joint_map, drive)
 
 
 def result_system(result: dict) -> System:
-    """The system of an identification result (``Identification.to_dict()``): its ``system``
-    and ``joint_map`` (older results pack the map into the name: ``tx40?map=a=b,c=d``)."""
+    """The system of an identification result (``Identification.to_dict()``): its ``system``,
+    ``joint_map`` (older results pack the map into the name: ``tx40?map=a=b,c=d``) and ``drive``."""
     name, _, packed = str(result["system"]).partition(_PACKED_MAP)
-    return get_system(name, result.get("joint_map") or parse_joint_map(packed))
+    return get_system(name, result.get("joint_map") or parse_joint_map(packed), result_drive(result))

@@ -33,27 +33,38 @@ _CHECK_STRIDE = 10
 
 
 def robot_system(robot, name: str, joint_map: dict[str, str] | None = None, base=None,
-                 preprocessing: Preprocessing = ROBOT_PREPROCESSING) -> System:
+                 preprocessing: Preprocessing = ROBOT_PREPROCESSING, drive=None) -> System:
     """The full-robot system ``name`` of ``robot`` (a RobotModel); ``base``: its base parameters
-    (default: computed)."""
-    base = base or robot_base_parameters(robot)
-    info = RobotInfo(robot, base)
+    (default: computed). With a ``drive`` whose friction acts on the motors the rows are its
+    motors (:class:`~frictionid_core.robots.motor_side.MotorSide`: body columns mapped by C⁻ᵀ,
+    one rotor inertia per motor on ẇ) and the base parameters are those of that regressor."""
+    rows = None
+    if drive is not None and drive.friction_on == "motor":
+        from frictionid_core.robots.motor_side import MotorSide
+
+        rows = MotorSide(robot, drive)
+    base = base or robot_base_parameters(robot, rows=rows)
+    info = RobotInfo(robot, base, rows)
     names = tuple(base_parameter_names(base))
     nominal = base.from_standard(robot.parameters())
     # Bounds only matter for solvers searching every parameter (use --varpro instead).
     bounds = {n: (-max(1.0, 10.0 * abs(v)), max(1.0, 10.0 * abs(v))) for n, v in zip(names, nominal)}
 
     def columns(p: Prepared, joints: list[str]) -> np.ndarray:
-        rows = info.base_columns(p.q, p.qd, p.qdd, joints)
-        _check_rank(rows, p.qd, joints, list(names), name)
-        return rows
+        cols = info.base_columns(p.q, p.qd, p.qdd, joints)
+        if rows is None:
+            _check_rank(cols, p.qd, joints, list(names), name)
+        else:  # friction on each motor's referred velocity; data joints are in the drive's order
+            _check_rank(cols, drive.motor_velocity(p.qd), drive.motor_names(), list(names), name)
+        return cols
 
     return System(name, tuple(robot.joints), columns, names, bounds, preprocessing, dict(joint_map or {}),
-                  ROBOT_MIN_SPEED, info)
+                  ROBOT_MIN_SPEED, info, drive)
 
 
 def _check_rank(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list[str], name: str) -> None:
-    """Raise when the rigid + Coulomb/viscous columns of the data are rank-deficient."""
+    """Raise when the rigid + Coulomb/viscous columns of the data are rank-deficient (``qd``:
+    each row block's friction velocity, ``joints``: the blocks' names)."""
     nj, n = len(joints), qd.shape[0]
     sel = np.arange(0, n, _CHECK_STRIDE)
     rigid = np.concatenate([rows[j * n + sel] for j in range(nj)], axis=0)

@@ -7,8 +7,8 @@ default.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Callable
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -17,23 +17,30 @@ from frictionid_core.observation import Observation, build_observation
 from frictionid_core.preprocess import Prepared, Preprocessing, prepare
 from frictionid_core.timeseries import JointSeries
 
+if TYPE_CHECKING:
+    from frictionid_core.drive import Drive
+
 
 @dataclass(frozen=True)
 class RobotInfo:
-    """The robot behind a robot system: its model and base parameters."""
+    """The robot behind a robot system: its model and base parameters (of ``rows``, the
+    regressor of the fit rows: the model's own, or its motor rows under a drive whose friction
+    acts on the motors)."""
 
     model: object  # frictionid_core.robots.model.RobotModel
     base: object  # frictionid_core.robots.base.BaseParameters
+    rows: object = None  # frictionid_core.robots.motor_side.MotorSide, or None: joint rows
 
     def base_columns(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, joints: list[str]) -> np.ndarray:
-        """Base regressor rows (J·N, r), joint-major in the order of the model joints ``joints``;
-        q, q̇, q̈ (N, J) hold every model joint in that order (rad, rad/s, rad/s²)."""
+        """Base regressor rows (J·N, r), joint-major in the order of the model joints ``joints``
+        (with motor rows: row block k is the motor of ``joints[k]``); q, q̇, q̈ (N, J) hold every
+        model joint in that order (rad, rad/s, rad/s²)."""
         index = {j: k for k, j in enumerate(self.model.joints)}
         order = [index[j] for j in joints]
         n = q.shape[0]
         qm, qdm, qddm = (np.empty((n, self.model.nv)) for _ in range(3))
         qm[:, order], qdm[:, order], qddm[:, order] = q, qd, qdd
-        Y = self.base.reduce(self.model.regressor(qm, qdm, qddm))  # (N, nv, r)
+        Y = self.base.reduce((self.rows or self.model).regressor(qm, qdm, qddm))  # (N, nv, r)
         return np.concatenate([Y[:, m, :] for m in order], axis=0)
 
 
@@ -56,6 +63,9 @@ class System:
             a noisy velocity near a reversal is unreliable and one wrong sign is a 2·Fs outlier;
             None keeps every row. Same unit as the velocity (m/s or rad/s).
         robot: the robot model and base parameters of a robot system (None otherwise).
+        drive: the transmission between the log and the model's joints (None: the log is on
+            the joint side, in N·m and rad). With ``friction_on: motor`` the fit rows are the
+            drive's motors (see :func:`observe`); a robot system's columns are then its motor rows.
     """
 
     name: str
@@ -67,6 +77,12 @@ class System:
     joint_map: dict[str, str] = field(default_factory=dict)
     min_speed: float | None = None
     robot: RobotInfo | None = None
+    drive: Drive | None = None
+
+    @property
+    def motor_rows(self) -> bool:
+        """True when the fit rows are the drive's motors (``friction_on: motor``)."""
+        return self.drive is not None and self.drive.friction_on == "motor"
 
     def model_joints(self, joints: list[str]) -> list[str]:
         """The model's names of the data joints ``joints``."""
@@ -110,12 +126,27 @@ def parse_joint_map(text: str | None) -> dict[str, str]:
 
 def observe(series: JointSeries, system: System, settings: Preprocessing | None = None) -> Observation:
     """Pre-process ``series`` and build the decimated observation of ``system``
-    (``settings`` overrides the system's pre-processing)."""
+    (``settings`` overrides the system's pre-processing).
+
+    A system with a drive first takes the log to the joint side (:meth:`Drive.to_joint_side`).
+    With friction on the motors the rows are the referred motor torques u = C⁻ᵀ·τ, named after
+    the motors, with the referred velocity w = C·q̇ as each row's friction velocity (ẇ = C·q̈).
+    """
+    drive = system.drive
+    if drive is not None:
+        series = drive.to_joint_side(series, system.joint_map)
     system.check_joints(list(series.joints), series.source)
     settings = settings or system.preprocessing
     prepared = prepare(series, settings)
     rigid = system.columns(prepared, system.model_joints(list(series.joints)))
-    obs = build_observation(prepared, series.joints, rigid, list(system.rigid_names), settings)
+    rows, row_names = prepared, list(series.joints)
+    if system.motor_rows:
+        rows = replace(prepared, qd=drive.motor_velocity(prepared.qd), qdd=drive.motor_velocity(prepared.qdd),
+                       tau=drive.referred_motor_torque(prepared.tau))
+        row_names = drive.motor_names()
+    obs = build_observation(rows, row_names, rigid, list(system.rigid_names), settings)
+    if system.motor_rows:
+        obs.coupling, obs.data_joints = drive.C, list(series.joints)
     if system.min_speed:
         exclude_slow_rows(obs, system.min_speed)
     return obs
