@@ -8,7 +8,7 @@ import types
 import frictionid_core
 
 PUBLIC = {"load", "identify", "validate", "FrictionModel", "JointSeries", "FrictionIdError", "InputError",
-          "OptimError"}
+          "OptimError", "load_drive"}
 # Modules a bare ``import frictionid_core`` must not load (the CLI's --help must stay fast).
 HEAVY = ("numpy", "scipy", "numba", "sklearn", "skopt", "matplotlib", "rosbags", "pinocchio",
          "frictionid_core.optim", "frictionid_core.identification")
@@ -31,6 +31,7 @@ def test_every_public_name_has_a_docstring():
 
 
 def test_public_names_are_the_library_objects():
+    from frictionid_core.drive import load_drive
     from frictionid_core.errors import FrictionIdError, InputError, OptimError
     from frictionid_core.friction import FrictionModel
     from frictionid_core.identification import identify, validate
@@ -39,7 +40,7 @@ def test_public_names_are_the_library_objects():
 
     expected = {"load": load, "identify": identify, "validate": validate, "FrictionModel": FrictionModel,
                 "JointSeries": JointSeries, "FrictionIdError": FrictionIdError, "InputError": InputError,
-                "OptimError": OptimError}
+                "OptimError": OptimError, "load_drive": load_drive}
     for name, obj in expected.items():
         assert getattr(frictionid_core, name) is obj, name
     # The function lives in the submodule frictionid_core.identification: no name clash.

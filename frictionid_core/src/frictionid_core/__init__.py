@@ -8,6 +8,7 @@ The public API::
 
     series = fid.load("bags/emps_estimation")                    # MAT, CSV, rosbag2, ROS 1 bag
     result = fid.identify(series, system="emps", friction="coulomb", solver="ls")
+    # a motor-side log: fid.identify(log, system="tx40", drive=fid.load_drive("tx40"))
     metrics = fid.validate(fid.load("bags/emps_validation"), result.to_dict())
     tau = fid.FrictionModel("coulomb").torque([result.params["Fv"], result.params["Fc"]], [0.1, -0.1])
 
@@ -24,6 +25,7 @@ __version__ = "0.1.0"
 # Lazily loaded public names -> the module that defines them.
 _LAZY = {
     "load": "frictionid_core.io",
+    "load_drive": "frictionid_core.drive",
     "identify": "frictionid_core.identification",
     "validate": "frictionid_core.identification",
     "FrictionModel": "frictionid_core.friction",
@@ -31,7 +33,7 @@ _LAZY = {
 }
 
 __all__ = ["FrictionIdError", "FrictionModel", "InputError", "JointSeries", "OptimError", "identify", "load",
-           "validate"]
+           "load_drive", "validate"]
 
 
 def __getattr__(name: str):
