@@ -275,3 +275,49 @@ def test_node_parameter_drive_file(tmp_path):
     with pytest.raises(FrictionIdError) as e:
         make_config({**defaults, "drive_file": str(tmp_path / "bad.yaml")})
     assert str(e.value).startswith("parameter 'drive_file': ") and "key 'side' is 'rotor'" in str(e.value)
+
+
+def test_node_identifies_through_its_drive_and_feeds_motor_friction_forward(tmp_path):
+    """drive_file → ~/identify fits motor-side parameters of the recorded joint states; the
+    feed-forward then gives the recorded effort of Cᵀ·f(C·q̇) at the recorded velocity."""
+    import logging
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
+        from frictionid_interfaces.srv import Identify
+        from sensor_msgs.msg import JointState
+
+    from frictionid_ros.config import PARAMETERS, make_config
+    from frictionid_ros.inputs import Inputs
+    from frictionid_ros.service import IdentifyService
+    from frictionid_ros.store import ActiveParameters
+
+    (tmp_path / "coupled2.yaml").write_text(json.dumps(COUPLED2))
+    values = {k: v[0] for k, v in PARAMETERS.items()}
+    values.update(joints=["a", "b"], system="friction-only", results_file=str(tmp_path / "p.json"),
+                  drive_file=str(tmp_path / "coupled2.yaml"), identification_worker="thread", smoothing_eps=0.0,
+                  filter_cutoff_hz=200.0, decimation=1)
+    cfg = make_config(values)
+    inputs = Inputs(lambda: cfg, warn=lambda text: None)
+    inputs.setup(["a", "b"])
+    log, truth = coupled_friction_log(cfg.drive, n=2000)
+    for k in range(len(log)):
+        m = JointState(name=["a", "b"], position=log.position[k].tolist(), effort=log.effort[k].tolist())
+        stamp = 1_700_000_000_000_000_000 + k * 1_000_000
+        m.header.stamp.sec, m.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
+        inputs.joint_state(m, stamp)
+    active = ActiveParameters(cfg.results_file, lambda results: None, log=logging.getLogger(__name__))
+    service = IdentifyService(lambda: cfg, inputs, active, {"joint_states": "/joint_states"}, None,
+                              log=logging.getLogger(__name__))
+    ok, message, result = service.handle(Identify.Request())
+    assert ok, message
+    assert sorted(result.per_joint) == ["motor_1", "motor_2"] and result.last["drive"]["name"] == "coupled2"
+    for m in ("motor_1", "motor_2"):  # noise-free; 200 Hz filter, 1 kHz: within 1 %
+        for n in ("Fv", "Fc"):
+            assert result.per_joint[m].params[n] == pytest.approx(truth[f"{m}/{n}"], rel=0.01), (m, n)
+    assert inputs.set_params(result.per_joint) == [] and inputs.ff.active == ("motor_1", "motor_2")
+    v = np.array([12.0, -50.0])  # recorded (motor) velocities of a, b: w = v / N
+    w = v / cfg.drive.N
+    f = np.array([truth[f"motor_{k + 1}/Fv"] * w[k] + truth[f"motor_{k + 1}/Fc"] * np.sign(w[k]) for k in range(2)])
+    np.testing.assert_allclose(inputs.ff.torque(v), f / (cfg.drive.N * np.array(cfg.drive.effort_scale)), rtol=0.01)
