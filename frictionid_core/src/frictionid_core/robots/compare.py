@@ -107,7 +107,7 @@ def compare_fits(results: list[dict], files: list[str] | None = None) -> dict:
     per_joint = {j: {m: {lab: _number(_per_joint(r).get(j, {}).get(m)) for lab, r in zip(labels, results)}
                      for m in PER_JOINT_METRICS}
                  for j in _union(_per_joint(r) for r in results)}
-    flat = [_flatten({k: r[k] for k in SETTING_KEYS if k in r}) for r in results]
+    flat = [flatten({k: r[k] for k in SETTING_KEYS if k in r}) for r in results]
     settings = {k: {lab: f.get(k) for lab, f in zip(labels, flat)} for k in _union(flat)
                 if any(f.get(k) != flat[0].get(k) for f in flat[1:])}
     fits = [{"label": lab, "file": str(f), **{k: r.get(k) for k in ("system", "friction", "asymmetric", "solver",
@@ -142,12 +142,12 @@ def _per_joint(result: dict) -> dict:
     return per_joint if isinstance(per_joint, dict) else {}
 
 
-def _flatten(d: dict, prefix: str = "") -> dict:
-    """Nested dicts → {"a.b": value}; other values (lists too) as they are."""
+def flatten(d: dict, prefix: str = "") -> dict:
+    """Settings for a table: nested dicts → {"a.b": value}; other values (lists too) as they are."""
     out = {}
     for k, v in d.items():
         if isinstance(v, dict) and v:
-            out.update(_flatten(v, f"{prefix}{k}."))
+            out.update(flatten(v, f"{prefix}{k}."))
         else:
             out[f"{prefix}{k}"] = v
     return out
