@@ -100,7 +100,8 @@ def test_compare_with_truth_keeps_its_output(tmp_path, capsys):
     lines = capsys.readouterr().out.splitlines()
     assert code == 0
     assert lines[0] == f"{r} vs truth ({truth})"
-    assert lines[1] == f"{'parameter':<22} {'estimate':>12} {'truth':>12} {'error %':>9} {'σ %':>9} {'err/σ':>7}  determined"
+    assert lines[1] == (f"{'parameter':<22} {'estimate':>12} {'truth':>12} {'error %':>9} {'σ %':>9} {'err/σ':>7}"
+                        "  determined")
     assert [ln.split()[0] for ln in lines[2:8]] == ["ZZ", "MX", "MY", "Fv", "Fc", "offset"]
     assert lines[8].startswith("6 of 6 parameters determined") or " of 6 parameters determined (σ < 1 % " in lines[8]
     assert " of 6 resolvable to 5 % (1.96 σ < 5 % of |truth|)" in lines[9]

@@ -242,7 +242,8 @@ def _html(rep: dict) -> str:
     if rep["warnings"]:
         parts.append("<h2>Warnings</h2><ul>" + "".join(f"<li>{esc(w)}</li>" for w in rep["warnings"]) + "</ul>")
     parts += ["<h2>Parameters</h2>", html_table(["parameter", "value", "σ", "σ % of |value|"], params),
-              "<h2>Metrics of the identification (as stored in the result)</h2>", html_table(["metric", "value"], metric_rows)]
+              "<h2>Metrics of the identification (as stored in the result)</h2>",
+              html_table(["metric", "value"], metric_rows)]
     per_joint = (rep["metrics"] or {}).get("per_joint")
     if isinstance(per_joint, dict) and per_joint:
         keys = list(dict.fromkeys(k for m in per_joint.values() for k in m))

@@ -192,23 +192,25 @@ def _html(rep: dict, figs: dict[str, bytes]) -> str:
              "<b>true</b> clock: recorded time stamps; <b>benchmark</b> clock: the benchmark's constant period "
              "(comparable with the literature, but most of its error is clock drift).</p>",
              "<h2>Friction models by local search (thesis Table 6.3)</h2>",
-             html_table(["model", "solver", "OSA relerr %", "R²", "RMSE N", "s N", "Δ %", "sim val true %", "sim val benchmark %"],
-                    [[r["model"], r["solver"], r["relerr_pct"], r["r2"], r["rmse"], r["error_std"], r["delta_pct"],
-                      r["sim"]["val_true"], r["sim"]["val_benchmark"]] for r in rep["models"]]),
+             html_table(["model", "solver", "OSA relerr %", "R²", "RMSE N", "s N", "Δ %", "sim val true %",
+                         "sim val benchmark %"],
+                        [[r["model"], r["solver"], r["relerr_pct"], r["r2"], r["rmse"], r["error_std"], r["delta_pct"],
+                          r["sim"]["val_true"], r["sim"]["val_benchmark"]] for r in rep["models"]]),
              img("friction_curve.png"), img("osa_prediction.png"),
              "<h2>Output-error identification</h2><p>The closed-loop simulator inside the optimiser (lm from the IDM "
              f"result). Chosen on estimation data: <b>{html.escape(rep['best_output_error'])}</b>.</p>",
              html_table(["model", "sim est true %", "sim val true %", "sim est benchmark %", "sim val benchmark %"],
-                    [[k, v["sim"]["est_true"], v["sim"]["val_true"], v["sim"]["est_benchmark"], v["sim"]["val_benchmark"]]
-                     for k, v in rep["output_error"].items()]),
+                        [[k, v["sim"]["est_true"], v["sim"]["val_true"], v["sim"]["est_benchmark"],
+                          v["sim"]["val_benchmark"]] for k, v in rep["output_error"].items()]),
              img("position_error.png"),
              "<h2>Grey + black-box ensembles (true clock)</h2>",
-             html_table(["grey box", "ŷ1 est %", "ŷ1 val %", "ŷ2 est %", "ŷ2 val %", "ŷ3 val %", "Δ ŷ2 val %", "Δ ŷ3 val %",
-                     "c", "w1", "w2"],
-                    [[e["label"], e["errors_pct"]["gbm"]["est"], e["errors_pct"]["gbm"]["val"], e["errors_pct"]["bgbm"]["est"],
-                      e["errors_pct"]["bgbm"]["val"], e["errors_pct"]["egbb"]["val"], e["improvement_val_pct"]["bgbm"],
-                      e["improvement_val_pct"]["egbb"], e["weights"]["c"], e["weights"]["w1"], e["weights"]["w2"]]
-                     for e in rep["ensembles"]])]
+             html_table(["grey box", "ŷ1 est %", "ŷ1 val %", "ŷ2 est %", "ŷ2 val %", "ŷ3 val %", "Δ ŷ2 val %",
+                         "Δ ŷ3 val %", "c", "w1", "w2"],
+                        [[e["label"], e["errors_pct"]["gbm"]["est"], e["errors_pct"]["gbm"]["val"],
+                          e["errors_pct"]["bgbm"]["est"], e["errors_pct"]["bgbm"]["val"],
+                          e["errors_pct"]["egbb"]["val"], e["improvement_val_pct"]["bgbm"],
+                          e["improvement_val_pct"]["egbb"], e["weights"]["c"], e["weights"]["w1"], e["weights"]["w2"]]
+                         for e in rep["ensembles"]])]
     if rep.get("study"):
         from frictionid_core.study import format_summary
 

@@ -62,8 +62,9 @@ def _print_fits(out: dict) -> None:
     others = labels[1:]
     for f in out["fits"]:
         source = ", ".join(f["source"]) if isinstance(f["source"], list) else f["source"]
-        print(f"{f['label']}: {f['file']} · {f['system']} · {f['friction']}{' (asymmetric)' if f['asymmetric'] else ''}"
-              f" · solver {f['solver']} · source {source}")
+        asym = " (asymmetric)" if f["asymmetric"] else ""
+        print(f"{f['label']}: {f['file']} · {f['system']} · {f['friction']}{asym} · solver {f['solver']}"
+              f" · source {source}")
     if out["settings"]:
         print("settings that differ:")
         for key, values in out["settings"].items():

@@ -225,4 +225,5 @@ def _expected(truth: dict, result: dict) -> dict[str, float]:
         return expected_parameters(truth, result["system"], result.get("joints"))
     except (KeyError, TypeError, AttributeError) as exc:
         raise FrictionIdError(f"the truth does not describe this result (system '{result['system']}', joints "
-                              f"{result.get('joints')}): no {exc}; expected 'frictionid synth --truth' output") from None
+                              f"{result.get('joints')}): no {exc}; expected 'frictionid synth --truth' output"
+                              ) from None
