@@ -221,6 +221,14 @@ def test_report_rows_left_out_by_the_system_are_not_shown(tmp_path):
     assert trace.excluded > 0
     assert np.min(np.abs(trace.velocity)) >= get_system("tx40-j2").min_speed
     assert trace.t.size + trace.excluded == result["metrics"]["samples"]
+    # a source where the joint stands still: no figure, the page says why
+    from frictionid_core.fit_report import build_fit_report
+    from frictionid_core.timeseries import JointSeries
+
+    still = JointSeries(series.t, ["joint_2"], np.full_like(series.position, 0.3), series.effort, source="still")
+    rep = build_fit_report(result, [("validation", still)], tmp_path)
+    assert rep["sources"][0]["figures"] == {} and rep["sources"][0]["per_joint"]["joint_2"]["samples"] == 0
+    assert "No row faster than the system's minimum speed" in (tmp_path / "report.html").read_text()
 
 
 @pytest.mark.slow

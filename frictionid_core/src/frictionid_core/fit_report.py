@@ -201,6 +201,8 @@ def build_fit_report(result: dict, sources: list[tuple[str, JointSeries]], out_d
         overall, per_joint = trace_metrics(traces)
         figures = {}
         for tr in traces:
+            if tr.t.size < 2:  # every row slower than the system's min_speed: nothing to draw
+                continue
             name = f"{role}{k}_{_slug(tr.joint)}.png"
             title = f"{tr.joint} · {role}: {series.source}"
             (out_dir / name).write_bytes(joint_figure(tr, friction, units, title))
@@ -262,8 +264,10 @@ def _html(rep: dict) -> str:
                                  s["metrics"].get("r2", ""), s["metrics"]["samples"], ""]])]
         if s["notes"]:
             parts.append("<ul>" + "".join(f"<li>{esc(n)}</li>" for n in s["notes"]) + "</ul>")
-        for joint, name in s["figures"].items():
-            parts.append(f"<h3>{esc(joint)}</h3><img alt='{esc(joint)}' src='{esc(name)}'>")
+        for joint in s["per_joint"]:
+            name = s["figures"].get(joint)
+            parts.append(f"<h3>{esc(joint)}</h3>" + (f"<img alt='{esc(joint)}' src='{esc(name)}'>" if name else
+                                                     "<p>No row faster than the system's minimum speed.</p>"))
     parts.append("</body></html>")
     return "\n".join(parts)
 
