@@ -1,7 +1,9 @@
 """EMPS report: model comparison, output error, grey + black-box ensembles, study, figures.
 
 ``frictionid report emps --out DIR [--study STUDY_DIR]`` writes ``DIR/report.html`` (figures
-embedded, self-contained), the PNG files and ``DIR/report.json``.
+embedded, self-contained), the PNG files and ``DIR/report.json``. The report of one result on any
+system and source is :mod:`frictionid_core.fit_report`; both use :func:`png_bytes`,
+:func:`html_table` and :data:`PAGE_STYLE`.
 """
 
 from __future__ import annotations
@@ -36,7 +38,8 @@ def model_table(series) -> list[dict]:
     return rows
 
 
-def _png(fig) -> bytes:
+def png_bytes(fig) -> bytes:
+    """A matplotlib figure as PNG bytes."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
     return buf.getvalue()
@@ -49,6 +52,7 @@ def figures(series, best_row: dict, sim_val, study_runs: list[dict] | None) -> d
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from frictionid_core.fit_report import friction_axes
     from frictionid_core.identification import build_model
 
     out = {}
@@ -57,20 +61,12 @@ def figures(series, best_row: dict, sim_val, study_runs: list[dict] | None) -> d
     x = np.array([res.params[n] for n in model.names])
     v = model.obs.velocity[:, 0]
     rigid = model.obs.rigid[:, 0] * res.params["M"] + res.params.get("offset", 0.0) * model.obs.columns[0]["one"]
-    measured_friction = model.obs.y - rigid
-    edges = np.quantile(v, np.linspace(0, 1, 61))
-    idx = np.clip(np.digitize(v, edges) - 1, 0, 59)
-    centres = np.array([v[idx == b].mean() for b in range(60) if np.any(idx == b)])
-    means = np.array([measured_friction[idx == b].mean() for b in range(60) if np.any(idx == b)])
     fparams = np.array([res.params[n] for n in model.friction.names])
-    vv = np.linspace(v.min(), v.max(), 800)
     fig, ax = plt.subplots(figsize=(7, 4))
-    ax.plot(v, measured_friction, ".", ms=1.5, alpha=0.3, color="0.6", label="measured (force − M·q̈ − offset)")
-    ax.plot(centres, means, "o", ms=4, color="C0", label="measured, binned by velocity")
-    ax.plot(vv, model.friction.torque(fparams, vv), "C3", lw=1.8, label=f"identified {res.friction}{'-asym' if res.asymmetric else ''}")
-    ax.set(xlabel="velocity (m/s)", ylabel="friction force (N)", title="Identified friction vs measured friction")
-    ax.legend(fontsize=8)
-    out["friction_curve.png"] = _png(fig)
+    friction_axes(ax, v, model.obs.y - rigid, model.friction, fparams, ("N", "m/s"),
+                  "measured (force − M·q̈ − offset)")
+    ax.set(ylabel="friction force (N)", title="Identified friction vs measured friction")
+    out["friction_curve.png"] = png_bytes(fig)
     plt.close(fig)
 
     pred = model.predict(x)
@@ -82,7 +78,7 @@ def figures(series, best_row: dict, sim_val, study_runs: list[dict] | None) -> d
     a2.plot(model.obs.t, model.obs.y - pred, lw=0.8, color="C3")
     a2.set(xlabel="time (s)", ylabel="error (N)")
     a1.set_title(f"OSA torque prediction ({v.size} decimated samples)")
-    out["osa_prediction.png"] = _png(fig)
+    out["osa_prediction.png"] = png_bytes(fig)
     plt.close(fig)
 
     sim, sims = sim_val
@@ -91,7 +87,7 @@ def figures(series, best_row: dict, sim_val, study_runs: list[dict] | None) -> d
         ax.plot(sim.t, (sim.q_ref - s.q.ravel()) * 1e6, lw=0.8, label=label)
     ax.set(xlabel="time (s)", ylabel="q_measured − q_simulated (µm)", title="Simulated position error, validation run, true clock")
     ax.legend(fontsize=8)
-    out["position_error.png"] = _png(fig)
+    out["position_error.png"] = png_bytes(fig)
     plt.close(fig)
 
     if study_runs:
@@ -105,7 +101,7 @@ def figures(series, best_row: dict, sim_val, study_runs: list[dict] | None) -> d
         a1.set(xlabel="generation G", ylabel="f_min(G)/f_min(final) − 1", title="Convergence (median of runs)")
         a2.set(xlabel="generation G", ylabel="dist_mean(G) (normalised)", title="Mean population distance")
         a1.legend(fontsize=8)
-        out["convergence.png"] = _png(fig)
+        out["convergence.png"] = png_bytes(fig)
         plt.close(fig)
     return out
 
@@ -173,7 +169,13 @@ def build_report(estimation: Path, validation: Path, out_dir: Path, study_dir: P
     return report
 
 
-def _table(head: list[str], rows: list[list]) -> str:
+PAGE_STYLE = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
+              "table{border-collapse:collapse;margin:1em 0;font-size:0.9em}td,th{border:1px solid #bbb;padding:3px 8px;"
+              "text-align:right}th{background:#eee}img{max-width:100%}")
+
+
+def html_table(head: list[str], rows: list[list]) -> str:
+    """An HTML table; floats with 6 significant digits."""
     fmt = lambda v: f"{v:.6g}" if isinstance(v, float) else html.escape(str(v))  # noqa: E731
     return ("<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr>"
             + "".join("<tr>" + "".join(f"<td>{fmt(v)}</td>" for v in r) + "</tr>" for r in rows) + "</table>")
@@ -183,32 +185,32 @@ def _html(rep: dict, figs: dict[str, bytes]) -> str:
     img = lambda name: (f'<img alt="{name}" src="data:image/png;base64,{base64.b64encode(figs[name]).decode()}">'  # noqa: E731
                         if name in figs else "")
     parts = ["<!doctype html><html><head><meta charset='utf-8'><title>frictionid EMPS report</title><style>",
-             "body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
-             "table{border-collapse:collapse;margin:1em 0;font-size:0.9em}td,th{border:1px solid #bbb;padding:3px 8px;"
-             "text-align:right}th{background:#eee}img{max-width:100%}</style></head><body>",
+             PAGE_STYLE + "</style></head><body>",
              "<h1>EMPS friction identification report</h1>",
              f"<p>Estimation: <code>{html.escape(rep['estimation'])}</code>; validation: "
              f"<code>{html.escape(rep['validation'])}</code>. Position errors are relative errors 100·‖y−ŷ‖/‖y‖ (%). "
              "<b>true</b> clock: recorded time stamps; <b>benchmark</b> clock: the benchmark's constant period "
              "(comparable with the literature, but most of its error is clock drift).</p>",
              "<h2>Friction models by local search (thesis Table 6.3)</h2>",
-             _table(["model", "solver", "OSA relerr %", "R²", "RMSE N", "s N", "Δ %", "sim val true %", "sim val benchmark %"],
-                    [[r["model"], r["solver"], r["relerr_pct"], r["r2"], r["rmse"], r["error_std"], r["delta_pct"],
-                      r["sim"]["val_true"], r["sim"]["val_benchmark"]] for r in rep["models"]]),
+             html_table(["model", "solver", "OSA relerr %", "R²", "RMSE N", "s N", "Δ %", "sim val true %",
+                         "sim val benchmark %"],
+                        [[r["model"], r["solver"], r["relerr_pct"], r["r2"], r["rmse"], r["error_std"], r["delta_pct"],
+                          r["sim"]["val_true"], r["sim"]["val_benchmark"]] for r in rep["models"]]),
              img("friction_curve.png"), img("osa_prediction.png"),
              "<h2>Output-error identification</h2><p>The closed-loop simulator inside the optimiser (lm from the IDM "
              f"result). Chosen on estimation data: <b>{html.escape(rep['best_output_error'])}</b>.</p>",
-             _table(["model", "sim est true %", "sim val true %", "sim est benchmark %", "sim val benchmark %"],
-                    [[k, v["sim"]["est_true"], v["sim"]["val_true"], v["sim"]["est_benchmark"], v["sim"]["val_benchmark"]]
-                     for k, v in rep["output_error"].items()]),
+             html_table(["model", "sim est true %", "sim val true %", "sim est benchmark %", "sim val benchmark %"],
+                        [[k, v["sim"]["est_true"], v["sim"]["val_true"], v["sim"]["est_benchmark"],
+                          v["sim"]["val_benchmark"]] for k, v in rep["output_error"].items()]),
              img("position_error.png"),
              "<h2>Grey + black-box ensembles (true clock)</h2>",
-             _table(["grey box", "ŷ1 est %", "ŷ1 val %", "ŷ2 est %", "ŷ2 val %", "ŷ3 val %", "Δ ŷ2 val %", "Δ ŷ3 val %",
-                     "c", "w1", "w2"],
-                    [[e["label"], e["errors_pct"]["gbm"]["est"], e["errors_pct"]["gbm"]["val"], e["errors_pct"]["bgbm"]["est"],
-                      e["errors_pct"]["bgbm"]["val"], e["errors_pct"]["egbb"]["val"], e["improvement_val_pct"]["bgbm"],
-                      e["improvement_val_pct"]["egbb"], e["weights"]["c"], e["weights"]["w1"], e["weights"]["w2"]]
-                     for e in rep["ensembles"]])]
+             html_table(["grey box", "ŷ1 est %", "ŷ1 val %", "ŷ2 est %", "ŷ2 val %", "ŷ3 val %", "Δ ŷ2 val %",
+                         "Δ ŷ3 val %", "c", "w1", "w2"],
+                        [[e["label"], e["errors_pct"]["gbm"]["est"], e["errors_pct"]["gbm"]["val"],
+                          e["errors_pct"]["bgbm"]["est"], e["errors_pct"]["bgbm"]["val"],
+                          e["errors_pct"]["egbb"]["val"], e["improvement_val_pct"]["bgbm"],
+                          e["improvement_val_pct"]["egbb"], e["weights"]["c"], e["weights"]["w1"], e["weights"]["w2"]]
+                         for e in rep["ensembles"]])]
     if rep.get("study"):
         from frictionid_core.study import format_summary
 

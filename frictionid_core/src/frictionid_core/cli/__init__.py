@@ -30,11 +30,11 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "validate": ("validate", "cross-test identified parameters on other data"),
     "simulate": ("simulate", "closed-loop simulation of identified parameters (EMPS)"),
     "study": ("study", "optimisers × friction models × seeds on the EMPS (thesis §6.3)"),
-    "report": ("report", "EMPS report: models, output error, ensembles, study, figures (HTML)"),
+    "report": ("report", "HTML report of a result on any data (figures per joint), or the EMPS benchmark report"),
     "excite": ("excite", "optimise a Fourier excitation trajectory within the joint limits"),
     "synth": ("synth", "synthesise a JointState bag from a trajectory (Pinocchio + friction + noise)"),
     "consistency": ("consistency", "physical consistency of identified robot base parameters"),
-    "compare": ("compare", "compare identified parameters with the ground truth of synthetic data"),
+    "compare": ("compare", "compare fits side by side, or a fit with the ground truth of synthetic data"),
 }
 PLUGIN_GROUP = "frictionid.commands"
 

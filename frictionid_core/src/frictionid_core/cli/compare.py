@@ -1,32 +1,110 @@
-"""``frictionid compare RESULT.json --truth T.json [--bag NAME] [--validation BAG [--joints J,…]] [--json OUT]``:
-identified parameters vs the ground truth of synthetic data, and the noise floor."""
+"""``frictionid compare FIT.json [FIT.json …] [--truth T.json [--bag NAME]] [--validation SRC …] [--json OUT]``:
+two or more fits side by side (parameters, σ, differences, metrics, settings); with ``--truth`` each fit
+against the ground truth of synthetic data; with ``--validation`` each fit's cross-test error (and, with
+a truth, the noise floor)."""
 
 from __future__ import annotations
 
 import argparse
+import functools
 from pathlib import Path
 
 from frictionid_core.cli._common import add_json_argument, fmt, save_json, split_list
+from frictionid_core.errors import FrictionIdError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("result", type=Path, help="JSON written by 'frictionid identify'")
-    p.add_argument("--truth", type=Path, required=True,
-                   help="truth JSON ('frictionid synth --truth' or bags/tx40_truth.json)")
+    p.add_argument("results", nargs="+", type=Path, metavar="FIT.json",
+                   help="JSON written by 'frictionid identify' (two or more, or one with --truth)")
+    p.add_argument("--truth", type=Path, help="truth JSON ('frictionid synth --truth' or bags/tx40_truth.json)")
     p.add_argument("--bag", help="recording of a multi-bag truth file (default: the result's source)")
-    p.add_argument("--validation", type=Path, help="validation recording: also report the OSA error vs its noise floor")
-    p.add_argument("--joints", help="joints to load from the validation recording (default: the result's)")
+    p.add_argument("--validation", type=Path, nargs="+", metavar="SRC",
+                   help="validation recording(s): each fit's cross-test error (vs the noise floor with --truth)")
+    p.add_argument("--joints", help="joints to load from the validation recording (default: each fit's)")
+    p.add_argument("--layout", type=Path, help="YAML layout of validation CSVs not in frictionid's own format")
     add_json_argument(p, "the comparison")
 
 
 def run(args) -> int:
     from frictionid_core.jsonfile import read_json
-    from frictionid_core.robots.compare import RESOLVE_TOLERANCE_PCT, Z95, compare, noise_floor, select_truth
+    from frictionid_core.robots.compare import check_result, compare_fits, fit_labels
 
-    result = read_json(args.result, "an identification result")
-    truth_all = read_json(args.truth, "a ground truth")
+    results = [read_json(path, "an identification result") for path in args.results]
+    for result, path in zip(results, args.results):
+        check_result(result, str(path))
+    truth_all = read_json(args.truth, "a ground truth") if args.truth is not None else None
+    if len(results) == 1:
+        if truth_all is None:
+            raise FrictionIdError("compare needs two or more fits, or one fit and --truth T.json")
+        out = _truth_block(args.results[0], results[0], args, truth_all)
+        if args.validation:
+            entries = [_noise_floor_line(src, results[0], args, truth_all) for src in args.validation]
+            out["validation"] = entries[0] if len(entries) == 1 else entries
+        save_json(args.json, out)
+        return 0
+    labels = fit_labels(len(results))
+    out = compare_fits(results, [str(p) for p in args.results])
+    _print_fits(out)
+    if truth_all is not None:
+        out["truth"] = {}
+        for lab, path, result in zip(labels, args.results, results):
+            print()
+            out["truth"][lab] = _truth_block(path, result, args, truth_all)
+    if args.validation:
+        out["validation"] = [_validation(src, labels, results, args, truth_all) for src in args.validation]
+    save_json(args.json, out)
+    return 0
+
+
+# ----------------------------------------------------------------------- fits side by side
+def _print_fits(out: dict) -> None:
+    labels = [f["label"] for f in out["fits"]]
+    others = labels[1:]
+    for f in out["fits"]:
+        source = ", ".join(f["source"]) if isinstance(f["source"], list) else f["source"]
+        asym = " (asymmetric)" if f["asymmetric"] else ""
+        print(f"{f['label']}: {f['file']} · {f['system']} · {f['friction']}{asym} · solver {f['solver']}"
+              f" · source {source}")
+    if out["settings"]:
+        print("settings that differ:")
+        for key, values in out["settings"].items():
+            print(f"  {key:<28} " + " | ".join(f"{lab} {_short(v)}" for lab, v in values.items()))
+    head = f"{'parameter':<22}" + "".join(f"{lab:>13}{'σ ' + lab:>11}" for lab in labels)
+    head += "".join(f"{lab + ' − ' + labels[0]:>13}{'z ' + lab:>8}" for lab in others)
+    print(head)
+    for name, row in out["parameters"].items():
+        line = f"{name:<22}" + "".join(f"{fmt(row['values'][lab]):>13}{fmt(row['sigma'][lab]):>11}" for lab in labels)
+        line += "".join(f"{fmt(row['difference'][lab]):>13}{fmt(row['z'][lab], 3):>8}" for lab in others)
+        print(line)
+    print(f"z: difference in units of the combined σ √(σ_{labels[0]}² + σ²)")
+    for name, having in out["only_in"].items():
+        print(f"{name}: only in {', '.join(having)}")
+    if out["metrics"]:
+        print(f"{'metric':<22}" + "".join(f"{lab:>13}" for lab in labels))
+        for m, values in out["metrics"].items():
+            print(f"{m:<22}" + "".join(f"{fmt(values[lab]):>13}" for lab in labels))
+    if out["per_joint"]:
+        print(f"{'joint':<16}{'metric':<12}" + "".join(f"{lab:>13}" for lab in labels))
+        for joint, metrics in out["per_joint"].items():
+            for m, values in metrics.items():
+                print(f"{joint:<16}{m:<12}" + "".join(f"{fmt(values[lab]):>13}" for lab in labels))
+    for f in out["fits"]:
+        for w in f["warnings"]:
+            print(f"warning {f['label']}: {w}")
+
+
+def _short(value, width: int = 40) -> str:
+    text = str(value) if isinstance(value, (bool, list, dict)) else fmt(value)
+    return text if len(text) <= width else text[: width - 1] + "…"
+
+
+# ------------------------------------------------------------------------------- truth
+def _truth_block(path: Path, result: dict, args, truth_all: dict) -> dict:
+    """Print one fit against the truth; return {parameters, summary}."""
+    from frictionid_core.robots.compare import RESOLVE_TOLERANCE_PCT, Z95, compare, select_truth
+
     out = compare(result, select_truth(truth_all, args.bag or result.get("source")))
-    print(f"{args.result} vs truth ({args.truth}{'' if not args.bag else ' · ' + args.bag})")
+    print(f"{path} vs truth ({args.truth}{'' if not args.bag else ' · ' + args.bag})")
     print(f"{'parameter':<22} {'estimate':>12} {'truth':>12} {'error %':>9} {'σ %':>9} {'err/σ':>7}  determined")
     for name, r in out["parameters"].items():
         print(f"{name:<22} {fmt(r['estimate']):>12} {fmt(r['truth']):>12} {fmt(r['relerr_pct'], 3):>9} "
@@ -39,14 +117,43 @@ def run(args) -> int:
           f"max |error| {fmt(s['max_abs_relerr_pct_resolvable_5pct'])} %; the other "
           f"{s['parameters'] - s['resolvable_5pct']} cannot be placed within {tol} with 95 % confidence "
           f"on this recording")
-    if args.validation is not None:
-        from frictionid_core.io import load
+    return out
 
-        series = load(args.validation, joints=split_list(args.joints) or result.get("joints"))
-        vtruth = select_truth(truth_all, str(args.validation))
-        out["validation"] = dict(noise_floor(series, result, vtruth), source=str(args.validation))
-        v = out["validation"]
-        print(f"validation {args.validation}: OSA relative error {v['relerr_pct']:.5g} % vs noise floor "
-              f"{v['floor_relerr_pct']:.5g} % (true parameters): ratio {v['ratio']:.4f}")
-    save_json(args.json, out)
-    return 0
+
+# -------------------------------------------------------------------------- validation
+def _load(src: Path, result: dict, args):
+    joints = split_list(args.joints) or result.get("joints")
+    return _load_once(src, tuple(joints) if joints else None, args.layout)
+
+
+@functools.lru_cache(maxsize=4)
+def _load_once(src: Path, joints: tuple[str, ...] | None, layout: Path | None):
+    """A validation recording, read once for every fit that loads the same joints."""
+    from frictionid_core.io import load
+
+    return load(src, joints=list(joints) if joints else None, layout=layout)
+
+
+def _noise_floor_line(src: Path, result: dict, args, truth_all: dict, label: str = "") -> dict:
+    """Print (and return) a fit's cross-test error on ``src`` against the truth's noise floor."""
+    from frictionid_core.robots.compare import noise_floor, select_truth
+
+    v = dict(noise_floor(_load(src, result, args), result, select_truth(truth_all, str(src))), source=str(src))
+    print(f"{label}validation {src}: OSA relative error {v['relerr_pct']:.5g} % vs noise floor "
+          f"{v['floor_relerr_pct']:.5g} % (true parameters): ratio {v['ratio']:.4f}")
+    return v
+
+
+def _validation(src: Path, labels: list[str], results: list[dict], args, truth_all: dict | None) -> dict:
+    """Every fit cross-tested on ``src``: {source, fits: {label: metrics (+ noise floor with a truth)}}."""
+    from frictionid_core.identification import validate
+
+    if truth_all is not None:
+        return {"source": str(src), "fits": {lab: _noise_floor_line(src, r, args, truth_all, f"{lab}: ")
+                                             for lab, r in zip(labels, results)}}
+    fits = {lab: validate(_load(src, r, args), r) for lab, r in zip(labels, results)}
+    print(f"validation {src}: relerr_pct " + ", ".join(f"{lab} {fmt(m['relerr_pct'])}" for lab, m in fits.items()))
+    for joint in dict.fromkeys(j for m in fits.values() for j in (m.get("per_joint") or {})):
+        print(f"  {joint}: relerr_pct " + ", ".join(
+            f"{lab} {fmt((m.get('per_joint') or {}).get(joint, {}).get('relerr_pct'))}" for lab, m in fits.items()))
+    return {"source": str(src), "fits": fits}

@@ -1,4 +1,10 @@
-"""Identified parameters against the ground truth of synthetic data, and the noise floor.
+"""Identification results side by side, against the ground truth of synthetic data, and the noise floor.
+
+:func:`compare_fits` puts two or more fits side by side: per parameter the values, σ, the
+difference to the first fit and that difference in units of the combined σ
+√(σ₁² + σ₂²) (the fits' errors are treated as independent; two fits of the same data are
+correlated, so read it as a scale, not as a test), the metrics (overall and per joint) and the
+settings (system, friction, pre-processing, drive, …) that differ.
 
 The *noise floor* of a validation recording is the relative error that the true parameters
 themselves reach on it through the same pre-processing (noise, differentiation and
@@ -28,11 +34,138 @@ RESOLVE_TOLERANCE_PCT = 5.0
 Z95 = 1.96
 
 
-def select_truth(truth: dict, bag: str | None = None) -> dict:
-    """A single-recording truth from a synth truth file or a multi-bag one (``{"bags": {…}}``)."""
+# Result keys whose values are listed when they differ between fits (nested dicts key by key).
+SETTING_KEYS = ("system", "joint_map", "joints", "friction", "asymmetric", "solver", "varpro", "source", "layout",
+                "window", "fixed", "bounds", "preprocessing", "drive")
+PER_JOINT_METRICS = ("relerr_pct", "rmse", "r2")
+
+
+def fit_labels(count: int) -> list[str]:
+    """Column labels of ``count`` fits: A, B, C, …"""
+    return [chr(ord("A") + k) if k < 26 else f"F{k + 1}" for k in range(count)]
+
+
+def check_result(result, name: str) -> None:
+    """Raise FrictionIdError unless ``result`` (read from ``name``) is an identification result."""
+    hint = "expected the JSON written by 'frictionid identify'"
+    if not isinstance(result, dict) or not isinstance(result.get("params"), dict):
+        if isinstance(result, dict) and ("base_parameters" in result or "bags" in result):
+            raise FrictionIdError(f"{name}: a ground truth, not an identification result; pass it with --truth")
+        raise FrictionIdError(f"{name}: not an identification result (no 'params' object); {hint}")
+    for key in ("system", "friction"):
+        if not isinstance(result.get(key), str):
+            raise FrictionIdError(f"{name}: identification result without '{key}'; {hint}")
+    bad = [n for n, v in result["params"].items() if not _is_number(v)]
+    if bad:
+        raise FrictionIdError(f"{name}: parameter(s) {bad} are not numbers; {hint}")
+    for key in ("std", "metrics"):
+        if not isinstance(result.get(key, {}), dict):
+            raise FrictionIdError(f"{name}: '{key}' is not an object; {hint}")
+
+
+def compare_fits(results: list[dict], files: list[str] | None = None) -> dict:
+    """Two or more identification results (``Identification.to_dict()``) side by side.
+
+    Fits are labelled A, B, …; differences are taken against A. Returns::
+
+        fits:       [{label, file, system, friction, asymmetric, solver, source, joints, warnings}]
+        parameters: {name: {values, sigma: {label: float | None},
+                            difference, z: {label of B, C, …: float | None}}}
+                    (z = difference / √(σ_A² + σ²); None where a value or σ is missing)
+        only_in:    {name: [labels of the fits that have it]} for names not in every fit
+        metrics:    {metric: {label: value | None}} (the scalar metrics)
+        per_joint:  {joint: {relerr_pct | rmse | r2: {label: value | None}}} (``metrics.per_joint``)
+        settings:   {key: {label: value | None}} for the SETTING_KEYS (dotted for nested keys) that differ
+
+    Raises FrictionIdError for fewer than two fits, a malformed result, or fits sharing no parameter.
+    """
+    files = list(files) if files is not None else [f"fit {k + 1}" for k in range(len(results))]
+    if len(results) < 2 or len(files) != len(results):
+        raise FrictionIdError("comparing fits needs two or more results (and one name per result)")
+    for result, name in zip(results, files):
+        check_result(result, name)
+    labels = fit_labels(len(results))
+    names = _union(r["params"] for r in results)
+    shared = [n for n in names if all(n in r["params"] for r in results)]
+    if not shared:
+        systems = ", ".join(f"'{r['system']}'" for r in results)
+        raise FrictionIdError(f"{' and '.join(files)} share no parameter (systems {systems}): nothing to compare")
+    ref, ref_sd = results[0]["params"], results[0].get("std", {})
+    parameters = {}
+    for n in names:
+        values = {lab: _number(r["params"].get(n)) for lab, r in zip(labels, results)}
+        sigma = {lab: _number(r.get("std", {}).get(n)) for lab, r in zip(labels, results)}
+        diff, z = {}, {}
+        for lab in labels[1:]:
+            d = values[lab] - ref[n] if n in ref and values[lab] is not None else None
+            comb = _combined_sigma(_number(ref_sd.get(n)), sigma[lab])
+            diff[lab], z[lab] = d, (d / comb if d is not None and comb else None)
+        parameters[n] = {"values": values, "sigma": sigma, "difference": diff, "z": z}
+    metrics = {m: {lab: _number(r.get("metrics", {}).get(m)) for lab, r in zip(labels, results)}
+               for m in _union(r.get("metrics", {}) for r in results)
+               if any(_is_number(r.get("metrics", {}).get(m)) for r in results)}
+    per_joint = {j: {m: {lab: _number(_per_joint(r).get(j, {}).get(m)) for lab, r in zip(labels, results)}
+                     for m in PER_JOINT_METRICS}
+                 for j in _union(_per_joint(r) for r in results)}
+    flat = [flatten({k: r[k] for k in SETTING_KEYS if k in r}) for r in results]
+    settings = {k: {lab: f.get(k) for lab, f in zip(labels, flat)} for k in _union(flat)
+                if any(f.get(k) != flat[0].get(k) for f in flat[1:])}
+    fits = [{"label": lab, "file": str(f), **{k: r.get(k) for k in ("system", "friction", "asymmetric", "solver",
+                                                                         "source", "joints")},
+             "warnings": list(r.get("warnings") or [])} for lab, f, r in zip(labels, files, results)]
+    only_in = {n: [lab for lab, r in zip(labels, results) if n in r["params"]] for n in names if n not in shared}
+    return {"fits": fits, "parameters": parameters, "only_in": only_in, "metrics": metrics,
+            "per_joint": per_joint, "settings": settings}
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _number(v) -> float | None:
+    return float(v) if _is_number(v) else None
+
+
+def _combined_sigma(a: float | None, b: float | None) -> float | None:
+    if a is None or b is None or not (np.isfinite(a) and np.isfinite(b)):
+        return None
+    return float(np.hypot(a, b)) or None
+
+
+def _union(keyed) -> list[str]:
+    """The keys of several mappings, in first-seen order."""
+    return list(dict.fromkeys(k for d in keyed for k in d))
+
+
+def _per_joint(result: dict) -> dict:
+    per_joint = result.get("metrics", {}).get("per_joint")
+    return per_joint if isinstance(per_joint, dict) else {}
+
+
+def flatten(d: dict, prefix: str = "") -> dict:
+    """Settings for a table: nested dicts → {"a.b": value}; other values (lists too) as they are."""
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict) and v:
+            out.update(flatten(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
+def select_truth(truth: dict, bag: str | list | None = None) -> dict:
+    """A single-recording truth from a synth truth file or a multi-bag one (``{"bags": {…}}``);
+    ``bag``: a recording (a result's ``source``, a list of one)."""
+    if "params" in truth and "system" in truth:
+        raise FrictionIdError("the truth file is an identification result, not a ground truth: compare two fits "
+                              "with 'frictionid compare A.json B.json'")
     if "bags" not in truth:
         return truth
     bags = truth["bags"]
+    if isinstance(bag, list):
+        if len(bag) != 1:
+            raise FrictionIdError(f"the result was fitted on several recordings {bag}; pick the truth with --bag")
+        bag = bag[0]
     if bag is None:
         if len(bags) != 1:
             raise FrictionIdError(f"the truth file holds several recordings {sorted(bags)}; pick one with --bag")
@@ -45,9 +178,7 @@ def select_truth(truth: dict, bag: str | None = None) -> dict:
 
 def compare(result: dict, truth: dict) -> dict:
     """{parameter: {estimate, truth, error, relerr_pct, sigma, sigma_pct, z, determined}} + a summary."""
-    from frictionid_core.robots.synth import expected_parameters
-
-    exp = expected_parameters(truth, result["system"], result.get("joints"))
+    exp = _expected(truth, result)
     rows = {}
     for name, est in result["params"].items():
         if name not in exp:
@@ -76,12 +207,23 @@ def compare(result: dict, truth: dict) -> dict:
 def noise_floor(series, result: dict, truth: dict) -> dict:
     """OSA relative error of ``result`` and of the true parameters on ``series``, and their ratio."""
     from frictionid_core.identification import validate
-    from frictionid_core.robots.synth import expected_parameters
 
-    exp = expected_parameters(truth, result["system"], result.get("joints"))
+    exp = _expected(truth, result)
     missing = [n for n in result["params"] if n not in exp]
     if missing:
         raise FrictionIdError(f"the truth has no value for {missing}")
     ident = validate(series, result)["relerr_pct"]
     floor = validate(series, dict(result, params={n: exp[n] for n in result["params"]}))["relerr_pct"]
     return {"relerr_pct": ident, "floor_relerr_pct": floor, "ratio": ident / floor}
+
+
+def _expected(truth: dict, result: dict) -> dict[str, float]:
+    """The truth under the result's parameter names; FrictionIdError when the truth does not fit."""
+    from frictionid_core.robots.synth import expected_parameters
+
+    try:
+        return expected_parameters(truth, result["system"], result.get("joints"))
+    except (KeyError, TypeError, AttributeError) as exc:
+        raise FrictionIdError(f"the truth does not describe this result (system '{result['system']}', joints "
+                              f"{result.get('joints')}): no {exc}; expected 'frictionid synth --truth' output"
+                              ) from None
