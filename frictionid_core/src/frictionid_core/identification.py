@@ -82,11 +82,16 @@ def as_sources(series: Sources, window: tuple[float | None, float | None] | None
     return [s.window(*window) for s in sources] if window else sources
 
 
+def window_record(window: tuple[float | None, float | None] | None) -> dict | None:
+    """A window (start_s, end_s) as kept in a result: {"start_s", "end_s"} (s; None: open), or None."""
+    return None if window is None else dict(zip(("start_s", "end_s"), window))
+
+
 def _selection(sources: list[JointSeries], model: IdentificationModel, window,
                bounds: dict[str, tuple[float, float]] | None) -> dict:
     """The data selection of a result: source(s), window, fixed parameters, user bounds."""
     return {"source": sources[0].source if len(sources) == 1 else [s.source for s in sources],
-            "window": None if window is None else dict(zip(("start_s", "end_s"), window)),
+            "window": window_record(window),
             "fixed": {model.names[i]: v for i, v in model.fixed_values.items()},
             "bounds": {name: [float(lo), float(hi)] for name, (lo, hi) in (bounds or {}).items()}}
 
@@ -258,7 +263,7 @@ def model_from_result(series: Sources, result: dict, *, system: str | None = Non
         else:
             sys_ = result_system(result) if joint_map is None else as_system(result_system(result).name, joint_map)
         friction, asymmetric = result["friction"], bool(result["asymmetric"])
-        joints = list(joints or result["joints"])
+        joints = joints or result.get("joints")  # None (a hand-written file): the data's joints
         values = result["params"]
     except KeyError as exc:
         raise FrictionIdError(f"parameter file lacks {exc}; expected the JSON written by 'frictionid identify'") from None
@@ -270,11 +275,13 @@ def model_from_result(series: Sources, result: dict, *, system: str | None = Non
 
         drive = drive_from_dict(result["drive"], "the parameter file's drive")
         sources = [drive.to_joint_side(s) for s in sources]
-    model = build_model([s.select(joints) for s in sources], sys_, friction, asymmetric, preprocessing)
+    if joints:
+        sources = [s.select(list(joints)) for s in sources]
+    model = build_model(sources, sys_, friction, asymmetric, preprocessing)
     missing = [n for n in model.names if n not in values]
     if missing:
-        raise FrictionIdError(f"parameter file lacks parameter(s) {missing} of the model "
-                              f"(it has {list(values)}): a different system, joints or friction?")
+        raise FrictionIdError(f"parameter file lacks parameter(s) {missing} of the model (it has {list(values)}); "
+                              "expected the JSON written by 'frictionid identify' for this system, joints and friction")
     return model, np.array([values[n] for n in model.names], dtype=float)
 
 

@@ -179,6 +179,9 @@ class IdentificationModel:
             lo, hi = self.user_bounds.get(i, (v, v))
             if not lo <= v <= hi:
                 raise FrictionIdError(f"fixed value {v} of {self.names[i]} lies outside its bounds [{lo}, {hi}]")
+        for i, (lo, hi) in self.user_bounds.items():
+            if lo == hi:  # a zero-width bound is a fixed value (a search cannot vary it)
+                self.fixed_values.setdefault(i, float(lo))
         n_lin = self.linear_index.size
         self._lin_lo, self._lin_hi = np.full(n_lin, -np.inf), np.full(n_lin, np.inf)
         for pos, i in enumerate(self.linear_index):
