@@ -98,7 +98,7 @@ class JointSeries:
         """The samples from ``start_s`` to ``end_s`` (both included), in seconds from the first sample;
         None: from the first / to the last sample.
 
-        An end more than a sample period past the last sample ends the window there (noted in
+        An end more than 1.5 sample periods past the last sample ends the window there (noted in
         ``notes`` and warned).
 
         Raises:
@@ -123,7 +123,7 @@ class JointSeries:
             raise InputError(f"{src}: window {start:g}–{'end' if end_s is None else f'{end_s:g} s'} holds "
                              f"{hi - lo} sample(s); it needs at least 2")
         out = self.slice(lo, hi)
-        if end_s is not None and end_s > duration + self.dt:
+        if end_s is not None and end_s > duration + 1.5 * self.dt:
             note = f"{src}: window end {end_s:g} s is past the last sample: the window ends there ({duration:.6g} s)"
             out.notes.append(note)
             warnings.warn(note, stacklevel=2)
