@@ -250,6 +250,6 @@ def test_build_parser_gives_handlers_of_the_named_commands_only():
     parser, handlers = build_parser(["validate"])
     assert list(handlers) == ["validate"]
     args = parser.parse_args(["validate", "run.csv", "--params", "p.json", "--joints", "a, b"])
-    assert args.source == "run.csv" and str(args.params) == "p.json" and args.joints == "a, b"
+    assert args.source == ["run.csv"] and str(args.params) == "p.json" and args.joints == "a, b"
     with pytest.raises(SystemExit):  # identify's options were not built
         parser.parse_args(["identify", "run.csv", "--solver", "de"])

@@ -1,8 +1,8 @@
 """Report of one identification result on any system and source: HTML page, PNG figures, report.json.
 
 ``frictionid report RESULT.json SRC [SRC …] --out DIR [--validation SRC …]`` rebuilds the result's
-model on each source (:func:`model_from_result`: its system, joint map, friction law and
-pre-processing) and shows, per source and joint, at the analysis instants (after the result's
+model on each source (:func:`frictionid_core.identification.model_from_result`: its system,
+joint map, joints, drive, friction law and pre-processing) and shows, per source and joint, at the analysis instants (after the result's
 filtering, trimming and decimation):
 
 * the recorded effort and the model's one-step-ahead prediction over time;
@@ -40,29 +40,6 @@ MAX_PLOT_POINTS = 10_000
 VELOCITY_BINS = 60
 
 
-def model_from_result(series: JointSeries, result: dict):
-    """The identification model of ``result`` (``Identification.to_dict()``) rebuilt on ``series``
-    and the result's parameter vector in the model's order: (IdentificationModel, x (k,)).
-
-    The one place the report rebuilds a result: system and joint map, friction law, asymmetry and
-    pre-processing come from the result (as :func:`frictionid_core.identification.validate` does).
-    """
-    from frictionid_core.identification import build_model
-    from frictionid_core.preprocess import Preprocessing
-    from frictionid_core.systems import result_system
-
-    try:
-        settings = Preprocessing(**result["preprocessing"]) if result.get("preprocessing") else None
-        model = build_model(series, result_system(result), result["friction"], bool(result["asymmetric"]), settings)
-        missing = [n for n in model.names if n not in result["params"]]
-        if missing:
-            raise FrictionIdError(f"the result has no value for parameter(s) {missing} of its model {model.names}")
-        x = np.array([result["params"][n] for n in model.names], dtype=float)
-    except (KeyError, TypeError) as exc:
-        raise FrictionIdError(f"the result lacks {exc}; expected the JSON written by 'frictionid identify'") from None
-    return model, x
-
-
 @dataclass
 class JointTrace:
     """One joint of one source at the analysis instants, on the rows the system keeps.
@@ -91,6 +68,8 @@ class JointTrace:
 def joint_traces(series: JointSeries, result: dict) -> tuple[list[JointTrace], object]:
     """Per joint of ``series``: what the report plots and measures (see :class:`JointTrace`);
     also the model's friction law (a FrictionModel)."""
+    from frictionid_core.identification import model_from_result
+
     model, x = model_from_result(series, result)
     obs = model.obs
     no_friction = x.copy()  # rigid-body part + offset: friction levels at zero (shape parameters kept)

@@ -3,19 +3,23 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from frictionid_core.drive import Drive
-from frictionid_core.errors import FrictionIdError
+from frictionid_core.drive import Drive, result_drive
+from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import get_model
-from frictionid_core.linear import least_squares
 from frictionid_core.metrics import fit_metrics
 from frictionid_core.model import IdentificationModel
+from frictionid_core.observation import Observation, concat_observations
 from frictionid_core.preprocess import Preprocessing
 from frictionid_core.systems import System, as_system, observe, result_system
 from frictionid_core.timeseries import JointSeries
+
+# One source, or several fitted together.
+Sources = JointSeries | Sequence[JointSeries]
 
 
 @dataclass
@@ -26,7 +30,7 @@ class Identification:
     friction: str
     asymmetric: bool
     solver: str
-    source: str
+    source: str | list[str]  # a list when several sources were fitted together
     joints: list[str]
     params: dict[str, float]
     std: dict[str, float]
@@ -42,29 +46,68 @@ class Identification:
         return d
 
 
-def build_model(series: JointSeries, system: str | System, friction: str, asymmetric: bool,
+def build_model(series: Sources, system: str | System, friction: str, asymmetric: bool,
                 preprocessing: Preprocessing | None = None,
                 bounds: dict[str, tuple[float, float]] | None = None, *,
-                joint_map: dict[str, str] | None = None) -> IdentificationModel:
+                joint_map: dict[str, str] | None = None, fixed: dict[str, float] | None = None) -> IdentificationModel:
     """The identification model of ``system`` (a name, with ``joint_map``, or a System) +
-    ``friction`` on the data of ``series``.
+    ``friction`` on the data of ``series`` (one source or several: :func:`observe_sources`).
 
-    ``preprocessing`` overrides the system's default; ``bounds`` overrides search bounds.
+    ``preprocessing`` overrides the system's default; ``bounds`` are the user's bounds and
+    ``fixed`` the parameters held at a value (see ``IdentificationModel``).
     """
     sys_ = as_system(system, joint_map)
-    obs = observe(series, sys_, preprocessing)
+    obs = observe_sources(series, sys_, preprocessing)
     return IdentificationModel(obs, get_model(friction, asymmetric), rigid_bounds=dict(sys_.rigid_bounds),
-                               bound_overrides=dict(bounds or {}))
+                               bound_overrides=dict(bounds or {}), fixed=dict(fixed or {}))
 
 
-def identify(series: JointSeries, *, system: str | System = "emps", joint_map: dict[str, str] | None = None,
+def observe_sources(series: Sources, system: System, settings: Preprocessing | None = None) -> Observation:
+    """The observation of one source, or of several with the same joints: each pre-processed
+    alone (no filter runs across the seam between two recordings), then stacked per joint."""
+    sources = as_sources(series)
+    first = sources[0]
+    for s in sources[1:]:
+        if list(s.joints) != list(first.joints):
+            raise InputError(f"{s.source}: joints {list(s.joints)} differ from those of {first.source}: "
+                             f"{list(first.joints)}; the sources of one fit need the same joints (select with --joints)")
+    return concat_observations([observe(s, system, settings) for s in sources])
+
+
+def as_sources(series: Sources, window: tuple[float | None, float | None] | None = None) -> list[JointSeries]:
+    """``series`` as a non-empty list of sources, each cut to ``window`` (start_s, end_s), s from
+    its first sample (see :meth:`JointSeries.window`)."""
+    sources = [series] if isinstance(series, JointSeries) else list(series)
+    if not sources:
+        raise FrictionIdError("no source given")
+    return [s.window(*window) for s in sources] if window else sources
+
+
+def window_record(window: tuple[float | None, float | None] | None) -> dict | None:
+    """A window (start_s, end_s) as kept in a result: {"start_s", "end_s"} (s; None: open), or None."""
+    return None if window is None else dict(zip(("start_s", "end_s"), window))
+
+
+def _selection(sources: list[JointSeries], model: IdentificationModel, window,
+               bounds: dict[str, tuple[float, float]] | None) -> dict:
+    """The data selection of a result: source(s), window, fixed parameters, user bounds."""
+    return {"source": sources[0].source if len(sources) == 1 else [s.source for s in sources],
+            "window": window_record(window),
+            "fixed": {model.names[i]: v for i, v in model.fixed_values.items()},
+            "bounds": {name: [float(lo), float(hi)] for name, (lo, hi) in (bounds or {}).items()}}
+
+
+def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[str, str] | None = None,
              friction: str = "coulomb", asymmetric: bool = False, solver: str = "ls", seed: int = 0,
              varpro: bool | None = None, warm_start: bool = True, preprocessing: Preprocessing | None = None,
-             bounds: dict[str, tuple[float, float]] | None = None, drive: Drive | None = None,
+             bounds: dict[str, tuple[float, float]] | None = None, fixed: dict[str, float] | None = None,
+             window: tuple[float | None, float | None] | None = None, drive: Drive | None = None,
              **solver_options) -> Identification:
     """Identify the parameters of ``system`` with ``friction`` from ``series``.
 
     Args:
+        series: one source, or several with the same joints (each pre-processed alone, the
+            observations stacked).
         system: a system name (see :data:`frictionid_core.systems.SYSTEM_NAMES`) or a System.
         joint_map: {data joint: model joint} of a robot system named by ``system``.
         drive: the log's transmission (:func:`frictionid_core.drive.load_drive`): the log is taken
@@ -84,7 +127,11 @@ def identify(series: JointSeries, *, system: str | System = "emps", joint_map: d
             point first (see :func:`solve_model`), so no result is worse than the nested linear
             model; False gives them a purely random start, the thesis protocol.
         preprocessing: filter/decimation settings (default: the system's).
-        bounds: {name: (lo, hi)} search-bound overrides (see ``IdentificationModel``).
+        bounds: {name: (lo, hi)} the user's bounds (see ``IdentificationModel``): they hold in
+            every solver path, the closed-form linear parameters included.
+        fixed: {name: value} parameters held at a value in every solver path (σ 0); a name is a
+            full parameter name, a base name (``offset``) or a family (``vs``), as for bounds.
+        window: (start_s, end_s) of every source, s from its first sample (None: all of it).
         **solver_options: budgets (pop, generations, calls) and method options.
     """
     t0 = time.perf_counter()
@@ -92,19 +139,12 @@ def identify(series: JointSeries, *, system: str | System = "emps", joint_map: d
     settings = preprocessing or sys_.preprocessing
     if varpro is None:
         varpro = sys_.robot is not None
-    model = build_model(series, sys_, friction, asymmetric, settings, bounds)
-    extra: dict = {"preprocessing": asdict(settings), "drive": sys_.drive.to_dict() if sys_.drive else None}
-    if solver == "ls" or (varpro and model.is_linear):
-        if not model.is_linear:
-            raise FrictionIdError(
-                f"solver 'ls' needs a model linear in its parameters; '{model.friction.label}' has nonlinear "
-                f"parameter(s) {[model.names[i] for i in model.nonlinear_index]}: use lm, de, pso, ga, … instead"
-            )
-        fit = least_squares(model.design(), model.obs.y, [model.names[i] for i in model.linear_index])
-        x = np.empty(model.k)
-        x[model.linear_index] = fit.coef
-        std = {model.names[i]: float(s) for i, s in zip(model.linear_index, fit.std)}
-        cond = fit.cond
+    sources = as_sources(series, window)
+    model = build_model(sources, sys_, friction, asymmetric, settings, bounds, fixed=fixed)
+    extra: dict = {"preprocessing": asdict(settings), "drive": sys_.drive.to_dict() if sys_.drive else None,
+                   **_selection(sources, model, window, bounds)}
+    if solver == "ls" or (varpro and model.searched_nonlinear_index.size == 0):
+        x, std, cond = model.fit_linear()
     else:
         x, res = solve_model(model, solver, seed=seed, varpro=varpro, warm_start=warm_start, **solver_options)
         extra["optimizer"] = res.to_dict()
@@ -116,7 +156,7 @@ def identify(series: JointSeries, *, system: str | System = "emps", joint_map: d
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
     metrics["samples"] = int(model.obs.y.size)
-    return Identification(sys_.name, friction, asymmetric, solver, series.source, list(series.joints),
+    return Identification(sys_.name, friction, asymmetric, solver, extra.pop("source"), list(sources[0].joints),
                           dict(zip(model.names, map(float, x))), std, metrics, time.perf_counter() - t0, extra,
                           dict(sys_.joint_map))
 
@@ -132,17 +172,17 @@ def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpr
 
     Local solvers start from the best of a sample of closed-form solutions (:func:`_start_point`);
     with ``warm_start`` population methods and bo/dt evaluate it first (as ``problem.x0``).
-    With ``varpro`` the solver sees only the nonlinear parameters.
+    With ``varpro`` the solver sees only the nonlinear parameters; fixed parameters are never searched.
     """
     from frictionid_core.optim import minimize
 
+    searched = model.searched_nonlinear_index if varpro else model.free_index
     problem = _varpro_problem(model) if varpro else _full_problem(model)
     if model.nonlinear_index.size and (warm_start or solver == "lm"):
-        start = _start_point(model, np.random.default_rng(seed))
-        problem.x0 = start[model.nonlinear_index] if varpro else start
+        problem.x0 = _start_point(model, np.random.default_rng(seed))[searched]
     res = minimize(problem, solver, seed=seed, **solver_options)
-    x = model.solve_linear(_embed(model, res.x))[0][0] if varpro else res.x
-    return x, res
+    x = model.embed(res.x, searched)
+    return (model.solve_linear(x)[0] if varpro else x)[0], res
 
 
 def _start_point(model: IdentificationModel, rng: np.random.Generator, samples: int = 64) -> np.ndarray:
@@ -159,36 +199,35 @@ def _start_point(model: IdentificationModel, rng: np.random.Generator, samples: 
 
 
 def _full_problem(model: IdentificationModel):
+    """The problem over every parameter that is not fixed."""
     from frictionid_core.optim.problem import Problem
 
     lo, hi = model.bounds()
-    return Problem(names=list(model.names), lower=lo, upper=hi, batch_cost=model.batch_cost,
-                   residuals=model.residuals, batch_residuals=lambda p: model.obs.y[None, :] - model.predict(p))
+    free = model.free_index
 
+    def full(p: np.ndarray) -> np.ndarray:
+        return model.embed(p, free)
 
-def _embed(model: IdentificationModel, theta_nl: np.ndarray) -> np.ndarray:
-    """Full parameter rows (P, k) holding the nonlinear parameters ``theta_nl`` (P, m)."""
-    theta_nl = np.atleast_2d(theta_nl)
-    full = np.zeros((theta_nl.shape[0], model.k))
-    full[:, model.nonlinear_index] = theta_nl
-    return full
+    return Problem(names=[model.names[i] for i in free], lower=lo[free], upper=hi[free],
+                   batch_cost=lambda p: model.batch_cost(full(p)), residuals=lambda p: model.residuals(full(p)[0]),
+                   batch_residuals=lambda p: model.obs.y[None, :] - model.predict(full(p)))
 
 
 def _varpro_problem(model: IdentificationModel):
-    """The reduced problem over the nonlinear parameters only."""
+    """The reduced problem over the nonlinear parameters that are not fixed."""
     from frictionid_core.optim.problem import Problem
 
     lo, hi = model.bounds()
-    nl = model.nonlinear_index
+    nl = model.searched_nonlinear_index
 
     def cost(theta_nl: np.ndarray) -> np.ndarray:
-        return model.solve_linear(_embed(model, theta_nl))[1]
+        return model.solve_linear(model.embed(theta_nl, nl))[1]
 
     def residuals(theta_nl: np.ndarray) -> np.ndarray:
-        return model.residuals(model.solve_linear(_embed(model, theta_nl))[0][0])
+        return model.residuals(model.solve_linear(model.embed(theta_nl, nl))[0][0])
 
     def batch_residuals(theta_nl: np.ndarray) -> np.ndarray:
-        return model.obs.y[None, :] - model.predict(model.solve_linear(_embed(model, theta_nl))[0])
+        return model.obs.y[None, :] - model.predict(model.solve_linear(model.embed(theta_nl, nl))[0])
 
     return Problem(names=[model.names[i] for i in nl], lower=lo[nl], upper=hi[nl], batch_cost=cost,
                    residuals=residuals, batch_residuals=batch_residuals)
@@ -197,33 +236,69 @@ def _varpro_problem(model: IdentificationModel):
 def _jacobian_std(model: IdentificationModel, x: np.ndarray) -> dict[str, float]:
     """σ of each estimate from the residual Jacobian at x: std(e)·sqrt(diag((JᵀJ)⁻¹)).
 
-    Central differences, all 2k perturbed predictions in one batched call. NaN where J is
-    rank-deficient (a parameter without influence, e.g. a dip that vanished).
+    Central differences over the parameters that are not fixed (σ 0 for those), all perturbed
+    predictions in one batched call. NaN where J is rank-deficient (a parameter without
+    influence, e.g. a dip that vanished).
     """
-    h = 1e-6 * np.maximum(np.abs(x), 1e-3)
-    steps = np.diag(h)
+    free = model.free_index
+    h = 1e-6 * np.maximum(np.abs(x[free]), 1e-3)
+    steps = np.zeros((free.size, model.k))
+    steps[np.arange(free.size), free] = h
     pred = model.predict(np.vstack([x + steps, x - steps]))
-    J = (pred[: model.k] - pred[model.k :]).T / (2.0 * h)
+    J = (pred[: free.size] - pred[free.size :]).T / (2.0 * h)
     e = model.residuals(x)
     try:
         cov = np.linalg.inv(J.T @ J)
         sd = np.std(e, ddof=1) * np.sqrt(np.clip(np.diag(cov), 0.0, None))
     except np.linalg.LinAlgError:
-        sd = np.full(model.k, np.nan)
-    return {n: float(v) for n, v in zip(model.names, sd)}
+        sd = np.full(free.size, np.nan)
+    std = dict.fromkeys(model.names, 0.0)
+    std.update((model.names[i], float(v)) for i, v in zip(free, sd))
+    return std
 
 
-def validate(series: JointSeries, params: dict) -> dict[str, float]:
-    """Cross-test: metrics of the identified ``params`` (an :meth:`Identification.to_dict`) on ``series``,
-    with the identification's system (joint map and drive), pre-processed as in the identification."""
+def model_from_result(series: Sources, result: dict, *, system: str | None = None,
+                      joint_map: dict[str, str] | None = None, joints: list[str] | None = None,
+                      preprocessing: Preprocessing | None = None,
+                      window: tuple[float | None, float | None] | None = None
+                      ) -> tuple[IdentificationModel, np.ndarray]:
+    """The model of an identification ``result`` (an :meth:`Identification.to_dict`) on ``series``
+    (one source or several) and its identified parameters (k,).
+
+    System, joint map, joints, friction, drive and pre-processing come from the result; each
+    argument given overrides its part (``joint_map`` goes with ``system`` when both are given).
+    ``window`` cuts ``series`` (s from the first sample); the result's own window is not reused.
+    """
     try:
-        settings = Preprocessing(**params["preprocessing"]) if "preprocessing" in params else None
-        model = build_model(series, result_system(params), params["friction"], bool(params["asymmetric"]),
-                            settings)
-        values = params["params"]
-        x = np.array([values[n] for n in model.names], dtype=float)
+        if system is not None:
+            sys_ = as_system(system, joint_map, result_drive(result))
+        elif joint_map is not None:
+            sys_ = as_system(result_system(result).name, joint_map, result_drive(result))
+        else:
+            sys_ = result_system(result)
+        friction, asymmetric = result["friction"], bool(result["asymmetric"])
+        joints = joints or result.get("joints")  # None (a hand-written file): the data's joints
+        values = result["params"]
     except KeyError as exc:
         raise FrictionIdError(f"parameter file lacks {exc}; expected the JSON written by 'frictionid identify'") from None
+    if preprocessing is None and result.get("preprocessing"):
+        preprocessing = Preprocessing.from_dict(result["preprocessing"])
+    sources = as_sources(series, window)  # on the recorded side: the system's drive converts them
+    if joints:
+        sources = [s.select(list(joints)) for s in sources]
+    model = build_model(sources, sys_, friction, asymmetric, preprocessing)
+    missing = [n for n in model.names if n not in values]
+    if missing:
+        raise FrictionIdError(f"parameter file lacks parameter(s) {missing} of the model (it has {list(values)}); "
+                              "expected the JSON written by 'frictionid identify' for this system, joints and friction")
+    return model, np.array([values[n] for n in model.names], dtype=float)
+
+
+def validate(series: Sources, params: dict, **overrides) -> dict[str, float]:
+    """Cross-test: metrics of the identified ``params`` (an :meth:`Identification.to_dict`) on ``series``,
+    with the identification's system, joint map, joints, friction, drive and pre-processing;
+    ``overrides`` as for :func:`model_from_result` (system, joint_map, joints, preprocessing, window)."""
+    model, x = model_from_result(series, params, **overrides)
     metrics = fit_metrics(*_joint_torques(model, x))
     metrics["samples"] = int(model.obs.y.size)
     return metrics

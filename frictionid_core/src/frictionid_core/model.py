@@ -18,6 +18,7 @@ import numpy as np
 from frictionid_core.dipsums import dip_sums
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import FrictionModel
+from frictionid_core.linear import least_squares
 from frictionid_core.observation import Observation
 
 
@@ -81,8 +82,13 @@ class IdentificationModel:
         friction: the friction model, applied to every joint.
         offset: include a constant offset per joint (default: symmetric models only).
         rigid_bounds: {rigid name: (lo, hi)} search bounds of the rigid-body parameters.
-        bound_overrides: {name: (lo, hi)} replacing default bounds; a name may be a full
-            parameter name (``joint_2/vs_pos``), a base name (``vs_pos``) or a family (``vs``).
+        bound_overrides: {name: (lo, hi)} the user's bounds, replacing default bounds; a name may
+            be a full parameter name (``joint_2/vs_pos``), a base name (``vs_pos``) or a family
+            (``vs``). Unlike the default bounds, they also hold for the linear parameters solved
+            in closed form (:meth:`solve_linear`, :meth:`fit_linear`).
+        fixed: {name: value} parameters held at a value (names as in ``bound_overrides``): never
+            searched nor solved for, wherever they enter (a fixed linear parameter's column moves
+            to the right-hand side, dip included).
     """
 
     obs: Observation
@@ -90,6 +96,7 @@ class IdentificationModel:
     offset: bool | None = None
     rigid_bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
     bound_overrides: dict[str, tuple[float, float]] = field(default_factory=dict)
+    fixed: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.offset is None:
@@ -141,6 +148,7 @@ class IdentificationModel:
         self._fixed = np.column_stack([t.fixed if t.fixed is not None else np.zeros(rows) for t in terms])
         self._rows, self._nd = rows, nd
         self._quadratic = self._quadratic_terms()
+        self._constraints()
 
     def _quadratic_terms(self) -> tuple:
         """Constant pieces of the cost and of :meth:`solve_linear`: FᵀF, Fᵀy, yᵀy and, per dip
@@ -157,6 +165,47 @@ class IdentificationModel:
                                    np.ascontiguousarray(F[rows]), y[rows], sign, np.outer(sign, sign)))
         return F.T @ F, F.T @ y, float(y @ y), dips
 
+    def _constraints(self) -> None:
+        """Resolve the user's bounds and fixed values to parameter indices; the linear terms' box
+        (L,) that :meth:`solve_linear` enforces: fixed values (lo = hi) and user bounds only."""
+        self.user_bounds = self._resolve(self.bound_overrides, "bounds")
+        self.fixed_values = {i: float(v) for i, v in self._resolve(self.fixed, "fixed value").items()}
+        for i, (lo, hi) in self.user_bounds.items():
+            if not lo <= hi:
+                raise FrictionIdError(f"bounds of {self.names[i]}: lower {lo} is above upper {hi}")
+        for i, v in self.fixed_values.items():
+            if not np.isfinite(v):
+                raise FrictionIdError(f"fixed value of {self.names[i]} must be finite, got {v}")
+            lo, hi = self.user_bounds.get(i, (v, v))
+            if not lo <= v <= hi:
+                raise FrictionIdError(f"fixed value {v} of {self.names[i]} lies outside its bounds [{lo}, {hi}]")
+        for i, (lo, hi) in self.user_bounds.items():
+            if lo == hi:  # a zero-width bound is a fixed value (a search cannot vary it)
+                self.fixed_values.setdefault(i, float(lo))
+        n_lin = self.linear_index.size
+        self._lin_lo, self._lin_hi = np.full(n_lin, -np.inf), np.full(n_lin, np.inf)
+        for pos, i in enumerate(self.linear_index):
+            if i in self.fixed_values:
+                self._lin_lo[pos] = self._lin_hi[pos] = self.fixed_values[i]
+            elif i in self.user_bounds:
+                self._lin_lo[pos], self._lin_hi[pos] = self.user_bounds[i]
+        self._lin_constrained = bool(np.isfinite(self._lin_lo).any() or np.isfinite(self._lin_hi).any())
+
+    def _resolve(self, overrides: dict, what: str) -> dict[int, object]:
+        """{parameter index: value} of ``overrides`` keyed by a full name, a base name or a family
+        (the first of these that a parameter matches); FrictionIdError for a key matching none."""
+        out, unknown = {}, set(overrides)
+        for i, name in enumerate(self.names):
+            base = name.rsplit("/", 1)[-1]
+            for key in (name, base, base.removesuffix("_pos").removesuffix("_neg")):
+                if key in overrides:
+                    out[i] = overrides[key]
+                    unknown.discard(key)
+                    break
+        if unknown:
+            raise FrictionIdError(f"{what} given for unknown parameter(s) {sorted(unknown)}; parameters: {self.names}")
+        return out
+
     # ----------------------------------------------------------------- structure
     @property
     def k(self) -> int:
@@ -164,10 +213,32 @@ class IdentificationModel:
 
     @property
     def is_linear(self) -> bool:
+        """No nonlinear parameter at all (see :attr:`searched_nonlinear_index` for those not fixed)."""
         return self.nonlinear_index.size == 0
 
+    @property
+    def free_index(self) -> np.ndarray:
+        """Indices of the parameters not fixed (what a full search varies)."""
+        return np.array([i for i in range(self.k) if i not in self.fixed_values], dtype=int)
+
+    @property
+    def searched_nonlinear_index(self) -> np.ndarray:
+        """Indices of the nonlinear parameters not fixed (what variable projection searches)."""
+        return np.array([i for i in self.nonlinear_index if i not in self.fixed_values], dtype=int)
+
+    def embed(self, values: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """Full parameter rows (P, k) holding ``values`` (P, m) at ``index`` (m,), the fixed values,
+        and zeros elsewhere."""
+        values = np.atleast_2d(values)
+        full = np.zeros((values.shape[0], self.k))
+        for i, v in self.fixed_values.items():
+            full[:, i] = v
+        full[:, index] = values
+        return full
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Default search bounds (lower, upper), each (k,)."""
+        """Search bounds (lower, upper), each (k,): the defaults, the user's bounds over them, and
+        lower = upper = the value of a fixed parameter."""
         flo, fhi = self.friction.default_bounds()
         lo, hi = np.empty(self.k), np.empty(self.k)
         nf = len(self.friction.names)
@@ -179,16 +250,10 @@ class IdentificationModel:
         if self.offset:
             scale = float(np.max(np.abs(self.obs.y))) if self.obs.y.size else 1.0
             lo[-len(self.obs.joints):], hi[-len(self.obs.joints):] = -0.5 * scale, 0.5 * scale
-        unknown = set(self.bound_overrides)
-        for i, name in enumerate(self.names):
-            base = name.rsplit("/", 1)[-1]
-            for key in (name, base, base.removesuffix("_pos").removesuffix("_neg")):
-                if key in self.bound_overrides:
-                    lo[i], hi[i] = self.bound_overrides[key]
-                    unknown.discard(key)
-                    break
-        if unknown:
-            raise FrictionIdError(f"bounds given for unknown parameter(s) {sorted(unknown)}; parameters: {self.names}")
+        for i, (low, high) in self.user_bounds.items():
+            lo[i], hi[i] = low, high
+        for i, value in self.fixed_values.items():
+            lo[i] = hi[i] = value
         return lo, hi
 
     # --------------------------------------------------------------- prediction
@@ -261,15 +326,18 @@ class IdentificationModel:
         return X
 
     def solve_linear(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Variable projection: for each row of ``theta`` (P, k) keep its nonlinear entries and
-        solve the linear ones in closed form. Returns (full parameters (P, k), costs (P,)).
+        """Variable projection: for each row of ``theta`` (P, k) keep its nonlinear entries (fixed
+        ones at their values) and solve the linear ones in closed form, within the user's bounds
+        and at their fixed values. Returns (full parameters (P, k), costs (P,)).
 
         The normal equations are updated from the constant FᵀF with the few dip columns only
         (dips act on disjoint rows), so a population costs O(P·active rows·L).
         """
         p = np.array(np.atleast_2d(theta), dtype=float)
+        for i, v in self.fixed_values.items():
+            p[:, i] = v
         FtF, Fty, yty, dips = self._quadratic
-        n_pop, n_lin = p.shape[0], FtF.shape[0]
+        n_pop = p.shape[0]
         G = np.repeat(FtF[None], n_pop, axis=0)
         b = np.repeat(Fty[None], n_pop, axis=0)
         for d in dips:
@@ -277,12 +345,108 @@ class IdentificationModel:
             outer = dF[:, :, None] * d.sign[None, None, :]  # Fᵀ·dip ⊗ signs
             G += outer + outer.transpose(0, 2, 1) + dd[:, None, None] * d.sign2
             b += dy[:, None] * d.sign
-        scale = 1.0 / np.sqrt(np.maximum(np.einsum("pll->pl", G), np.finfo(float).tiny))
-        Gs = G * scale[:, :, None] * scale[:, None, :] + 1e-12 * np.eye(n_lin)
-        coef = np.linalg.solve(Gs, (b * scale)[..., None])[..., 0] * scale
+        coef = self._solve_normal(G, b)[0]
         p[:, self.linear_index] = coef
         cost = yty - 2.0 * np.einsum("pl,pl->p", coef, b) + np.einsum("pl,plm,pm->p", coef, G, coef)
         return p, np.maximum(cost, 0.0)
+
+    def _solve_normal(self, G: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """argmin ½cᵀGc − bᵀc per candidate (G (P, L, L), b (P, L)) within the linear box (fixed
+        values, user bounds): (c (P, L), which entries are held at a bound or fixed (P, L), or
+        None without a box). Diagonally scaled, with a 1e-12 ridge for collinear columns."""
+        n_lin = b.shape[1]
+        scale = 1.0 / np.sqrt(np.maximum(np.einsum("pll->pl", G), np.finfo(float).tiny))
+        Gs = G * scale[:, :, None] * scale[:, None, :] + 1e-12 * np.eye(n_lin)
+        if not self._lin_constrained:
+            return np.linalg.solve(Gs, (b * scale)[..., None])[..., 0] * scale, None
+        lo, hi = self._lin_lo, self._lin_hi
+        z, held = box_quadratic(Gs, b * scale, lo / scale, hi / scale)
+        coef = np.clip(z * scale, lo, hi)  # rounding of the scaling must not step outside the box
+        at = np.where(np.abs(coef - lo) <= np.abs(coef - hi), lo, hi)
+        return np.where(held, at, coef), held
+
+    def fit_linear(self) -> tuple[np.ndarray, dict[str, float], float]:
+        """Closed-form least squares (QR) of the linear parameters, every nonlinear one fixed.
+
+        Fixed parameters, and those the user's bounds hold at a bound (found on the normal
+        equations), move to the right-hand side; σ is 0 for a fixed parameter and NaN at a bound.
+        Returns (parameters (k,), σ by name, condition number of the solved columns).
+        """
+        if self.searched_nonlinear_index.size:
+            raise FrictionIdError(
+                f"solver 'ls' needs a model linear in its parameters; '{self.friction.label}' has nonlinear "
+                f"parameter(s) {[self.names[i] for i in self.searched_nonlinear_index]}: use lm, de, pso, ga, … "
+                "instead (or fix them with --fix NAME=VALUE)"
+            )
+        x = self.embed(np.empty((1, 0)), np.empty(0, dtype=int))[0]
+        X = self.design() if self.is_linear else self.design(x[None])[0]
+        y = self.obs.y
+        names = [self.names[i] for i in self.linear_index]
+        std = {self.names[i]: 0.0 for i in self.fixed_values}
+        if not self._lin_constrained:
+            fit = least_squares(X, y, names)
+            x[self.linear_index] = fit.coef
+            return x, {**dict(zip(names, map(float, fit.std))), **std}, fit.cond
+        coef, held = (a[0] for a in self._solve_normal((X.T @ X)[None], (X.T @ y)[None]))
+        free = ~held
+        sd = np.full(len(names), np.nan)
+        cond = float("nan")
+        if free.any():
+            fit = least_squares(X[:, free], y - X[:, held] @ coef[held], [n for n, f in zip(names, free) if f])
+            coef[free] = np.clip(fit.coef, self._lin_lo[free], self._lin_hi[free])
+            sd[free], cond = fit.std, fit.cond
+        x[self.linear_index] = coef
+        return x, {**dict(zip(names, map(float, sd))), **std}, cond
+
+
+def box_quadratic(G: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """argmin ½zᵀGz − bᵀz subject to lo ≤ z ≤ hi, for each of P problems at once.
+
+    G (P, n, n) symmetric positive definite, b (P, n), lo/hi (n,) or (P, n) with ±inf for no
+    bound and lo = hi for a fixed entry. Primal active set: every bound a free entry crosses is
+    made active; then the active bound whose multiplier has the wrong sign is released, one per
+    problem per step. Returns (z (P, n), held (P, n): entries at a bound); z is always feasible.
+    """
+    n_pop, n = b.shape
+    lo, hi = np.broadcast_to(lo, (n_pop, n)), np.broadcast_to(hi, (n_pop, n))
+    held = lo == hi
+    value = np.where(held, lo, 0.0)
+    z = _equality_solve(G, b, held, value)
+    rows = np.arange(n_pop)
+    for _ in range(4 * n + 10):
+        zr, hr, lr, ur = z[rows], held[rows], lo[rows], hi[rows]
+        below, above = ~hr & (zr < lr), ~hr & (zr > ur)
+        crossed = below | above
+        # Multipliers of the held bounds: at a lower bound the cost must not fall as z grows (g ≥ 0).
+        g = np.einsum("pij,pj->pi", G[rows], zr) - b[rows]
+        wrong = np.where(hr & (lr != ur), np.where(value[rows] == lr, -g, g), 0.0)
+        tol = 1e-8 * np.max(np.abs(b[rows]), axis=1, keepdims=True)
+        release = ~crossed.any(axis=1) & (wrong > tol).any(axis=1)
+        held[rows] |= crossed
+        value[rows] = np.where(below, lr, np.where(above, ur, value[rows]))
+        held[rows[release], np.argmax(wrong[release], axis=1)] = False
+        rows = rows[crossed.any(axis=1) | release]
+        if rows.size == 0:
+            return z, held
+        z[rows] = _equality_solve(G[rows], b[rows], held[rows], value[rows])
+    while True:  # cycling (degenerate problems): make every problem feasible, bounds only added
+        below, above = ~held & (z < lo), ~held & (z > hi)
+        crossed = (below | above).any(axis=1)
+        if not crossed.any():
+            return z, held
+        held |= below | above
+        value = np.where(below, lo, np.where(above, hi, value))
+        z[crossed] = _equality_solve(G[crossed], b[crossed], held[crossed], value[crossed])
+
+
+def _equality_solve(G: np.ndarray, b: np.ndarray, held: np.ndarray, value: np.ndarray) -> np.ndarray:
+    """argmin ½zᵀGz − bᵀz with the ``held`` entries (P, n) at ``value``: their rows and columns
+    become the identity and their known contribution moves to the right-hand side."""
+    known = np.where(held, value, 0.0)
+    rhs = np.where(held, known, b - np.einsum("pij,pj->pi", G, known))
+    free = ~held
+    M = G * (free[:, :, None] & free[:, None, :]) + np.eye(b.shape[1]) * held[:, None, :]
+    return np.linalg.solve(M, rhs[..., None])[..., 0]
 
 
 def _place(col: np.ndarray, j: int, nj: int, nd: int) -> np.ndarray:

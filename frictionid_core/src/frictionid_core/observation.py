@@ -12,9 +12,11 @@ Rows are stacked joint-major: rows ``j·Nd … (j+1)·Nd − 1`` belong to joint
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
+
+from frictionid_core.errors import FrictionIdError
 
 from frictionid_core.preprocess import Prepared, Preprocessing, decimate, decimation_indices
 
@@ -100,3 +102,38 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
     return Observation(list(joints), np.concatenate(ys), np.vstack(blocks), list(rigid_names),
                        np.column_stack(vels), cols, t)
 
+
+
+def concat_observations(observations: list[Observation]) -> Observation:
+    """Observations of several sources (same joints) stacked into one: joint j's rows of every
+    source in turn, so rows stay joint-major; ``t`` restarts with each source.
+
+    Generic over the fields: an array with J·Nd rows is joint-major, one with Nd rows is per
+    sample, per-joint column dicts are joined column by column, and any other field (names, …)
+    must be equal in every observation.
+    """
+    first = observations[0]
+    if len(observations) == 1:
+        return first
+    nj = len(first.joints)
+    parts = {}
+    for f in fields(Observation):
+        values = [getattr(o, f.name) for o in observations]
+        sizes = [o.n_samples for o in observations]
+        if isinstance(values[0], np.ndarray) and all(v.shape[0] == nj * n for v, n in zip(values, sizes)):
+            parts[f.name] = np.concatenate([v[j * n : (j + 1) * n] for j in range(nj) for v, n in zip(values, sizes)])
+        elif isinstance(values[0], np.ndarray) and all(v.shape[0] == n for v, n in zip(values, sizes)):
+            parts[f.name] = np.concatenate(values)
+        elif f.name == "columns":
+            parts[f.name] = [{k: np.concatenate([v[j][k] for v in values]) for k in values[0][j]} for j in range(nj)]
+        elif all(_equal(v, values[0]) for v in values[1:]):
+            parts[f.name] = values[0]
+        else:
+            raise FrictionIdError(f"cannot stack the observations of several sources: their '{f.name}' differ")
+    return Observation(**parts)
+
+
+def _equal(a, b) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return bool(np.array_equal(a, b))
+    return a == b

@@ -7,7 +7,7 @@ and of the torque. Irregular stamps are first resampled onto a uniform grid.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from scipy import signal
@@ -37,6 +37,13 @@ class Preprocessing:
     decimate: int = 10
     trim_start: int = 49
     trim_end: int = 0
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Preprocessing:
+        """The settings of a result's ``preprocessing`` entry (keys that are not settings, such as
+        reports of what was chosen from the data, are ignored)."""
+        names = {f.name for f in fields(cls)}
+        return cls(**{k: v for k, v in data.items() if k in names})
 
 
 @dataclass

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -91,6 +93,41 @@ class JointSeries:
                            cut(self.effort), cut(self.velocity), self.source,
                            {k: v[start:stop] for k, v in self.extras.items()}, dict(self.meta),
                            list(self.notes))
+
+    def window(self, start_s: float | None = None, end_s: float | None = None) -> JointSeries:
+        """The samples from ``start_s`` to ``end_s`` (both included), in seconds from the first sample;
+        None: from the first / to the last sample.
+
+        An end more than 1.5 sample periods past the last sample ends the window there (noted in
+        ``notes`` and warned).
+
+        Raises:
+            InputError: a negative or non-finite bound, ``end_s <= start_s``, a start at or past the
+                last sample, or a window holding fewer than 2 samples.
+        """
+        src = self.source or "data"
+        for name, value in (("start", start_s), ("end", end_s)):
+            if value is not None and (not math.isfinite(value) or value < 0.0):
+                raise InputError(f"{src}: window {name} {value} s: expected a finite time >= 0 s from the first sample")
+        if start_s is not None and end_s is not None and end_s <= start_s:
+            raise InputError(f"{src}: window end {end_s:g} s is not after its start {start_s:g} s")
+        elapsed = self.t - self.t[0]
+        duration = float(elapsed[-1])
+        start = 0.0 if start_s is None else float(start_s)
+        if start >= duration:
+            raise InputError(f"{src}: window start {start:g} s is beyond the data, which lasts {duration:.6g} s")
+        tol = 1e-9 * max(duration, 1.0)  # stamps a rounding error away from a bound belong to the window
+        lo = int(np.searchsorted(elapsed, start - tol, side="left"))
+        hi = len(self) if end_s is None else int(np.searchsorted(elapsed, end_s + tol, side="right"))
+        if hi - lo < 2:
+            raise InputError(f"{src}: window {start:g}–{'end' if end_s is None else f'{end_s:g} s'} holds "
+                             f"{hi - lo} sample(s); it needs at least 2")
+        out = self.slice(lo, hi)
+        if end_s is not None and end_s > duration + 1.5 * self.dt:
+            note = f"{src}: window end {end_s:g} s is past the last sample: the window ends there ({duration:.6g} s)"
+            out.notes.append(note)
+            warnings.warn(note, stacklevel=2)
+        return out
 
 
 def _as_2d(a, name: str, source: str) -> np.ndarray:

@@ -24,13 +24,19 @@ def add_json_argument(p: argparse.ArgumentParser, what: str = "the result") -> N
 
 
 def add_source_arguments(p: argparse.ArgumentParser) -> None:
-    """SOURCE and the options choosing what to read from it (identify, validate)."""
-    p.add_argument("source", help="MAT (EMPS), CSV, rosbag2 directory / .mcap / .db3, or ROS 1 .bag")
+    """SOURCE(s) and the options choosing what to read from them (identify, validate)."""
+    p.add_argument("source", nargs="+", metavar="SOURCE",
+                   help="MAT (EMPS), CSV, rosbag2 directory / .mcap / .db3, or ROS 1 .bag; several sources are "
+                        "each pre-processed alone and fitted together (same joints)")
     p.add_argument("--topic", help="JointState topic of a bag (default /joint_states, else the only one)")
     p.add_argument("--joints", help="comma-separated joint names to use, in order (default: all)")
     p.add_argument("--effort-topic", help="separate effort topic (JointState or Float64MultiArray)")
+    p.add_argument("--layout", type=Path,
+                   help="YAML layout of a CSV not in frictionid's own format (columns of time, positions, efforts…)")
     p.add_argument("--strict-time", action="store_true",
                    help="fail on duplicated or out-of-order time stamps instead of repairing them")
+    p.add_argument("--start", type=float, metavar="S", help="use the data from S seconds after the first sample")
+    p.add_argument("--end", type=float, metavar="S", help="use the data up to S seconds after the first sample")
     add_json_argument(p)
 
 
@@ -53,12 +59,18 @@ def drive_option(args):
     return load_drive(args.drive)
 
 
-def load_source(args):
-    """The JointSeries named by :func:`add_source_arguments`' options."""
+def load_sources(args) -> list:
+    """The JointSeries named by :func:`add_source_arguments`' options, one per source (not yet
+    cut to the window: see :func:`window_of`)."""
     from frictionid_core.io import load
 
-    return load(args.source, topic=args.topic, joints=split_list(args.joints) or None,
-                effort_topic=args.effort_topic, strict_time=args.strict_time)
+    return [load(source, topic=args.topic, joints=split_list(args.joints) or None, effort_topic=args.effort_topic,
+                 strict_time=args.strict_time, layout=args.layout) for source in args.source]
+
+
+def window_of(args) -> tuple[float | None, float | None] | None:
+    """(--start, --end) in seconds, or None when neither is given."""
+    return None if args.start is None and args.end is None else (args.start, args.end)
 
 
 def split_list(text: str | None) -> list[str] | None:
@@ -93,6 +105,20 @@ def parse_bounds(items: list[str]) -> dict[str, tuple[float, float]]:
     return out
 
 
+def parse_fixed(items: list[str]) -> dict[str, float]:
+    """``--fix NAME=VALUE`` items → {name: value}."""
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        try:
+            if not sep or not name.strip():
+                raise ValueError
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise FrictionIdError(f"--fix '{item}': expected NAME=VALUE, e.g. offset=0") from None
+    return out
+
+
 # ---------------------------------------------------------------------- output
 def fmt(x, digits: int = 6) -> str:
     """A number with ``digits`` significant digits; None and NaN as "—"."""
@@ -111,11 +137,18 @@ def print_table(result: dict, out=None) -> None:
     head = (f"{result['system']} · {result['friction']}{' (asymmetric)' if result['asymmetric'] else ''}"
             f" · solver {result['solver']}")
     print(head, file=out)
-    print(f"source: {result['source']}", file=out)
+    sources = result["source"] if isinstance(result["source"], list) else [result["source"]]
+    print(f"source: {', '.join(map(str, sources))}", file=out)
     if result.get("drive"):
         d = result["drive"]
         print(f"drive: {d.get('name') or 'unnamed'} ({d['side']}-side log, friction on the {d['friction_on']}s"
               f"{', coupling ' + str(d['coupling']) if d.get('coupling') else ''})", file=out)
+    if result.get("window"):
+        start, end = result["window"].get("start_s"), result["window"].get("end_s")
+        print(f"window: {fmt(start or 0.0)} s to {'the end' if end is None else f'{fmt(end)} s'} of each source",
+              file=out)
+    if result.get("fixed"):
+        print("fixed: " + ", ".join(f"{k} = {fmt(v)}" for k, v in result["fixed"].items()), file=out)
     print(f"{'parameter':<16}{'value':>14}{'σ':>12}", file=out)
     for name, value in result["params"].items():
         print(f"{name:<16}{fmt(value):>14}{fmt(result['std'].get(name)):>12}", file=out)

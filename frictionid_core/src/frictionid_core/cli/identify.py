@@ -1,11 +1,12 @@
-"""``frictionid identify SOURCE [--system S] [--friction F] [--solver X] [--json OUT]``."""
+"""``frictionid identify SOURCE [SOURCE ...] [--system S] [--friction F] [--solver X] [--start S] [--end S]
+[--fix NAME=VALUE]... [--bounds NAME=LO:HI]... [--layout FILE] [--json OUT]``."""
 
 from __future__ import annotations
 
 import argparse
 
-from frictionid_core.cli._common import (add_drive_argument, add_source_arguments, drive_option, load_source,
-                                         parse_bounds, print_table, save_json)
+from frictionid_core.cli._common import (add_drive_argument, add_source_arguments, drive_option, load_sources,
+                                         parse_bounds, parse_fixed, print_table, save_json, window_of)
 from frictionid_core.errors import FrictionIdError
 
 
@@ -26,7 +27,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--budget", type=int, help="generations (population solvers) or calls (bo, dt)")
     p.add_argument("--pop", type=int, help="population size of population solvers")
     p.add_argument("--bounds", action="append", default=[], metavar="NAME=LO:HI",
-                   help="search bounds of a parameter or family (e.g. vs=1e-4:1); repeatable")
+                   help="bounds of a parameter or family (e.g. vs=1e-4:1, Fs=0:100), held by every solver; "
+                        "repeatable")
+    p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
+                   help="hold a parameter or family at a value (e.g. offset=0, joint_1/vs=0.01); repeatable")
     p.add_argument("--cutoff", type=float, help="Butterworth cut-off on position, Hz (default: the system's)")
     p.add_argument("--decimate", type=int, help="decimation factor (default: the system's)")
     p.add_argument("--trim", type=int, help="samples dropped at the start (default: the system's)")
@@ -64,22 +68,27 @@ def run(args) -> int:
     if args.output_error:
         from frictionid_core.output_error import identify_output_error
 
-        if args.system != "emps" or args.drive is not None:
-            raise FrictionIdError(f"--output-error needs the EMPS closed-loop model without a drive; got system "
-                                  f"'{args.system}'" + (f" and drive '{args.drive}'" if args.drive else ""))
-        result = identify_output_error(args.source, friction=args.friction, asymmetric=args.asymmetric,
+        if args.system != "emps":
+            raise FrictionIdError(f"--output-error needs the EMPS closed-loop model; got system '{args.system}'")
+        unsupported = [flag for flag, used in (("several sources", len(args.source) > 1), ("--fix", args.fix),
+                                               ("--drive", args.drive is not None),
+                                               ("--start/--end", window_of(args)), ("--layout", args.layout)) if used]
+        if unsupported:
+            raise FrictionIdError(f"--output-error takes one EMPS source without {', '.join(unsupported)}")
+        result = identify_output_error(args.source[0], friction=args.friction, asymmetric=args.asymmetric,
                                        solver=args.solver if args.solver != "ls" else "lm", seed=args.seed,
                                        clock=args.clock, bounds=parse_bounds(args.bounds), **opts).to_dict()
     else:
         from frictionid_core.identification import identify
         from frictionid_core.systems import parse_joint_map
 
-        series = load_source(args)
-        result = identify(series, system=args.system, joint_map=parse_joint_map(args.joint_map),
+        result = identify(load_sources(args), system=args.system, joint_map=parse_joint_map(args.joint_map),
                           friction=args.friction,
                           asymmetric=args.asymmetric, solver=args.solver, seed=args.seed, varpro=args.varpro,
                           warm_start=args.warm_start, bounds=parse_bounds(args.bounds),
-                          preprocessing=_preprocessing(args), drive=drive_option(args), **opts).to_dict()
+                          preprocessing=_preprocessing(args), fixed=parse_fixed(args.fix), window=window_of(args),
+                          drive=drive_option(args), **opts).to_dict()
+        result["layout"] = None if args.layout is None else str(args.layout)
     print_table(result)
     save_json(args.json, result)
     return 0

@@ -18,13 +18,19 @@ import numpy as np
 from frictionid_core.errors import InputError
 from frictionid_core.timeseries import JointSeries
 
+# Appended to the errors of a CSV that is not in this format.
+LAYOUT_HINT = "; a CSV in another format (no header, other column names, time in ms…) needs --layout FILE"
+
 
 def load_csv(path: Path) -> JointSeries:
     """Load a CSV file written in the layout above."""
-    cols, data = read_table(path, header=True, delimiter=",")
+    try:
+        cols, data = read_table(path, header=True, delimiter=",")
+    except InputError as exc:
+        raise InputError(f"{exc}{LAYOUT_HINT}") from None
     tcol = next((c for c in ("time", "t") if c in cols), None)
     if tcol is None:
-        raise InputError(f"{path}: no 'time' column; columns are {cols}")
+        raise InputError(f"{path}: no 'time' column; columns are {cols}{LAYOUT_HINT}")
     by_name = {c: data[:, i] for i, c in enumerate(cols)}
     fields = {}
     for c in cols:
@@ -32,12 +38,12 @@ def load_csv(path: Path) -> JointSeries:
         if field in ("position", "effort", "velocity"):
             fields.setdefault(joint or "joint", {})[field] = by_name[c]
     if not fields:
-        raise InputError(f"{path}: no '<joint>.position' / '<joint>.effort' columns; columns are {cols}")
+        raise InputError(f"{path}: no '<joint>.position' / '<joint>.effort' columns; columns are {cols}{LAYOUT_HINT}")
     joints = list(fields)
     for j in joints:
         for need in ("position", "effort"):
             if need not in fields[j]:
-                raise InputError(f"{path}: joint '{j}' has no '{need}' column")
+                raise InputError(f"{path}: joint '{j}' has no '{need}' column{LAYOUT_HINT}")
     stack = lambda f: np.column_stack([fields[j][f] for j in joints])  # noqa: E731
     velocity = stack("velocity") if all("velocity" in fields[j] for j in joints) else None
     return JointSeries(t=by_name[tcol], joints=joints, position=stack("position"),
