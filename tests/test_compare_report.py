@@ -272,5 +272,5 @@ def test_report_refuses_a_result_missing_parameters(emps_estimation, tmp_path):
 
     result = identify(emps_estimation, system="emps", friction="coulomb", solver="ls").to_dict()
     del result["params"]["Fc"]
-    with pytest.raises(FrictionIdError, match=r"no value for parameter\(s\) \['Fc'\]"):
+    with pytest.raises(FrictionIdError, match=r"lacks parameter\(s\) \['Fc'\]"):
         build_fit_report(result, [("estimation", emps_estimation)], tmp_path)
