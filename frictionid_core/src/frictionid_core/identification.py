@@ -3,16 +3,20 @@
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
-from frictionid_core.errors import FrictionIdError
+from frictionid_core import diagnostics
+from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import get_model
 from frictionid_core.linear import least_squares
-from frictionid_core.metrics import fit_metrics
+from frictionid_core.metrics import observation_metrics
 from frictionid_core.model import IdentificationModel
-from frictionid_core.preprocess import Preprocessing
+from frictionid_core.preprocess import Preprocessing, dip_needs, rule_decimation
+
+# At most this many refits when a friction dip needs finer rates than those chosen (see identify).
+DIP_ROUNDS = 4
 from frictionid_core.systems import System, as_system, observe, result_system
 from frictionid_core.timeseries import JointSeries
 
@@ -33,10 +37,12 @@ class Identification:
     wall_s: float
     extra: dict = field(default_factory=dict)
     joint_map: dict[str, str] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         d = {k: getattr(self, k) for k in ("system", "joint_map", "friction", "asymmetric", "solver", "source",
-                                          "joints", "params", "std", "metrics", "wall_s")}
+                                          "joints", "params", "std", "metrics", "wall_s", "warnings", "notes")}
         d.update(self.extra)
         return d
 
@@ -52,7 +58,8 @@ def build_model(series: JointSeries, system: str | System, friction: str, asymme
     """
     sys_ = as_system(system, joint_map)
     obs = observe(series, sys_, preprocessing)
-    return IdentificationModel(obs, get_model(friction, asymmetric), rigid_bounds=dict(sys_.rigid_bounds),
+    return IdentificationModel(obs, get_model(friction, asymmetric),
+                               rigid_bounds=sys_.parameter_bounds(list(series.joints)),
                                bound_overrides=dict(bounds or {}))
 
 
@@ -77,7 +84,8 @@ def identify(series: JointSeries, *, system: str | System = "emps", joint_map: d
         warm_start: global solvers (population methods, bo, dt) evaluate the closed-form start
             point first (see :func:`solve_model`), so no result is worse than the nested linear
             model; False gives them a purely random start, the thesis protocol.
-        preprocessing: filter/decimation settings (default: the system's).
+        preprocessing: filter/decimation settings (default: the system's; settings left None
+            are chosen from the data, see :mod:`frictionid_core.preprocess`).
         bounds: {name: (lo, hi)} search-bound overrides (see ``IdentificationModel``).
         **solver_options: budgets (pop, generations, calls) and method options.
     """
@@ -87,7 +95,10 @@ def identify(series: JointSeries, *, system: str | System = "emps", joint_map: d
     if varpro is None:
         varpro = sys_.robot is not None
     model = build_model(series, sys_, friction, asymmetric, settings, bounds)
-    extra: dict = {"preprocessing": asdict(settings)}
+    errors, warnings = diagnostics.direction_problems(model.obs, model.names)
+    if errors:
+        raise InputError(f"{series.source}: " + "; ".join(errors))
+    extra: dict = {}
     if solver == "ls" or (varpro and model.is_linear):
         if not model.is_linear:
             raise FrictionIdError(
@@ -101,18 +112,108 @@ def identify(series: JointSeries, *, system: str | System = "emps", joint_map: d
         cond = fit.cond
     else:
         x, res = solve_model(model, solver, seed=seed, varpro=varpro, warm_start=warm_start, **solver_options)
+        # A friction dip the chosen rates cannot follow: refit with the rates its estimate needs,
+        # until they agree (too coarse a rate overestimates vs, so this may take a few rounds).
+        for _ in range(DIP_ROUNDS):
+            changes, why = _dip_changes(model, x)
+            if not changes:
+                break
+            from_data = model.obs.report["from_data"]
+            model = build_model(series, sys_, friction, asymmetric, replace(settings, **changes), bounds)
+            model.obs.report["from_data"] = sorted(set(from_data) | set(model.obs.report["from_data"]))
+            model.obs.report["dip"] = why
+            x, res = solve_model(model, solver, seed=seed, varpro=varpro, warm_start=warm_start, **solver_options)
+        warnings += _dip_warnings(model, x)
         extra["optimizer"] = res.to_dict()
         extra["varpro"] = varpro
         extra["warm_start"] = warm_start
         std = _jacobian_std(model, x)
         cond = float(np.linalg.cond(model.design(x[None])[0]))
-    metrics = fit_metrics(model.obs.y, model.predict(x))
+    metrics = fit_metrics(model, x)
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
-    metrics["samples"] = int(model.obs.y.size)
+    obs = model.obs
+    extra["preprocessing"] = preprocessing_record(obs, metrics, sys_.preprocessing, settings)
+    lo, hi = model.bounds()
+    warnings = (diagnostics.stamp_warnings([*series.notes, *obs.notes])
+                + diagnostics.acceleration_warnings(obs.report, obs.preprocessing.cutoff_hz,
+                                                    "cutoff_hz" in obs.report["from_data"])
+                + warnings + diagnostics.parameter_warnings(model.names, x, std, lo, hi))
     return Identification(sys_.name, friction, asymmetric, solver, series.source, list(series.joints),
                           dict(zip(model.names, map(float, x))), std, metrics, time.perf_counter() - t0, extra,
-                          dict(sys_.joint_map))
+                          dict(sys_.joint_map), warnings, [*series.notes, *obs.notes])
+
+
+def _dip_needs(model: IdentificationModel, x: np.ndarray) -> tuple[int, float, str]:
+    """(largest decimation, smallest cut-off, why) the friction dip of the fit ``x`` needs: see
+    :func:`frictionid_core.preprocess.dip_needs`, for its speed scale (vs or v0) of each joint and
+    branch at the joint's reversal acceleration; a scale at its lower bound (a dip that
+    vanished) is skipped."""
+    obs = model.obs
+    lo, _ = model.bounds()
+    fs = obs.report["sample_rate_hz"]
+    scale = model.friction.law.nonlinear[0]
+    n_max, fc_min, why = np.iinfo(np.int32).max, 0.0, ""
+    for i in model.nonlinear_index:
+        name = model.names[i]
+        if name.rsplit("/", 1)[-1].removesuffix("_pos").removesuffix("_neg") != scale or x[i] <= lo[i]:
+            continue
+        joint = name.split("/", 1)[0] if "/" in name else obs.joints[0]
+        a = obs.report.get("reversal_acceleration", {}).get(joint) or 0.0
+        n, fc = dip_needs(fs, a, x[i])
+        if n < n_max or fc > fc_min:
+            why = (f"{joint}: its friction dip ({name} {x[i]:.3g}) is crossed at reversals at up to {a:.3g}/s²; "
+                   f"it needs an analysis rate ≥ {fs / n:.4g} Hz and a cut-off ≥ {fc:.3g} Hz")
+        n_max, fc_min = min(n, n_max), max(fc, fc_min)
+    return n_max, fc_min, why
+
+
+def _dip_changes(model: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:
+    """The pre-processing changes (among the settings chosen from the data) the dip of ``x``
+    needs, and why; {} when none."""
+    n, fc, why = _dip_needs(model, x)
+    pre, chosen = model.obs.preprocessing, model.obs.report["from_data"]
+    changes = {}
+    cutoff = pre.cutoff_hz
+    if fc > cutoff * (1 + 1e-9) and "cutoff_hz" in chosen:
+        cutoff = changes["cutoff_hz"] = fc
+    if "decimate" in chosen:
+        n = min(n, rule_decimation(model.obs.report["sample_rate_hz"], cutoff))
+        if n < pre.decimate or changes:
+            changes["decimate"] = n
+    return changes, why
+
+
+def _dip_warnings(model: IdentificationModel, x: np.ndarray) -> list[str]:
+    """A warning when the settings the user gave are too coarse for the dip of ``x``."""
+    n, fc, why = _dip_needs(model, x)
+    pre = model.obs.preprocessing
+    if n >= pre.decimate and fc <= pre.cutoff_hz * (1 + 1e-9):
+        return []
+    return [f"{why} (here {model.obs.report['analysis_rate_hz']:.4g} Hz and {pre.cutoff_hz:.3g} Hz): vs and δ come out "
+            f"biased; use --decimate {min(n, pre.decimate)} --cutoff {max(fc, pre.cutoff_hz):.3g}"]
+
+
+def fit_metrics(model: IdentificationModel, x: np.ndarray) -> dict:
+    """:func:`~frictionid_core.metrics.observation_metrics` of the parameters ``x`` on the
+    model's metric observation (the recorded effort at the analysis instants, predicted from
+    the unfiltered columns there; or the model's own filtered rows under the EMPS protocol)."""
+    obs = model.obs.metric
+    on = model if obs is model.obs else IdentificationModel(obs, model.friction, model.offset)
+    return observation_metrics(obs, on.predict(x))
+
+
+def preprocessing_record(obs, metrics: dict, default: Preprocessing, requested: Preprocessing) -> dict:
+    """The JSON ``preprocessing`` block of an identification: the resolved settings of ``obs``,
+    what the data said (its report, without the ``_``-keys), the torque noise floor of
+    ``metrics``, and ``overridden``: the settings of ``requested`` that differ from the system's
+    ``default``."""
+    record = obs.preprocessing.to_dict()
+    record.update({k: v for k, v in obs.report.items() if not k.startswith("_")})
+    record["torque_noise_floor_pct"] = metrics.get("noise_floor_pct")
+    record["overridden"] = [f.name for f in fields(Preprocessing)
+                            if getattr(requested, f.name) != getattr(default, f.name)]
+    return record
 
 
 def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpro: bool = False,
@@ -206,13 +307,12 @@ def validate(series: JointSeries, params: dict) -> dict[str, float]:
     """Cross-test: metrics of the identified ``params`` (an :meth:`Identification.to_dict`) on ``series``,
     with the identification's system (and joint map), pre-processed as in the identification."""
     try:
-        settings = Preprocessing(**params["preprocessing"]) if "preprocessing" in params else None
+        settings = (Preprocessing.from_dict(params["preprocessing"], 1.0 / series.dt)
+                    if "preprocessing" in params else None)
         model = build_model(series, result_system(params), params["friction"], bool(params["asymmetric"]),
                             settings)
         values = params["params"]
         x = np.array([values[n] for n in model.names], dtype=float)
     except KeyError as exc:
         raise FrictionIdError(f"parameter file lacks {exc}; expected the JSON written by 'frictionid identify'") from None
-    metrics = fit_metrics(model.obs.y, model.predict(x))
-    metrics["samples"] = int(model.obs.y.size)
-    return metrics
+    return fit_metrics(model, x)

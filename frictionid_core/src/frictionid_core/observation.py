@@ -12,7 +12,7 @@ Rows are stacked joint-major: rows ``j·Nd … (j+1)·Nd − 1`` belong to joint
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -35,6 +35,14 @@ class Observation:
             asymmetric V_pos = q̇·O⁺, S_pos = sign(q̇)·O⁺, V_neg, S_neg, and the constant
             ``one`` (decimated like the others: the anti-alias filter's DC gain is 0.989); each (Nd,).
         t: decimated sample times, s (Nd,).
+        preprocessing: the resolved settings that made it.
+        report: what the data said about the pre-processing (see
+            :func:`frictionid_core.preprocess.preprocess`; the ``_``-keys are not for JSON).
+        notes: what was done to the stamps (resampling).
+        used: (J·Nd,) False on the rows left out (slow rows, zeroed everywhere).
+        sampled: the same rows taken at the analysis instants *without* the anti-alias filter:
+            ``y`` the recorded effort, the columns the model's own (sign steps kept); what
+            fit metrics compare (None inside a sampled observation).
     """
 
     joints: list[str]
@@ -44,11 +52,26 @@ class Observation:
     velocity: np.ndarray
     columns: list[dict[str, np.ndarray]]
     t: np.ndarray
+    preprocessing: Preprocessing
+    report: dict = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    used: np.ndarray | None = None
+    sampled: Observation | None = None
+
+    def __post_init__(self) -> None:
+        if self.used is None:
+            self.used = np.ones(self.y.size, dtype=bool)
 
     @property
     def n_samples(self) -> int:
         """Decimated samples per joint (Nd)."""
         return self.velocity.shape[0]
+
+    @property
+    def metric(self) -> Observation:
+        """The observation fit metrics are taken on: the sampled one (recorded effort), or this
+        one under ``metric="filtered"`` (the decimated filtered effort of the EMPS benchmark)."""
+        return self if self.preprocessing.metric == "filtered" or self.sampled is None else self.sampled
 
 
 def velocity_columns(qd: np.ndarray) -> np.ndarray:
@@ -61,23 +84,31 @@ def velocity_columns(qd: np.ndarray) -> np.ndarray:
 
 def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndarray,
                       rigid_names: list[str], settings: Preprocessing) -> Observation:
-    """Decimate torque, rigid columns (J·N, R) and velocity columns in one pass per joint.
+    """Decimate torque, rigid columns (J·N, R) and velocity columns in one pass per joint, and
+    sample them at the same instants without the anti-alias filter (``sampled``).
 
-    ``rigid_full`` rows are joint-major over the full-rate prepared samples.
+    ``rigid_full`` rows are joint-major over the full-rate prepared samples; ``settings``
+    are resolved.
     """
     n, nj = prepared.qd.shape
     r = rigid_full.shape[1]
-    blocks, ys, cols, vels = [], [], [], []
+    kept = decimation_indices(n, settings.decimate)
+    parts: dict[str, list] = {k: [] for k in ("y", "velocity", "rigid", "columns")}
+    raw: dict[str, list] = {k: [] for k in parts}
     for j in range(nj):
         full = np.column_stack([
             prepared.tau[:, j], prepared.qd[:, j], rigid_full[j * n : (j + 1) * n],
             velocity_columns(prepared.qd[:, j])])
-        dec = decimate(full, settings.decimate)
-        ys.append(dec[:, 0])
-        vels.append(dec[:, 1])
-        blocks.append(dec[:, 2 : 2 + r])
-        cols.append(dict(zip(VELOCITY_COLUMNS, dec[:, 2 + r :].T)))
-    t = prepared.t[decimation_indices(n, settings.decimate)]
-    return Observation(list(joints), np.concatenate(ys), np.vstack(blocks), list(rigid_names),
-                       np.column_stack(vels), cols, t)
+        for out, rows in ((parts, decimate(full, settings.decimate)), (raw, full[kept])):
+            out["y"].append(rows[:, 0])
+            out["velocity"].append(rows[:, 1])
+            out["rigid"].append(rows[:, 2 : 2 + r])
+            out["columns"].append(dict(zip(VELOCITY_COLUMNS, rows[:, 2 + r :].T)))
 
+    def observation(p: dict) -> Observation:
+        return Observation(list(joints), np.concatenate(p["y"]), np.vstack(p["rigid"]), list(rigid_names),
+                           np.column_stack(p["velocity"]), p["columns"], prepared.t[kept], settings)
+
+    obs = observation(parts)
+    obs.sampled = observation(raw)
+    return obs

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from frictionid_core.cli._common import add_source_arguments, load_source, metrics_line, save_json
+from frictionid_core.cli._common import add_source_arguments, load_source, print_metrics, save_json
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -23,6 +23,6 @@ def run(args) -> int:
     out = {"source": series.source, "params_file": str(args.params), "system": params.get("system"),
            "friction": params.get("friction"), "asymmetric": params.get("asymmetric"), "metrics": metrics}
     print(f"cross-test of {args.params} on {series.source}")
-    print(metrics_line(metrics))
+    print_metrics(metrics)
     save_json(args.json, out)
     return 0

@@ -2,7 +2,7 @@
 
 A system turns pre-processed signals into the full-rate rigid-body columns of the
 observation matrix, says which data joints it models and how its data are pre-processed by
-default.
+default (settings left None are chosen from the data: :mod:`frictionid_core.preprocess`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import numpy as np
 
 from frictionid_core.errors import InputError
 from frictionid_core.observation import Observation, build_observation
-from frictionid_core.preprocess import Prepared, Preprocessing, prepare
+from frictionid_core.preprocess import Prepared, Preprocessing, preprocess
 from frictionid_core.timeseries import JointSeries
 
 
@@ -47,15 +47,14 @@ class System:
             hold each, through ``joint_map``), or None (any joints).
         columns: prepared signals + model joint names (data order) → rigid columns (J·N, R),
             joint-major rows.
-        rigid_names: rigid-body parameter names (R).
-        rigid_bounds: default search bounds of those parameters.
-        preprocessing: default pre-processing.
+        rigid_names: rigid-body parameter names (R), or with ``per_joint`` the base names of one
+            joint's parameters (see :meth:`parameter_names`).
+        rigid_bounds: default search bounds of those parameters (by base name with ``per_joint``).
+        preprocessing: default pre-processing (None fields: chosen from the data).
         joint_map: {data joint name: model joint name} where they differ.
-        min_speed: rows whose (decimated) joint speed |q̇| is below this are left out of the
-            identification (zeroed: torque, every column and the velocity), because the sign of
-            a noisy velocity near a reversal is unreliable and one wrong sign is a 2·Fs outlier;
-            None keeps every row. Same unit as the velocity (m/s or rad/s).
         robot: the robot model and base parameters of a robot system (None otherwise).
+        per_joint: each joint has its own ``rigid_names`` (``<joint>/J`` with several joints),
+            its columns acting on its own rows only.
     """
 
     name: str
@@ -65,8 +64,22 @@ class System:
     rigid_bounds: dict[str, tuple[float, float]]
     preprocessing: Preprocessing
     joint_map: dict[str, str] = field(default_factory=dict)
-    min_speed: float | None = None
     robot: RobotInfo | None = None
+    per_joint: bool = False
+
+    def parameter_names(self, joints: list[str]) -> list[str]:
+        """The rigid-body parameter names on data of ``joints`` (prefixed ``<joint>/`` when a
+        per-joint system sees several joints, like the friction parameters)."""
+        if not self.per_joint:
+            return list(self.rigid_names)
+        if len(joints) == 1:
+            return list(self.rigid_names)
+        return [f"{j}/{n}" for j in joints for n in self.rigid_names]
+
+    def parameter_bounds(self, joints: list[str]) -> dict[str, tuple[float, float]]:
+        """Default search bounds by the names of :meth:`parameter_names`."""
+        names = self.parameter_names(joints)
+        return {n: self.rigid_bounds[n.rsplit("/", 1)[-1]] for n in names if n.rsplit("/", 1)[-1] in self.rigid_bounds}
 
     def model_joints(self, joints: list[str]) -> list[str]:
         """The model's names of the data joints ``joints``."""
@@ -109,32 +122,38 @@ def parse_joint_map(text: str | None) -> dict[str, str]:
 
 
 def observe(series: JointSeries, system: System, settings: Preprocessing | None = None) -> Observation:
-    """Pre-process ``series`` and build the decimated observation of ``system``
-    (``settings`` overrides the system's pre-processing)."""
-    system.check_joints(list(series.joints), series.source)
-    settings = settings or system.preprocessing
-    prepared = prepare(series, settings)
-    rigid = system.columns(prepared, system.model_joints(list(series.joints)))
-    obs = build_observation(prepared, series.joints, rigid, list(system.rigid_names), settings)
-    if system.min_speed:
-        exclude_slow_rows(obs, system.min_speed)
+    """Pre-process ``series`` (unset settings chosen from its data) and build the decimated
+    observation of ``system`` (``settings`` overrides the system's pre-processing), without its
+    slow rows (see :func:`exclude_slow_rows`)."""
+    joints = list(series.joints)
+    system.check_joints(joints, series.source)
+    prepared, resolved, report, notes = preprocess(series, settings or system.preprocessing)
+    rigid = system.columns(prepared, system.model_joints(joints))
+    obs = build_observation(prepared, joints, rigid, system.parameter_names(joints), resolved)
+    obs.report = obs.sampled.report = report
+    obs.notes = notes
+    slow = np.abs(obs.velocity) < np.array([resolved.min_speed[j] for j in joints])
+    exclude_rows(obs, slow)
+    exclude_rows(obs.sampled, slow)
+    report["slow_rows_excluded"] = dict(zip(joints, map(int, slow.sum(axis=0))))
     return obs
 
 
-def exclude_slow_rows(obs: Observation, min_speed: float) -> int:
-    """Zero the rows of ``obs`` whose joint speed is below ``min_speed`` (they then add nothing
-    to any least-squares cost or fit metric); returns how many rows were excluded."""
+def exclude_rows(obs: Observation, rows: np.ndarray) -> None:
+    """Leave out the rows where ``rows`` (Nd, J) is True: zero their torque, every column and
+    the velocity (they then add nothing to any least-squares cost) and mark them unused.
+
+    Rows slower than the min speed go: near standstill and reversals the sign of a noisy
+    velocity is unreliable, and one wrong sign is a 2·Fc outlier."""
     nd = obs.n_samples
-    count = 0
     for j in range(len(obs.joints)):
-        slow = np.abs(obs.velocity[:, j]) < min_speed
+        slow = rows[:, j]
         if not slow.any():
             continue
-        count += int(slow.sum())
-        rows = j * nd + np.flatnonzero(slow)
-        obs.y[rows] = 0.0
-        obs.rigid[rows] = 0.0
+        index = j * nd + np.flatnonzero(slow)
+        obs.y[index] = 0.0
+        obs.rigid[index] = 0.0
+        obs.used[index] = False
         obs.velocity[slow, j] = 0.0
         for col in obs.columns[j].values():
             col[slow] = 0.0
-    return count
