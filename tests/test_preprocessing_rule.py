@@ -49,7 +49,7 @@ def joint_log(rate: float, duration: float = 20.0, *, seed: int = 0, sigma_q: fl
 @pytest.mark.parametrize("rate", [94.0, 500.0, 5000.0])
 def test_rule_picks_cutoff_decimation_and_trims_in_seconds_at_any_rate(rate):
     """The same motion at three rates: cut-off 10 × the 1 Hz bandwidth (± the 0.05 Hz periodogram
-    bin), below 0.2 × the rate; decimation down to ≥ 10 × the cut-off; 3/fc s at both ends."""
+    bin), below 0.2 × the rate; decimation down to ≥ 10 × the cut-off; 5/fc s at both ends."""
     settings, report = choose_preprocessing(joint_log(rate))
     assert report["bandwidth_hz"] == pytest.approx(1.0, abs=0.06)
     assert settings.cutoff_hz == pytest.approx(10 * report["bandwidth_hz"]) and settings.cutoff_hz < 0.2 * rate
@@ -57,7 +57,7 @@ def test_rule_picks_cutoff_decimation_and_trims_in_seconds_at_any_rate(rate):
     assert report["analysis_rate_hz"] == pytest.approx(rate / settings.decimate)
     # ≥ 10 × the cut-off, and no faster than needed (below 20 ×) unless the log itself is slower.
     assert 10 * settings.cutoff_hz <= report["analysis_rate_hz"] < 20 * settings.cutoff_hz or settings.decimate == 1
-    assert settings.trim_start_s == settings.trim_end_s == pytest.approx(3 / settings.cutoff_hz)
+    assert settings.trim_start_s == settings.trim_end_s == pytest.approx(5 / settings.cutoff_hz)
     assert sorted(report["from_data"]) == ["cutoff_hz", "decimate", "min_speed", "trim_end_s", "trim_start_s"]
     assert report["moving_joints"] == ["a", "b"]
     # 10 σ of the velocity noise a 1e-6 rad position noise leaves (≤ 1e-4 rad/s here) is below the
@@ -78,7 +78,7 @@ def test_rule_caps_the_cutoff_below_nyquist_at_a_low_rate():
 def test_given_settings_are_kept_and_the_rest_follows_the_cutoff():
     settings, report = choose_preprocessing(joint_log(500.0), Preprocessing(cutoff_hz=20.0, min_speed=0.0))
     assert (settings.cutoff_hz, settings.decimate) == (20.0, 2)
-    assert settings.trim_start_s == pytest.approx(0.15) and settings.min_speed == {"a": 0.0, "b": 0.0}
+    assert settings.trim_start_s == pytest.approx(0.25) and settings.min_speed == {"a": 0.0, "b": 0.0}
     assert sorted(report["from_data"]) == ["decimate", "trim_end_s", "trim_start_s"]
 
 

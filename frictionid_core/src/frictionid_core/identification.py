@@ -150,10 +150,12 @@ def _dip_needs(model: IdentificationModel, x: np.ndarray) -> tuple[int, float, s
     branch at the joint's reversal acceleration; a scale at its lower bound (a dip that
     vanished) is skipped."""
     obs = model.obs
+    n_max, fc_min, why = np.iinfo(np.int32).max, 0.0, ""
+    if model.is_linear:
+        return n_max, fc_min, why
     lo, _ = model.bounds()
     fs = obs.report["sample_rate_hz"]
     scale = model.friction.law.nonlinear[0]
-    n_max, fc_min, why = np.iinfo(np.int32).max, 0.0, ""
     for i in model.nonlinear_index:
         name = model.names[i]
         if name.rsplit("/", 1)[-1].removesuffix("_pos").removesuffix("_neg") != scale or x[i] <= lo[i]:

@@ -13,8 +13,9 @@ Settings left unset (None) are chosen from the data by :func:`choose_preprocessi
   q̇ power lies, after the differentiated position noise (fs·sin(2πf/fs))²·N0 is removed;
 * cut-off fc = min(10·B, 0.2·fs); decimation n = max(1, ⌊fs / (10·fc)⌋) (analysis rate ≥ 10·fc,
   so the anti-alias band 0.4·fs/n stays ≥ 4·fc and the Stribeck dip, evaluated at the decimated
-  velocity, keeps its shape); trims 3/fc s at both ends (the order-4 forward–backward transient
-  decays to ~1e-3), at most 10 % of the record each;
+  velocity, keeps its shape); trims 5/fc s at both ends (the slowest pole of the order-4
+  Butterworth decays as e^(−2.4·fc·t): 6e-6 after 5/fc; 3/fc leaves 7e-4, which biases weakly
+  determined base parameters), at most 10 % of the record each;
 * slow-row threshold per joint: 10·σ_q̇, σ_q̇ the velocity noise that N0 leaves after the filter
   and the central difference (below it the sign of q̇ is noise), and at least 5e-4 × the joint's
   top speed (99th percentile of |q̇|): the few rows that close to a reversal otherwise let a
@@ -47,7 +48,7 @@ BANDWIDTH_SHARE = 0.99  # share of the motion's q̇ power below the bandwidth
 CUTOFF_PER_BANDWIDTH = 10.0  # fc = this × bandwidth …
 MAX_CUTOFF_SHARE = 0.2  # … at most this × fs (0.4 × Nyquist)
 ANALYSIS_PER_CUTOFF = 10.0  # analysis rate ≥ this × fc
-TRIM_PERIODS = 3.0  # trims of this many 1/fc at each end …
+TRIM_PERIODS = 5.0  # trims of this many 1/fc at each end …
 MAX_TRIM_SHARE = 0.1  # … at most this share of the record each
 MIN_SPEED_SIGMAS = 10.0  # slow rows: |q̇| < max(this × σ_q̇, …
 MIN_SPEED_SHARE = 5e-4  # … this × the joint's top speed)

@@ -33,7 +33,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--decimate", type=int, metavar="N",
                    help="decimation factor (default: down to ≥ 10 × the cut-off; emps: 10)")
     p.add_argument("--trim", metavar="SECONDS[:SECONDS]",
-                   help="seconds dropped at both ends, or START:END (default: 3 / cut-off each; emps: 0.049:0)")
+                   help="seconds dropped at both ends, or START:END (default: 5 / cut-off each; emps: 0.049:0)")
     p.add_argument("--min-speed", type=float, metavar="SPEED",
                    help="rows with |q̇| below this (rad/s or m/s) are left out (default: 10 σ of the velocity "
                         "noise per joint; emps: 0, every row kept)")

@@ -17,11 +17,11 @@ from frictionid_core.robots.base import base_parameter_names, check_excitation, 
 from frictionid_core.systems.system import RobotInfo, System
 
 # Robot data: every setting chosen from the data (frictionid_core.preprocess): the cut-off from
-# the motion's bandwidth keeps q̈ above the position noise; the analysis rate ≥ 10 × the cut-off
-# keeps the anti-alias band ≥ 4 × the cut-off, so the Stribeck dip evaluated at the decimated
-# velocity matches the anti-aliased torque (a lower rate biases vs and δ); trims of 3/fc at both
-# ends cover the forward–backward filter's edge transient; rows slower than 10 σ of the velocity
-# noise are left out (the sign of q̇ is noise there, one wrong sign a 2·Fs outlier).
+# the motion's bandwidth keeps q̈ above the position noise; the analysis rate ≥ 10 × the cut-off;
+# trims of 5/fc at both ends cover the forward–backward filter's edge transient; rows slower than
+# 10 σ of the velocity noise (and 5e-4 × the top speed) are left out (the sign of q̇ is noise
+# there, one wrong sign a 2·Fs outlier). A Stribeck dip crossed at reversals faster than those
+# rates follow makes identify() refit at the rates the dip needs.
 ROBOT_PREPROCESSING = Preprocessing()
 
 # Rows of the excitation test: one in this many samples.
