@@ -50,6 +50,18 @@ def test_thesis_joint2_model_recovers_the_truth(j2_bags):
     assert floor["ratio"] < 1.1
 
 
+def test_a_decimation_too_coarse_for_the_dip_is_a_warning(j2_bags):
+    """Decimation 18 set by the user (55.6 Hz) on the joint-2 bag: the fit's vs (≈ 0.053 rad/s,
+    crossed at 4.81 rad/s²) needs 6 × 4.81/(π·0.053) = 175 Hz of anti-alias band, i.e. decimation
+    2; the rates the user set are kept and the warning says which to use."""
+    est, _ = j2_bags
+    r = identify(est, system="tx40-j2", friction="stribeck", solver="lm", varpro=True,
+                 preprocessing=Preprocessing(decimate=18)).to_dict()
+    assert r["preprocessing"]["decimate"] == 18 and "dip" not in r["preprocessing"]
+    dip = [w for w in r["warnings"] if "friction dip" in w]
+    assert len(dip) == 1 and dip[0].startswith("joint_2: its friction dip (vs 0.05") and "--decimate 2 " in dip[0]
+
+
 def test_thesis_protocol_de_runs_from_the_cli(capsys):
     """The command line of the issue (all parameters searched, a short budget here)."""
     from frictionid_core.cli import main

@@ -42,7 +42,8 @@ class Observation:
         used: (J·Nd,) False on the rows left out (slow rows, zeroed everywhere).
         sampled: the same rows taken at the analysis instants *without* the anti-alias filter:
             ``y`` the recorded effort, the columns the model's own (sign steps kept); what
-            fit metrics compare (None inside a sampled observation).
+            fit metrics compare (None without decimation, where they are these rows, and inside
+            a sampled observation).
     """
 
     joints: list[str]
@@ -110,5 +111,5 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
                            np.column_stack(p["velocity"]), p["columns"], prepared.t[kept], settings)
 
     obs = observation(parts)
-    obs.sampled = observation(raw)
+    obs.sampled = observation(raw) if settings.decimate > 1 else None  # without decimation: the same rows
     return obs

@@ -94,14 +94,16 @@ class Preprocessing:
         for name, value, choices in (("velocity", self.velocity, VELOCITY_SOURCES),
                                      ("filter", self.filter, FILTERS), ("metric", self.metric, METRIC_EFFORTS)):
             check_choice(f"pre-processing {name}", value, choices, name)
-        bad = [f"{n} {v}" for n, v in (("decimate", self.decimate), ("trim_start_s", self.trim_start_s),
-                                       ("trim_end_s", self.trim_end_s), ("cutoff_hz", self.cutoff_hz))
-               if v is not None and (v < (1 if n == "decimate" else 0) or (n == "cutoff_hz" and v == 0))]
         speeds = self.min_speed.values() if isinstance(self.min_speed, dict) else [self.min_speed]
-        bad += [f"min_speed {v}" for v in speeds if v is not None and v < 0]
-        if bad or self.order < 1:
-            raise FrictionIdError(f"pre-processing: invalid {', '.join(bad) or f'order {self.order}'} "
-                                  "(cut-off > 0, decimate ≥ 1, trims and min speed ≥ 0)")
+        # (name, value, lowest allowed, allowed itself)
+        limits = [("cutoff_hz", self.cutoff_hz, 0, False), ("order", self.order, 1, True),
+                  ("decimate", self.decimate, 1, True), ("trim_start_s", self.trim_start_s, 0, True),
+                  ("trim_end_s", self.trim_end_s, 0, True), *(("min_speed", v, 0, True) for v in speeds)]
+        bad = [f"{name} {value}" for name, value, low, inclusive in limits
+               if value is not None and (value < low or (value == low and not inclusive))]
+        if bad:
+            raise FrictionIdError(f"pre-processing: invalid {', '.join(bad)} (cut-off > 0, order and decimate ≥ 1, "
+                                  "trims and min speed ≥ 0)")
 
     @property
     def resolved(self) -> bool:

@@ -130,11 +130,12 @@ def observe(series: JointSeries, system: System, settings: Preprocessing | None 
     prepared, resolved, report, notes = preprocess(series, settings or system.preprocessing)
     rigid = system.columns(prepared, system.model_joints(joints))
     obs = build_observation(prepared, joints, rigid, system.parameter_names(joints), resolved)
-    obs.report = obs.sampled.report = report
-    obs.notes = notes
+    obs.report, obs.notes = report, notes
     slow = np.abs(obs.velocity) < np.array([resolved.min_speed[j] for j in joints])
     exclude_rows(obs, slow)
-    exclude_rows(obs.sampled, slow)
+    if obs.sampled is not None:
+        obs.sampled.report = report
+        exclude_rows(obs.sampled, slow)
     report["slow_rows_excluded"] = dict(zip(joints, map(int, slow.sum(axis=0))))
     return obs
 
