@@ -279,3 +279,12 @@ def test_emps_table_keeps_every_printed_digit(capsys):
     assert "relerr_pct 4.08336," in text and "cond 25.9883" in text
     assert "preprocessing: Butterworth order 4 at 100 Hz, motion bandwidth 3.66 Hz, decimation 10 → 100 Hz, " \
            "trims 0.049 + 0 s, min speed 0, velocity from position" in text
+
+
+def test_results_with_trims_in_samples_still_validate(emps_estimation, emps_validation):
+    """A result written before the trims were in seconds (49 samples, every row kept, metrics on
+    the filtered force) validates as it did: the EMPS cross-test's 5.98245 %."""
+    r = identify(emps_estimation, system="emps").to_dict()
+    legacy = dict(r, preprocessing={"cutoff_hz": 100.0, "order": 4, "decimate": 10, "trim_start": 49, "trim_end": 0})
+    assert validate(emps_validation, legacy)["relerr_pct"] == pytest.approx(5.98245, abs=5e-6)
+    assert validate(emps_validation, r)["relerr_pct"] == pytest.approx(5.98245, abs=5e-6)
