@@ -14,11 +14,11 @@ from frictionid_core.linear import least_squares
 from frictionid_core.metrics import observation_metrics
 from frictionid_core.model import IdentificationModel
 from frictionid_core.preprocess import Preprocessing, dip_needs, rule_decimation
+from frictionid_core.systems import System, as_system, observe, result_system
+from frictionid_core.timeseries import JointSeries
 
 # At most this many refits when a friction dip needs finer rates than those chosen (see identify).
 DIP_ROUNDS = 4
-from frictionid_core.systems import System, as_system, observe, result_system
-from frictionid_core.timeseries import JointSeries
 
 
 @dataclass
@@ -129,7 +129,7 @@ def identify(series: JointSeries, *, system: str | System = "emps", joint_map: d
         extra["warm_start"] = warm_start
         std = _jacobian_std(model, x)
         cond = float(np.linalg.cond(model.design(x[None])[0]))
-    metrics = fit_metrics(model, x)
+    metrics = model_metrics(model, x)
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
     obs = model.obs
@@ -196,7 +196,7 @@ def _dip_warnings(model: IdentificationModel, x: np.ndarray) -> list[str]:
             f"biased; use --decimate {min(n, pre.decimate)} --cutoff {max(fc, pre.cutoff_hz):.3g}"]
 
 
-def fit_metrics(model: IdentificationModel, x: np.ndarray) -> dict:
+def model_metrics(model: IdentificationModel, x: np.ndarray) -> dict:
     """:func:`~frictionid_core.metrics.observation_metrics` of the parameters ``x`` on the
     model's metric observation (the recorded effort at the analysis instants, predicted from
     the unfiltered columns there; or the model's own filtered rows under the EMPS protocol)."""
@@ -317,4 +317,4 @@ def validate(series: JointSeries, params: dict) -> dict[str, float]:
         x = np.array([values[n] for n in model.names], dtype=float)
     except KeyError as exc:
         raise FrictionIdError(f"parameter file lacks {exc}; expected the JSON written by 'frictionid identify'") from None
-    return fit_metrics(model, x)
+    return model_metrics(model, x)

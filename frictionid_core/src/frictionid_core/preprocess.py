@@ -283,9 +283,7 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
             from_data.append(name)
     filtered = None if req.filter == "none" else cutoff
     if req.velocity == "recorded":
-        if series.velocity is None:
-            raise InputError(f"{series.source}: no recorded velocity (field 'velocity') for --velocity recorded")
-        n0_v, diffs = noise_density(series.velocity, fs), 0
+        n0_v, diffs = noise_density(recorded_velocity(series), fs), 0
     else:
         n0_v, diffs = n0, 1
     sigma_qd = np.sqrt(differentiated_noise_var(n0_v, fs, filtered, req.order, diffs))
@@ -321,6 +319,13 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
     return settings, report
 
 
+def recorded_velocity(series: JointSeries) -> np.ndarray:
+    """The logged velocity of ``series``; InputError naming the field when the log has none."""
+    if series.velocity is None:
+        raise InputError(f"{series.source}: no recorded velocity (field 'velocity') for --velocity recorded")
+    return series.velocity
+
+
 def _per_joint(joints: list[str], values: np.ndarray) -> dict[str, float | None]:
     return {j: (float(v) if np.isfinite(v) else None) for j, v in zip(joints, values)}
 
@@ -344,9 +349,7 @@ def prepare(series: JointSeries, settings: Preprocessing, dt: float | None = Non
 
     q = smooth(series.position)
     if settings.velocity == "recorded":
-        if series.velocity is None:
-            raise InputError(f"{series.source}: no recorded velocity (field 'velocity') for --velocity recorded")
-        qd = smooth(series.velocity)
+        qd = smooth(recorded_velocity(series))
     else:
         qd = central_difference(q, dt)
     qdd = central_difference(qd, dt)
