@@ -150,21 +150,23 @@ def tx40_fit(tx40_validation):
 
 @pytest.mark.slow
 def test_compare_two_tx40_fits_with_truth(tx40_validation, tx40_fit, tmp_path, capsys):
-    """The TX40 fitted with its 50 Hz position filter and with a 25 Hz one: the pre-processing is the one
-    setting listed; with --truth each fit gets its own ground-truth table, consistent with the differences."""
+    """The TX40 fitted with the position cut-off chosen from its data and with a 25 Hz one (the other
+    settings as chosen): the cut-off is the one setting listed; with --truth each fit gets its own
+    ground-truth table, consistent with the differences."""
     from dataclasses import replace
 
-    from frictionid_core.systems import get_system
+    from frictionid_core.preprocess import Preprocessing
 
+    chosen = Preprocessing.from_dict(tx40_fit["preprocessing"])
     lower = identify(tx40_validation, system="tx40", friction="coulomb", solver="ls",
-                     preprocessing=replace(get_system("tx40").preprocessing, cutoff_hz=25.0)).to_dict()
+                     preprocessing=replace(chosen, cutoff_hz=25.0)).to_dict()
     a, b = _write(tmp_path / "a.json", tx40_fit), _write(tmp_path / "b.json", lower)
     code = main(["compare", a, b, "--truth", str(BAGS / "tx40_truth.json"), "--json", str(tmp_path / "c.json")])
     text = capsys.readouterr().out
     assert code == 0
     saved = json.loads((tmp_path / "c.json").read_text())
     assert list(saved["parameters"]) == list(tx40_fit["params"]) and saved["only_in"] == {}
-    assert saved["settings"] == {"preprocessing.cutoff_hz": {"A": 50.0, "B": 25.0}}
+    assert saved["settings"] == {"preprocessing.cutoff_hz": {"A": chosen.cutoff_hz, "B": 25.0}}
     assert text.count(" vs truth (") == 2 and "preprocessing.cutoff_hz" in text
     truth = saved["truth"]
     for name, row in saved["parameters"].items():
@@ -193,7 +195,7 @@ def test_report_measured_friction_is_the_identified_law_on_noise_free_data(tmp_p
     from frictionid_core.fit_report import build_fit_report, joint_traces
 
     est, val = emps_like(), emps_like(n=2500, joint="emps")
-    settings = Preprocessing(cutoff_hz=100.0, order=4, decimate=1, trim_start=50, trim_end=50)
+    settings = Preprocessing(cutoff_hz=100.0, order=4, decimate=1, trim_start_s=0.05, trim_end_s=0.05, min_speed=0.0)
     result = identify(est, system="emps", friction="coulomb", solver="ls", preprocessing=settings).to_dict()
     (trace,), friction = joint_traces(val, result)
     law = friction.torque(trace.friction_params, trace.velocity)
@@ -213,14 +215,13 @@ def test_report_measured_friction_is_the_identified_law_on_noise_free_data(tmp_p
 def test_report_rows_left_out_by_the_system_are_not_shown(tmp_path):
     """tx40-j2 leaves out rows slower than its min_speed: the report neither plots nor counts them."""
     from frictionid_core.fit_report import joint_traces
-    from frictionid_core.systems import get_system
 
     series = load(BAGS / "tx40_j2_validation", joints=["joint_2"])
     result = identify(series, system="tx40-j2", friction="coulomb", solver="ls").to_dict()
     (trace,), _ = joint_traces(series, result)
     assert trace.excluded > 0
-    assert np.min(np.abs(trace.velocity)) >= get_system("tx40-j2").min_speed
-    assert trace.t.size + trace.excluded == result["metrics"]["samples"]
+    assert np.min(np.abs(trace.velocity)) >= result["preprocessing"]["min_speed"]["joint_2"]
+    assert trace.t.size == result["metrics"]["samples"]
     # a source where the joint stands still: no figure, the page says why
     from frictionid_core.fit_report import build_fit_report
     from frictionid_core.timeseries import JointSeries
@@ -234,7 +235,8 @@ def test_report_rows_left_out_by_the_system_are_not_shown(tmp_path):
 @pytest.mark.slow
 def test_report_cli_on_a_robot_bag(tx40_fit, tmp_path, capsys):
     """The TX40 fit on its bag: one PNG per joint (drawn), the page names every joint, report.json has the
-    per-joint metrics; without decimation the report's overall error is the fit's own."""
+    per-joint metrics; the report's overall error (the recorded effort at the analysis instants) is
+    the fit's own."""
     r = _write(tmp_path / "r.json", tx40_fit)
     out = tmp_path / "report"
     assert main(["report", r, str(BAGS / "tx40_validation"), "--out", str(out)]) == 0
@@ -248,7 +250,6 @@ def test_report_cli_on_a_robot_bag(tx40_fit, tmp_path, capsys):
         assert f"<h3>{joint}</h3>" in page
         assert _png_is_drawn(out / source["figures"][joint])
         assert 0.0 < source["per_joint"][joint]["relerr_pct"] < 5.0
-    assert tx40_fit["preprocessing"]["decimate"] == 1
     assert source["metrics"]["relerr_pct"] == pytest.approx(tx40_fit["metrics"]["relerr_pct"], rel=1e-9)
 
 

@@ -203,7 +203,7 @@ def coupled_friction_log(drive: Drive, n: int = 4000) -> tuple[JointSeries, dict
 def test_friction_on_coupled_motors_is_recovered_and_rows_map_back_to_joints():
     drive = Drive(**COUPLED2)
     log, truth = coupled_friction_log(drive)
-    settings = Preprocessing(cutoff_hz=None, decimate=1, trim_start=2, trim_end=2)
+    settings = Preprocessing(filter="none", decimate=1, trim_start_s=0.002, trim_end_s=0.002, min_speed=0.0)
     r = identify(log, system="friction-only", drive=drive, preprocessing=settings)
     assert set(r.params) == set(truth)
     for name, value in truth.items():
@@ -234,7 +234,7 @@ def test_feedforward_of_motor_side_parameters_on_the_recorded_side():
     drive = Drive(**COUPLED2)
     log, truth = coupled_friction_log(drive)
     result = identify(log, system="friction-only", drive=drive,
-                      preprocessing=Preprocessing(cutoff_hz=None, decimate=1, trim_start=2, trim_end=2)).to_dict()
+                      preprocessing=Preprocessing(filter="none", decimate=1, trim_start_s=0.002, trim_end_s=0.002, min_speed=0.0)).to_dict()
     per = split_identification(result)
     assert sorted(per) == ["motor_1", "motor_2"] and per["motor_2"].params["Fc"] == pytest.approx(0.5, rel=2e-3)
     ff = FeedForward(["b", "a"], 0.0, drive)  # the node's joint order differs from the drive's

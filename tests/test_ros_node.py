@@ -355,7 +355,7 @@ def test_config_yaml_matches_declared_defaults():
 @pytest.mark.slow
 def test_unknown_system_is_a_clear_startup_error(workdir):
     # the shipped YAML (parsed by rcl) then an override: explicit --ros-args come last and win
-    for tag, system, needle in (("scara", "scara", "choose one of emps, friction-only, tx40-j2, tx40, urdf:PATH"),
+    for tag, system, needle in (("scara", "scara", "choose one of emps, joint, friction-only, tx40-j2, tx40, urdf:PATH"),
                                 ("urdf", "urdf:/nowhere/robot.urdf", "no such URDF file '/nowhere/robot.urdf'")):
         proc = NodeProcess(workdir, ["--params-file", str(YAML), "--ros-args", "-p", f"system:={system}"], tag)
         rc = proc.proc.wait(30)

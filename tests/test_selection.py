@@ -24,6 +24,9 @@ from frictionid_core.systems import get_system, observe
 from frictionid_core.timeseries import JointSeries
 
 STRIBECK = {"Fv": 2.0, "Fc": 1.0, "Fs": 1.6, "vs": 0.05, "delta": 1.0}
+# A 100 Hz analysis rate (cut-off 100 Hz, decimation 10), at which the dip pipeline's own bias on
+# these slow reversals stays ≤ 2 %: the tests of fixed parameters are about the fixing, not the rates.
+DIP_RATES = Preprocessing(cutoff_hz=100.0, decimate=10)
 EMPS_TRUE = {"M": 95.0, "Fv": 200.0, "Fc": 20.0, "offset": -3.0}
 
 
@@ -111,7 +114,8 @@ def test_identify_window_fits_only_the_window_and_records_it(tmp_path):
     assert early["window"] == {"start_s": None, "end_s": 9.5} and late["window"] == {"start_s": 10.5, "end_s": None}
     assert early["params"]["Fv"] == pytest.approx(2.0, rel=0.01) and late["params"]["Fv"] == pytest.approx(4.0, rel=0.01)
     assert 2.2 < whole["params"]["Fv"] < 3.8
-    assert early["metrics"]["samples"] == pytest.approx(0.475 * whole["metrics"]["samples"], rel=0.01)
+    # both windows are 9.5 s of one smooth half, pre-processed alike (the whole log has a seam)
+    assert early["metrics"]["samples"] == pytest.approx(late["metrics"]["samples"], rel=0.02)
 
 
 # ------------------------------------------------------------------------ several sources
@@ -120,7 +124,8 @@ def test_observations_stack_per_joint():
     system = get_system("friction-only")
     a = friction_series(3.0, joints=("j1", "j2"), source="a")
     b = friction_series(2.0, joints=("j1", "j2"), phase=1.0, source="b")
-    oa, ob = observe(a, system), observe(b, system)
+    oa = observe(a, system)
+    ob = observe(b, system, oa.preprocessing)  # several sources of one fit share the first one's settings
     both = concat_observations([oa, ob])
     na, nb = oa.n_samples, ob.n_samples
     assert both.n_samples == na + nb and both.y.size == 2 * (na + nb)
@@ -132,7 +137,7 @@ def test_observations_stack_per_joint():
 
 def test_several_sources_give_the_parameters_of_one_long_source():
     """Two halves of a noisy log fitted together = the whole log (within the estimates' σ)."""
-    whole = friction_series(noise=0.05, source="whole")
+    whole = friction_series(noise=0.05, source="whole", params={**STRIBECK, "Fs": STRIBECK["Fc"]})
     half = len(whole) // 2
     parts = [whole.slice(0, half), whole.slice(half, len(whole))]
     one = identify(whole, system="friction-only", friction="coulomb")
@@ -218,7 +223,7 @@ def test_fixed_dip_carrying_and_nonlinear_parameters_in_every_search(solver, var
     exactly, are never searched, have σ 0, and the others are recovered."""
     s = friction_series(noise=0.02)
     r = identify(s, system="friction-only", friction="stribeck", solver=solver, varpro=varpro,
-                 fixed={"Fc": 1.0, "vs": 0.05}, pop=20, generations=40)
+                 fixed={"Fc": 1.0, "vs": 0.05}, pop=20, generations=40, preprocessing=DIP_RATES)
     assert r.params["Fc"] == 1.0 and r.params["vs"] == 0.05 and r.std["Fc"] == r.std["vs"] == 0.0
     searched = set(r.extra["optimizer"]["params"])
     assert searched == ({"delta"} if varpro else {"Fv", "Fs", "delta", "offset"})
@@ -231,7 +236,8 @@ def test_every_nonlinear_parameter_fixed_makes_ls_possible():
     s = friction_series()
     with pytest.raises(FrictionIdError, match=r"nonlinear parameter\(s\) \['vs', 'delta'\].*--fix"):
         identify(s, system="friction-only", friction="stribeck")
-    r = identify(s, system="friction-only", friction="stribeck", fixed={"vs": 0.05, "delta": 1.0})
+    r = identify(s, system="friction-only", friction="stribeck", fixed={"vs": 0.05, "delta": 1.0},
+                 preprocessing=DIP_RATES)
     for name in ("Fv", "Fc", "Fs"):
         assert r.params[name] == pytest.approx(STRIBECK[name], rel=0.03), name
 
@@ -254,7 +260,7 @@ def test_one_direction_move_needs_the_offset_fixed(tmp_path, capsys):
     """The issue's case: 'offset not identifiable' and no way out; --fix offset=0 is the way out."""
     save_csv(one_way_series(), tmp_path / "oneway.csv")
     msg = fails(["identify", tmp_path / "oneway.csv"], capsys)
-    assert "rank-deficient" in msg and "offset" in msg
+    assert "moves in one direction" in msg and "--fix offset=0" in msg
     r = run_json(["identify", tmp_path / "oneway.csv", "--fix", "offset=0"], tmp_path / "r.json")
     assert r["fixed"] == {"offset": 0.0} and r["params"]["offset"] == 0.0 and r["std"]["offset"] == 0.0
     assert r["params"]["Fc"] == pytest.approx(20.0, rel=0.01) and r["params"]["M"] == pytest.approx(95.0, rel=0.01)
@@ -304,7 +310,8 @@ def test_user_bounds_hold_under_variable_projection():
     default bounds (Fs ≥ 0) are not imposed on the closed-form parameters, the user's are, and the
     bounded fit is the best one with Fs = 0."""
     s = friction_series(params={**STRIBECK, "Fs": -0.5}, noise=0.02)
-    kw = dict(system="friction-only", friction="stribeck", solver="de", varpro=True, pop=20, generations=40)
+    kw = dict(system="friction-only", friction="stribeck", solver="de", varpro=True, pop=20, generations=40,
+              preprocessing=DIP_RATES)
     free = identify(s, **kw)
     assert free.params["Fs"] < -0.1
     bounded = identify(s, bounds={"Fs": (0.0, 100.0)}, **kw)
@@ -343,14 +350,16 @@ def test_validate_takes_joints_and_system_from_the_result(tmp_path, capsys):
 
 def test_validate_reuses_the_preprocessing_and_window(synthetic, tmp_path):
     s = synthetic(**EMPS_TRUE)
-    r = identify(s, preprocessing=Preprocessing(cutoff_hz=40.0, decimate=5, trim_start=10)).to_dict()
+    settings = Preprocessing(cutoff_hz=40.0, decimate=5, trim_start_s=0.010, trim_end_s=0.0)
+    r = identify(s, preprocessing=settings).to_dict()
     r["preprocessing"]["chosen_from_data"] = False  # a report key beside the settings: ignored
     model, x = model_from_result(s, r)
     assert model.obs.n_samples == (len(s) - 10 + 4) // 5
     assert validate(s, r)["relerr_pct"] == pytest.approx(r["metrics"]["relerr_pct"], rel=1e-12)
     windowed = validate(s, r, window=(0.5, 2.5))
     assert windowed["samples"] < 0.7 * r["metrics"]["samples"]
-    assert Preprocessing.from_dict(r["preprocessing"]) == Preprocessing(cutoff_hz=40.0, decimate=5, trim_start=10)
+    resolved = Preprocessing.from_dict(r["preprocessing"])
+    assert (resolved.cutoff_hz, resolved.decimate, resolved.trim_start_s) == (40.0, 5, 0.010)
 
 
 # ----------------------------------------------------------------------------------- layout

@@ -34,7 +34,7 @@ EXECUTORS = ("events", "single_threaded")
 PARAMETERS: dict[str, tuple[object, str, bool]] = {
     "joints": ([], "joint names to buffer, identify and feed forward, in this order "
                    "(empty: the names of the first joint_states message)", True),
-    "system": ("emps", "inverse dynamic model: emps | friction-only | tx40-j2 | tx40 | urdf:PATH (a URDF file)", True),
+    "system": ("emps", "inverse dynamic model: emps | joint | friction-only | tx40-j2 | tx40 | urdf:PATH (a URDF file)", True),
     "friction_model": ("coulomb", f"default friction model: {' | '.join(FRICTIONS)}", False),
     "asymmetric": (False, "default: separate parameters for v > 0 and v < 0", False),
     "solver": ("ls", f"default solver: {' | '.join(SOLVERS)}", False),

@@ -68,20 +68,20 @@ class JointTrace:
 def joint_traces(series: JointSeries, result: dict) -> tuple[list[JointTrace], object]:
     """Per joint of ``series``: what the report plots and measures (see :class:`JointTrace`);
     also the model's friction law (a FrictionModel)."""
-    from frictionid_core.identification import model_from_result
+    from frictionid_core.identification import metric_model, model_from_result
 
-    model, x = model_from_result(series, result)
+    fitted, x = model_from_result(series, result)
+    model = metric_model(fitted)  # the recorded effort at the analysis instants
     obs = model.obs
     no_friction = x.copy()  # rigid-body part + offset: friction levels at zero (shape parameters kept)
     no_friction[[i for i in model.linear_index if model.names[i].rsplit("/", 1)[-1] in model.friction.names]] = 0.0
     predicted, rigid = model.predict(np.vstack([x, no_friction]))
     nd, nj = obs.n_samples, len(obs.joints)
     traces = []
-    for j, joint in enumerate(obs.joints):
+    for j, joint in enumerate(obs.joints):  # the fit rows: joints, or the motors of a motor-side drive
         rows = slice(j * nd, (j + 1) * nd)
-        # exclude_slow_rows zeroes the velocity and every column, the constant one included
-        kept = (obs.velocity[:, j] != 0.0) | (obs.columns[j]["one"] != 0.0)
-        recorded = np.interp(obs.t, series.t, series.effort[:, series.joints.index(joint)])
+        kept = obs.used[rows]
+        recorded = obs.y[rows]
         prefix = f"{joint}/" if nj > 1 else ""
         fparams = x[[model.names.index(prefix + n) for n in model.friction.names]]
         traces.append(JointTrace(joint, (obs.t - series.t[0])[kept], obs.velocity[kept, j], recorded[kept],

@@ -4,22 +4,25 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
+from frictionid_core import diagnostics
 from frictionid_core.drive import Drive, result_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import get_model
-from frictionid_core.metrics import fit_metrics
+from frictionid_core.metrics import observation_metrics
 from frictionid_core.model import IdentificationModel
 from frictionid_core.observation import Observation, concat_observations
-from frictionid_core.preprocess import Preprocessing
+from frictionid_core.preprocess import Preprocessing, dip_needs, rule_decimation
 from frictionid_core.systems import System, as_system, observe, result_system
 from frictionid_core.timeseries import JointSeries
 
 # One source, or several fitted together.
 Sources = JointSeries | Sequence[JointSeries]
+# At most this many refits when a friction dip needs finer rates than those chosen (see identify).
+DIP_ROUNDS = 4
 
 
 @dataclass
@@ -38,10 +41,12 @@ class Identification:
     wall_s: float
     extra: dict = field(default_factory=dict)
     joint_map: dict[str, str] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         d = {k: getattr(self, k) for k in ("system", "joint_map", "friction", "asymmetric", "solver", "source",
-                                          "joints", "params", "std", "metrics", "wall_s")}
+                                          "joints", "params", "std", "metrics", "wall_s", "warnings", "notes")}
         d.update(self.extra)
         return d
 
@@ -58,20 +63,23 @@ def build_model(series: Sources, system: str | System, friction: str, asymmetric
     """
     sys_ = as_system(system, joint_map)
     obs = observe_sources(series, sys_, preprocessing)
-    return IdentificationModel(obs, get_model(friction, asymmetric), rigid_bounds=dict(sys_.rigid_bounds),
+    return IdentificationModel(obs, get_model(friction, asymmetric),
+                               rigid_bounds=sys_.parameter_bounds(as_sources(series)[0].joints),
                                bound_overrides=dict(bounds or {}), fixed=dict(fixed or {}))
 
 
 def observe_sources(series: Sources, system: System, settings: Preprocessing | None = None) -> Observation:
     """The observation of one source, or of several with the same joints: each pre-processed
-    alone (no filter runs across the seam between two recordings), then stacked per joint."""
+    alone (no filter runs across the seam between two recordings) with the settings the first
+    source resolved (so one pre-processing describes the fit), then stacked per joint."""
     sources = as_sources(series)
     first = sources[0]
     for s in sources[1:]:
         if list(s.joints) != list(first.joints):
             raise InputError(f"{s.source}: joints {list(s.joints)} differ from those of {first.source}: "
                              f"{list(first.joints)}; the sources of one fit need the same joints (select with --joints)")
-    return concat_observations([observe(s, system, settings) for s in sources])
+    obs = observe(first, system, settings)
+    return concat_observations([obs] + [observe(s, system, obs.preprocessing) for s in sources[1:]])
 
 
 def as_sources(series: Sources, window: tuple[float | None, float | None] | None = None) -> list[JointSeries]:
@@ -126,7 +134,8 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
         warm_start: global solvers (population methods, bo, dt) evaluate the closed-form start
             point first (see :func:`solve_model`), so no result is worse than the nested linear
             model; False gives them a purely random start, the thesis protocol.
-        preprocessing: filter/decimation settings (default: the system's).
+        preprocessing: filter/decimation settings (default: the system's; settings left None
+            are chosen from the data, see :mod:`frictionid_core.preprocess`).
         bounds: {name: (lo, hi)} the user's bounds (see ``IdentificationModel``): they hold in
             every solver path, the closed-form linear parameters included.
         fixed: {name: value} parameters held at a value in every solver path (σ 0); a name is a
@@ -141,29 +150,134 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
         varpro = sys_.robot is not None
     sources = as_sources(series, window)
     model = build_model(sources, sys_, friction, asymmetric, settings, bounds, fixed=fixed)
-    extra: dict = {"preprocessing": asdict(settings), "drive": sys_.drive.to_dict() if sys_.drive else None,
-                   **_selection(sources, model, window, bounds)}
-    if solver == "ls" or (varpro and model.searched_nonlinear_index.size == 0):
-        x, std, cond = model.fit_linear()
-    else:
+    errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
+    if errors:
+        raise InputError(f"{sources[0].source}: " + "; ".join(errors))
+    extra: dict = {"drive": sys_.drive.to_dict() if sys_.drive else None, **_selection(sources, model, window, bounds)}
+    closed_form = solver == "ls" or (varpro and model.searched_nonlinear_index.size == 0)
+
+    def fit(model: IdentificationModel):
+        if closed_form:
+            return (*model.fit_linear(), None)
         x, res = solve_model(model, solver, seed=seed, varpro=varpro, warm_start=warm_start, **solver_options)
+        return x, None, None, res
+
+    x, std, cond, res = fit(model)
+    # A friction dip the chosen rates cannot follow: refit with the rates its estimate needs,
+    # until they agree (too coarse a rate overestimates vs, so this may take a few rounds).
+    for _ in range(DIP_ROUNDS):
+        changes, why = _dip_changes(model, x)
+        if not changes:
+            break
+        from_data = model.obs.report["from_data"]
+        model = build_model(sources, sys_, friction, asymmetric, replace(settings, **changes), bounds, fixed=fixed)
+        model.obs.report["from_data"] = sorted(set(from_data) | set(model.obs.report["from_data"]))
+        model.obs.report["dip"] = why
+        x, std, cond, res = fit(model)
+    warnings += _dip_warnings(model, x)
+    if res is not None:
         extra["optimizer"] = res.to_dict()
         extra["varpro"] = varpro
         extra["warm_start"] = warm_start
         std = _jacobian_std(model, x)
         cond = float(np.linalg.cond(model.design(x[None])[0]))
-    metrics = fit_metrics(*_joint_torques(model, x))
+    metrics = model_metrics(model, x)
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
-    metrics["samples"] = int(model.obs.y.size)
+    obs = model.obs
+    extra["preprocessing"] = preprocessing_record(obs, metrics, sys_.preprocessing, settings)
+    lo, hi = model.bounds()
+    free = model.free_index
+    notes = [*(note for s in sources for note in s.notes), *obs.notes]
+    warnings = (diagnostics.stamp_warnings(notes)
+                + diagnostics.acceleration_warnings(obs.report, obs.preprocessing.cutoff_hz,
+                                                    "cutoff_hz" in obs.report["from_data"])
+                + warnings + diagnostics.parameter_warnings([model.names[i] for i in free], x[free], std,
+                                                            lo[free], hi[free]))
     return Identification(sys_.name, friction, asymmetric, solver, extra.pop("source"), list(sources[0].joints),
                           dict(zip(model.names, map(float, x))), std, metrics, time.perf_counter() - t0, extra,
-                          dict(sys_.joint_map))
+                          dict(sys_.joint_map), warnings, notes)
 
 
-def _joint_torques(model: IdentificationModel, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(measured, predicted) joint torque rows of parameters ``x`` (motor rows mapped by Cᵀ)."""
-    return model.obs.joint_torques(model.obs.y), model.obs.joint_torques(model.predict(x))
+def _dip_needs(model: IdentificationModel, x: np.ndarray) -> tuple[int, float, str]:
+    """(largest decimation, smallest cut-off, why) the friction dip of the fit ``x`` needs: see
+    :func:`frictionid_core.preprocess.dip_needs`, for its speed scale (vs or v0) of each joint and
+    branch at the joint's reversal acceleration; a scale at its lower bound (a dip that
+    vanished) is skipped."""
+    obs = model.obs
+    n_max, fc_min, why = np.iinfo(np.int32).max, 0.0, ""
+    if model.is_linear:
+        return n_max, fc_min, why
+    lo, _ = model.bounds()
+    fs = obs.report["sample_rate_hz"]
+    scale = model.friction.law.nonlinear[0]
+    for i in model.nonlinear_index:
+        name = model.names[i]
+        vanished = x[i] <= lo[i] and i not in model.fixed_values  # a searched dip at its lower bound
+        if name.rsplit("/", 1)[-1].removesuffix("_pos").removesuffix("_neg") != scale or vanished:
+            continue
+        joint = name.split("/", 1)[0] if "/" in name else obs.joints[0]
+        a = obs.report.get("reversal_acceleration", {}).get(joint) or 0.0
+        n, fc = dip_needs(fs, a, x[i])
+        if n < n_max or fc > fc_min:
+            why = (f"{joint}: its friction dip ({name} {x[i]:.3g}) is crossed at reversals at up to {a:.3g}/s²; "
+                   f"it needs an analysis rate ≥ {fs / n:.4g} Hz and a cut-off ≥ {fc:.3g} Hz")
+        n_max, fc_min = min(n, n_max), max(fc, fc_min)
+    return n_max, fc_min, why
+
+
+def _dip_changes(model: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:
+    """The pre-processing changes (among the settings chosen from the data) the dip of ``x``
+    needs, and why; {} when none."""
+    n, fc, why = _dip_needs(model, x)
+    pre, chosen = model.obs.preprocessing, model.obs.report["from_data"]
+    changes = {}
+    cutoff = pre.cutoff_hz
+    if fc > cutoff * (1 + 1e-9) and "cutoff_hz" in chosen:
+        cutoff = changes["cutoff_hz"] = fc
+    if "decimate" in chosen:
+        n = min(n, rule_decimation(model.obs.report["sample_rate_hz"], cutoff))
+        if n < pre.decimate or changes:
+            changes["decimate"] = n
+    return changes, why
+
+
+def _dip_warnings(model: IdentificationModel, x: np.ndarray) -> list[str]:
+    """A warning when the settings the user gave are too coarse for the dip of ``x``."""
+    n, fc, why = _dip_needs(model, x)
+    pre = model.obs.preprocessing
+    if n >= pre.decimate and fc <= pre.cutoff_hz * (1 + 1e-9):
+        return []
+    return [f"{why} (here {model.obs.report['analysis_rate_hz']:.4g} Hz and {pre.cutoff_hz:.3g} Hz): vs and δ come out "
+            f"biased; use --decimate {min(n, pre.decimate)} --cutoff {max(fc, pre.cutoff_hz):.3g}"]
+
+
+def model_metrics(model: IdentificationModel, x: np.ndarray) -> dict:
+    """:func:`~frictionid_core.metrics.observation_metrics` of the parameters ``x`` on the
+    model's metric observation (the recorded effort at the analysis instants, predicted from
+    the unfiltered columns there; or the model's own filtered rows under the EMPS protocol)."""
+    on = metric_model(model)
+    return observation_metrics(on.obs, on.predict(x))
+
+
+def metric_model(model: IdentificationModel) -> IdentificationModel:
+    """``model`` on its metric observation (:attr:`Observation.metric`: the recorded effort at the
+    analysis instants with the unfiltered columns there, or its own rows under the EMPS protocol)."""
+    obs = model.obs.metric
+    return model if obs is model.obs else IdentificationModel(obs, model.friction, model.offset)
+
+
+def preprocessing_record(obs, metrics: dict, default: Preprocessing, requested: Preprocessing) -> dict:
+    """The JSON ``preprocessing`` block of an identification: the resolved settings of ``obs``,
+    what the data said (its report, without the ``_``-keys), the torque noise floor of
+    ``metrics``, and ``overridden``: the settings of ``requested`` that differ from the system's
+    ``default``."""
+    record = obs.preprocessing.to_dict()
+    record.update({k: v for k, v in obs.report.items() if not k.startswith("_")})
+    record["torque_noise_floor_pct"] = metrics.get("noise_floor_pct")
+    record["overridden"] = [f.name for f in fields(Preprocessing)
+                            if getattr(requested, f.name) != getattr(default, f.name)]
+    return record
 
 
 def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpro: bool = False,
@@ -281,9 +395,9 @@ def model_from_result(series: Sources, result: dict, *, system: str | None = Non
         values = result["params"]
     except KeyError as exc:
         raise FrictionIdError(f"parameter file lacks {exc}; expected the JSON written by 'frictionid identify'") from None
-    if preprocessing is None and result.get("preprocessing"):
-        preprocessing = Preprocessing.from_dict(result["preprocessing"])
     sources = as_sources(series, window)  # on the recorded side: the system's drive converts them
+    if preprocessing is None and result.get("preprocessing"):
+        preprocessing = Preprocessing.from_dict(result["preprocessing"], 1.0 / sources[0].dt)
     if joints:
         sources = [s.select(list(joints)) for s in sources]
     model = build_model(sources, sys_, friction, asymmetric, preprocessing)
@@ -299,6 +413,4 @@ def validate(series: Sources, params: dict, **overrides) -> dict[str, float]:
     with the identification's system, joint map, joints, friction, drive and pre-processing;
     ``overrides`` as for :func:`model_from_result` (system, joint_map, joints, preprocessing, window)."""
     model, x = model_from_result(series, params, **overrides)
-    metrics = fit_metrics(*_joint_torques(model, x))
-    metrics["samples"] = int(model.obs.y.size)
-    return metrics
+    return model_metrics(model, x)

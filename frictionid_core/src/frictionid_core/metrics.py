@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+NAN = float("nan")
+
 
 def relerr_pct(y: np.ndarray, y_hat: np.ndarray) -> float:
     """100·‖y − ŷ‖₂ / ‖y‖₂, %."""
@@ -23,6 +25,54 @@ def fit_metrics(y: np.ndarray, y_hat: np.ndarray) -> dict[str, float]:
         "error_std": float(np.std(e, ddof=1)),
         "error_norm": float(np.sqrt(ss_res)),
     }
+
+
+def noise_sigma(residual: np.ndarray, used: np.ndarray) -> float:
+    """σ of the white noise in a residual series (one joint's rows in time order), robust to the
+    slow model error and to sparse steps: 1.4826·median|Δ²e| / √6 over the second differences
+    of three consecutive used rows (nan with fewer than 10)."""
+    ok = used[2:] & used[1:-1] & used[:-2]
+    d2 = np.diff(residual, 2)[ok]
+    return float(1.4826 * np.median(np.abs(d2)) / np.sqrt(6.0)) if d2.size >= 10 else NAN
+
+
+def observation_metrics(obs, y_hat: np.ndarray) -> dict:
+    """Metrics of the prediction ``y_hat`` (J·Nd,) on the used rows of the observation ``obs``
+    (its ``metric`` observation: the recorded effort at the analysis instants, or the filtered
+    one under the EMPS protocol; motor rows are mapped to joint torques first, a joint's row
+    used when every motor turning with it is): :func:`fit_metrics`, ``samples``, ``noise_floor_pct`` (the
+    relative error the effort's noise alone would leave, its σ from the residual by
+    :func:`noise_sigma`), ``against`` (which effort) and ``per_joint`` {joint: {relerr_pct,
+    rmse, r2, noise_floor_pct}}."""
+    y, used, nd = obs.y, obs.used, obs.n_samples
+    y_hat = np.ravel(y_hat)
+    joints = obs.joints
+    if obs.coupling is not None:  # motor rows: metrics on the joint torques τ = Cᵀ·u
+        y, y_hat, joints = obs.joint_torques(y), obs.joint_torques(y_hat), obs.torque_joints
+        motors_used = used.reshape(len(obs.joints), nd)
+        turns = obs.coupling != 0.0  # (motor, joint): the motor turns with the joint
+        used = np.all(~turns[:, :, None] | motors_used[:, None, :], axis=0).reshape(-1)
+    out = fit_metrics(y[used], y_hat[used])
+    out["samples"] = int(used.sum())
+    per_joint, noise_sum, power_sum = {}, 0.0, 0.0
+    for j, joint in enumerate(joints):
+        rows = slice(j * nd, (j + 1) * nd)
+        keep = used[rows]
+        yj, pj = y[rows][keep], y_hat[rows][keep]
+        power = float(yj @ yj)
+        m = fit_metrics(yj, pj) if yj.size > 1 and power > 0 else dict.fromkeys(("relerr_pct", "r2", "rmse"), NAN)
+        row = {k: m[k] for k in ("relerr_pct", "rmse", "r2")}
+        noise = noise_sigma(y[rows] - y_hat[rows], keep) ** 2 * yj.size
+        row["noise_floor_pct"] = 100.0 * float(np.sqrt(noise / power)) if power > 0 else NAN
+        if np.isfinite(noise):
+            noise_sum += noise
+            power_sum += power
+        per_joint[joint] = row
+    out["noise_floor_pct"] = 100.0 * float(np.sqrt(noise_sum / power_sum)) if power_sum > 0 else NAN
+    out["against"] = ("effort low-passed by the decimation filter (the EMPS benchmark's metric)"
+                      if obs.preprocessing.metric == "filtered" else "recorded effort at the analysis instants")
+    out["per_joint"] = per_joint
+    return out
 
 
 def improvement_pct(err_new: float, err_ref: float) -> float:

@@ -12,12 +12,11 @@ Rows are stacked joint-major: rows ``j·Nd … (j+1)·Nd − 1`` belong to joint
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError
-
 from frictionid_core.preprocess import Prepared, Preprocessing, decimate, decimation_indices
 
 VELOCITY_COLUMNS = ("V", "S", "V_pos", "S_pos", "V_neg", "S_neg", "one")
@@ -37,6 +36,15 @@ class Observation:
             asymmetric V_pos = q̇·O⁺, S_pos = sign(q̇)·O⁺, V_neg, S_neg, and the constant
             ``one`` (decimated like the others: the anti-alias filter's DC gain is 0.989); each (Nd,).
         t: decimated sample times, s (Nd,).
+        preprocessing: the resolved settings that made it.
+        report: what the data said about the pre-processing (see
+            :func:`frictionid_core.preprocess.preprocess`; the ``_``-keys are not for JSON).
+        notes: what was done to the stamps (resampling).
+        used: (J·Nd,) False on the rows left out (slow rows, zeroed everywhere).
+        sampled: the same rows taken at the analysis instants *without* the anti-alias filter:
+            ``y`` the recorded effort, the columns the model's own (sign steps kept); what
+            fit metrics compare (None without decimation, where they are these rows, and inside
+            a sampled observation).
         coupling: None when the rows are joint torques; under a drive whose friction acts on the
             motors (rows = referred motor torques u = C⁻ᵀ·τ, ``joints`` = its motor names) the
             drive's C (J, J), which :meth:`joint_torques` maps back with.
@@ -50,13 +58,28 @@ class Observation:
     velocity: np.ndarray
     columns: list[dict[str, np.ndarray]]
     t: np.ndarray
+    preprocessing: Preprocessing
+    report: dict = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    used: np.ndarray | None = None
+    sampled: Observation | None = None
     coupling: np.ndarray | None = None
     data_joints: list[str] | None = None
+
+    def __post_init__(self) -> None:
+        if self.used is None:
+            self.used = np.ones(self.y.size, dtype=bool)
 
     @property
     def n_samples(self) -> int:
         """Decimated samples per joint (Nd)."""
         return self.velocity.shape[0]
+
+    @property
+    def metric(self) -> Observation:
+        """The observation fit metrics are taken on: the sampled one (recorded effort), or this
+        one under ``metric="filtered"`` (the decimated filtered effort of the EMPS benchmark)."""
+        return self if self.preprocessing.metric == "filtered" or self.sampled is None else self.sampled
 
     @property
     def torque_joints(self) -> list[str]:
@@ -82,45 +105,60 @@ def velocity_columns(qd: np.ndarray) -> np.ndarray:
 
 def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndarray,
                       rigid_names: list[str], settings: Preprocessing) -> Observation:
-    """Decimate torque, rigid columns (J·N, R) and velocity columns in one pass per joint.
+    """Decimate torque, rigid columns (J·N, R) and velocity columns in one pass per joint, and
+    sample them at the same instants without the anti-alias filter (``sampled``).
 
-    ``rigid_full`` rows are joint-major over the full-rate prepared samples.
+    ``rigid_full`` rows are joint-major over the full-rate prepared samples; ``settings``
+    are resolved.
     """
     n, nj = prepared.qd.shape
     r = rigid_full.shape[1]
-    blocks, ys, cols, vels = [], [], [], []
+    kept = decimation_indices(n, settings.decimate)
+    parts: dict[str, list] = {k: [] for k in ("y", "velocity", "rigid", "columns")}
+    raw: dict[str, list] = {k: [] for k in parts}
     for j in range(nj):
         full = np.column_stack([
             prepared.tau[:, j], prepared.qd[:, j], rigid_full[j * n : (j + 1) * n],
             velocity_columns(prepared.qd[:, j])])
-        dec = decimate(full, settings.decimate)
-        ys.append(dec[:, 0])
-        vels.append(dec[:, 1])
-        blocks.append(dec[:, 2 : 2 + r])
-        cols.append(dict(zip(VELOCITY_COLUMNS, dec[:, 2 + r :].T)))
-    t = prepared.t[decimation_indices(n, settings.decimate)]
-    return Observation(list(joints), np.concatenate(ys), np.vstack(blocks), list(rigid_names),
-                       np.column_stack(vels), cols, t)
+        for out, rows in ((parts, decimate(full, settings.decimate)), (raw, full[kept])):
+            out["y"].append(rows[:, 0])
+            out["velocity"].append(rows[:, 1])
+            out["rigid"].append(rows[:, 2 : 2 + r])
+            out["columns"].append(dict(zip(VELOCITY_COLUMNS, rows[:, 2 + r :].T)))
 
+    def observation(p: dict) -> Observation:
+        return Observation(list(joints), np.concatenate(p["y"]), np.vstack(p["rigid"]), list(rigid_names),
+                           np.column_stack(p["velocity"]), p["columns"], prepared.t[kept], settings)
+
+    obs = observation(parts)
+    obs.sampled = observation(raw) if settings.decimate > 1 else None  # without decimation: the same rows
+    return obs
 
 
 def concat_observations(observations: list[Observation]) -> Observation:
-    """Observations of several sources (same joints) stacked into one: joint j's rows of every
-    source in turn, so rows stay joint-major; ``t`` restarts with each source.
+    """Observations of several sources (same joints, same pre-processing) stacked into one: joint
+    j's rows of every source in turn, so rows stay joint-major; ``t`` restarts with each source.
 
     Generic over the fields: an array with J·Nd rows is joint-major, one with Nd rows is per
-    sample, per-joint column dicts are joined column by column, and any other field (names, …)
-    must be equal in every observation.
+    sample, per-joint column dicts are joined column by column, notes are joined, the sampled
+    observations are stacked alike, the first source's report is kept, and any other field (names,
+    settings, …) must be equal in every observation.
     """
     first = observations[0]
     if len(observations) == 1:
         return first
     nj = len(first.joints)
+    sizes = [o.n_samples for o in observations]
     parts = {}
     for f in fields(Observation):
         values = [getattr(o, f.name) for o in observations]
-        sizes = [o.n_samples for o in observations]
-        if isinstance(values[0], np.ndarray) and all(v.shape[0] == nj * n for v, n in zip(values, sizes)):
+        if f.name == "report":
+            parts[f.name] = values[0]
+        elif f.name == "notes":
+            parts[f.name] = [note for v in values for note in v]
+        elif f.name == "sampled":
+            parts[f.name] = None if any(v is None for v in values) else concat_observations(values)
+        elif isinstance(values[0], np.ndarray) and all(v.shape[0] == nj * n for v, n in zip(values, sizes)):
             parts[f.name] = np.concatenate([v[j * n : (j + 1) * n] for j in range(nj) for v, n in zip(values, sizes)])
         elif isinstance(values[0], np.ndarray) and all(v.shape[0] == n for v, n in zip(values, sizes)):
             parts[f.name] = np.concatenate(values)

@@ -15,6 +15,9 @@ from frictionid_core.optim import CALL_METHODS, SOLVERS
 # Clocks of the EMPS closed-loop simulation (frictionid_core.simulation): the recorded stamps,
 # or the benchmark's constant period.
 CLOCKS = ("true", "benchmark")
+# Where identification takes q̇ from (frictionid_core.preprocess): the central difference of the
+# filtered position, or the logged velocity low-passed the same way.
+VELOCITY_SOURCES = ("position", "recorded")
 
 
 def check_choice(field: str, value: str, choices, what: str | None = None) -> str:

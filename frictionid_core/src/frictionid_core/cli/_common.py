@@ -128,17 +128,65 @@ def fmt(x, digits: int = 6) -> str:
 
 
 def metrics_line(metrics: dict) -> str:
-    return "metrics: " + ", ".join(f"{k} {fmt(v)}" for k, v in metrics.items())
+    """The numbers of ``metrics`` on one line (per-joint metrics: :func:`joint_lines`)."""
+    return "metrics: " + ", ".join(f"{k} {fmt(v)}" for k, v in metrics.items()
+                                   if isinstance(v, (int, float)) or v is None)
+
+
+def joint_lines(metrics: dict) -> list[str]:
+    """One line per joint of ``metrics["per_joint"]`` (none without it)."""
+    rows = metrics.get("per_joint") or {}
+    width = max(map(len, rows), default=0)
+    return [f"  {joint:<{width}}  relerr {fmt(m.get('relerr_pct'), 4)} %, rmse {fmt(m.get('rmse'), 4)}, "
+            f"r2 {fmt(m.get('r2'), 4)}, noise floor {fmt(m.get('noise_floor_pct'), 3)} %" for joint, m in rows.items()]
+
+
+def print_metrics(metrics: dict, out=None) -> None:
+    """The metrics line, then (with per-joint metrics) what they are taken against and one line per joint."""
+    out = sys.stdout if out is None else out
+    print(metrics_line(metrics), file=out)
+    lines = joint_lines(metrics)
+    if lines:
+        print(f"per joint, against the {metrics.get('against', 'effort')}:", file=out)
+        for line in lines:
+            print(line, file=out)
+
+
+def preprocessing_line(p: dict) -> str:
+    """One line saying how the data were pre-processed and which settings came from the data."""
+    chosen = set(p.get("from_data", []))
+
+    def mark(*names: str) -> str:
+        return " (data)" if chosen.intersection(names) else ""
+
+    speeds = sorted(set((p.get("min_speed") or {}).values())) or [0.0]
+    speed = fmt(speeds[0], 2) if len(speeds) == 1 else f"{fmt(speeds[0], 2)}…{fmt(speeds[-1], 2)}"
+    parts = []
+    if p.get("filter") == "none":
+        parts.append("no position filter")
+    else:
+        band = f", motion bandwidth {fmt(p['bandwidth_hz'], 3)} Hz" if p.get("bandwidth_hz") is not None else ""
+        parts.append(f"Butterworth order {p.get('order')} at {fmt(p.get('cutoff_hz'), 4)} Hz{mark('cutoff_hz')}{band}")
+    rate = f" → {fmt(p['analysis_rate_hz'], 4)} Hz" if p.get("analysis_rate_hz") else ""
+    parts += [f"decimation {p.get('decimate')}{rate}{mark('decimate')}",
+              f"trims {fmt(p.get('trim_start_s'), 3)} + {fmt(p.get('trim_end_s'), 3)} s{mark('trim_start_s', 'trim_end_s')}",
+              f"min speed {speed}{mark('min_speed')}", f"velocity from {p.get('velocity', 'position')}"]
+    if p.get("overridden"):
+        parts.append(f"set: {', '.join(p['overridden'])}")
+    return "preprocessing: " + ", ".join(parts)
 
 
 def print_table(result: dict, out=None) -> None:
-    """A readable table of an identification's parameters (± σ) and metrics (to ``out``, default stdout)."""
+    """A readable table of an identification's pre-processing, parameters (± σ) and metrics (to
+    ``out``, default stdout)."""
     out = sys.stdout if out is None else out
     head = (f"{result['system']} · {result['friction']}{' (asymmetric)' if result['asymmetric'] else ''}"
             f" · solver {result['solver']}")
     print(head, file=out)
     sources = result["source"] if isinstance(result["source"], list) else [result["source"]]
     print(f"source: {', '.join(map(str, sources))}", file=out)
+    if result.get("preprocessing"):
+        print(preprocessing_line(result["preprocessing"]), file=out)
     if result.get("drive"):
         d = result["drive"]
         print(f"drive: {d.get('name') or 'unnamed'} ({d['side']}-side log, friction on the {d['friction_on']}s"
@@ -152,7 +200,13 @@ def print_table(result: dict, out=None) -> None:
     print(f"{'parameter':<16}{'value':>14}{'σ':>12}", file=out)
     for name, value in result["params"].items():
         print(f"{name:<16}{fmt(value):>14}{fmt(result['std'].get(name)):>12}", file=out)
-    print(metrics_line(result["metrics"]), file=out)
+    print_metrics(result["metrics"], out)
+
+
+def warn(messages: list[str]) -> None:
+    """Issue each message as a UserWarning: :func:`run_handler` prints it once as ``frictionid: warning: …``."""
+    for message in messages:
+        warnings.warn(message, UserWarning, stacklevel=2)
 
 
 def save_json(path: Path | None, data) -> None:
@@ -167,7 +221,7 @@ def save_json(path: Path | None, data) -> None:
 def run_handler(handler, args: argparse.Namespace) -> int:
     """``handler(args)``'s exit code; a FrictionIdError becomes one line on stderr and exit code 2,
     any other exception one line and exit code 1 (the traceback with FRICTIONID_DEBUG=1).
-    Library warnings are printed as ``frictionid: warning: …`` lines."""
+    Library warnings are printed as ``frictionid: warning: …`` lines, each message once."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
         try:
@@ -184,7 +238,6 @@ def run_handler(handler, args: argparse.Namespace) -> int:
             code = EXIT_INTERNAL
             print(f"frictionid: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} "
                   "(set FRICTIONID_DEBUG=1 for the traceback)", file=sys.stderr)
-        for w in caught:
-            if issubclass(w.category, UserWarning):
-                print(f"frictionid: warning: {w.message}", file=sys.stderr)
+        for message in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, UserWarning)):
+            print(f"frictionid: warning: {message}", file=sys.stderr)
     return code

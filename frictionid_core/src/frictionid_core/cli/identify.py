@@ -6,18 +6,19 @@ from __future__ import annotations
 import argparse
 
 from frictionid_core.cli._common import (add_drive_argument, add_source_arguments, drive_option, load_sources,
-                                         parse_bounds, parse_fixed, print_table, save_json, window_of)
+                                         parse_bounds, parse_fixed, print_table, save_json, warn, window_of)
 from frictionid_core.errors import FrictionIdError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     from frictionid_core.friction import FRICTIONS
     from frictionid_core.optim import SOLVERS
-    from frictionid_core.options import CLOCKS
+    from frictionid_core.options import CLOCKS, VELOCITY_SOURCES
 
     add_source_arguments(p)
     p.add_argument("--system", default="emps",
-                   help="inverse dynamic model: emps | friction-only | tx40-j2 | tx40 | urdf:PATH (default emps)")
+                   help="inverse dynamic model: emps | joint | friction-only | tx40-j2 | tx40 | urdf:PATH "
+                        "(default emps)")
     p.add_argument("--joint-map", help="bag joint → model joint names when they differ: a=b,c=d")
     add_drive_argument(p)
     p.add_argument("--friction", default="coulomb", choices=FRICTIONS, help="friction model (default coulomb)")
@@ -31,9 +32,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "repeatable")
     p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
                    help="hold a parameter or family at a value (e.g. offset=0, joint_1/vs=0.01); repeatable")
-    p.add_argument("--cutoff", type=float, help="Butterworth cut-off on position, Hz (default: the system's)")
-    p.add_argument("--decimate", type=int, help="decimation factor (default: the system's)")
-    p.add_argument("--trim", type=int, help="samples dropped at the start (default: the system's)")
+    p.add_argument("--cutoff", type=float, metavar="HZ",
+                   help="Butterworth cut-off on position, Hz (default: 10 × the motion's bandwidth, ≤ 0.2 × the "
+                        "sample rate; emps: 100)")
+    p.add_argument("--decimate", type=int, metavar="N",
+                   help="decimation factor (default: down to ≥ 10 × the cut-off; emps: 10)")
+    p.add_argument("--trim", metavar="SECONDS[:SECONDS]",
+                   help="seconds dropped at both ends, or START:END (default: 5 / cut-off each; emps: 0.049:0)")
+    p.add_argument("--min-speed", type=float, metavar="SPEED",
+                   help="rows with |q̇| below this (rad/s or m/s) are left out (default: 10 σ of the velocity "
+                        "noise per joint; emps: 0, every row kept)")
+    p.add_argument("--velocity", choices=VELOCITY_SOURCES,
+                   help="q̇ from the filtered 'position' (default) or the 'recorded' velocity of the log")
     p.add_argument("--output-error", action="store_true",
                    help="EMPS: minimise the closed-loop simulated position error, starting from the IDM result")
     p.add_argument("--clock", choices=CLOCKS, default="true",
@@ -47,17 +57,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _preprocessing(args):
-    """The system's pre-processing with the --cutoff/--decimate/--trim overrides, or None."""
+    """The system's pre-processing with the --cutoff/--decimate/--trim/--min-speed/--velocity
+    overrides, or None."""
     from dataclasses import replace
 
     from frictionid_core.systems import get_system
 
     changes = {k: v for k, v in (("cutoff_hz", args.cutoff), ("decimate", args.decimate),
-                                 ("trim_start", args.trim)) if v is not None}
+                                 ("min_speed", args.min_speed), ("velocity", args.velocity)) if v is not None}
+    if args.trim is not None:
+        start, sep, end = args.trim.partition(":")
+        try:
+            changes["trim_start_s"] = float(start)
+            changes["trim_end_s"] = float(end) if sep else float(start)
+        except ValueError:
+            raise FrictionIdError(f"--trim '{args.trim}': expected SECONDS or START:END in seconds") from None
     if not changes:
         return None
-    if changes.get("decimate", 1) < 1 or changes.get("trim_start", 0) < 0:
-        raise FrictionIdError("--decimate must be ≥ 1 and --trim ≥ 0")
     return replace(get_system(args.system).preprocessing, **changes)
 
 
@@ -90,5 +106,6 @@ def run(args) -> int:
                           drive=drive_option(args), **opts).to_dict()
         result["layout"] = None if args.layout is None else str(args.layout)
     print_table(result)
+    warn(result.get("warnings", []))
     save_json(args.json, result)
     return 0

@@ -11,7 +11,7 @@ import argparse
 from pathlib import Path
 
 from frictionid_core.cli._common import (add_drive_argument, add_source_arguments, drive_option, load_sources,
-                                         metrics_line, save_json, split_list, window_of)
+                                         print_metrics, save_json, split_list, window_of)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -42,6 +42,6 @@ def run(args) -> int:
            "layout": None if args.layout is None else str(args.layout), "window": window_record(window_of(args)),
            "metrics": metrics}
     print(f"cross-test of {args.params} on {', '.join(names)}")
-    print(metrics_line(metrics))
+    print_metrics(metrics)
     save_json(args.json, out)
     return 0

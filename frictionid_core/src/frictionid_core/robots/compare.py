@@ -107,7 +107,7 @@ def compare_fits(results: list[dict], files: list[str] | None = None) -> dict:
     per_joint = {j: {m: {lab: _number(_per_joint(r).get(j, {}).get(m)) for lab, r in zip(labels, results)}
                      for m in PER_JOINT_METRICS}
                  for j in _union(_per_joint(r) for r in results)}
-    flat = [flatten({k: r[k] for k in SETTING_KEYS if k in r}) for r in results]
+    flat = [flatten({k: _setting(k, r[k]) for k in SETTING_KEYS if k in r}) for r in results]
     settings = {k: {lab: f.get(k) for lab, f in zip(labels, flat)} for k in _union(flat)
                 if any(f.get(k) != flat[0].get(k) for f in flat[1:])}
     fits = [{"label": lab, "file": str(f), **{k: r.get(k) for k in ("system", "friction", "asymmetric", "solver",
@@ -140,6 +140,19 @@ def _union(keyed) -> list[str]:
 def _per_joint(result: dict) -> dict:
     per_joint = result.get("metrics", {}).get("per_joint")
     return per_joint if isinstance(per_joint, dict) else {}
+
+
+def _setting(key: str, value):
+    """A result's setting as compared: of the ``preprocessing`` block only the settings (its other
+    keys report what the data said, e.g. the noise floor, which differs with every fit)."""
+    if key == "preprocessing" and isinstance(value, dict):
+        from dataclasses import fields
+
+        from frictionid_core.preprocess import Preprocessing
+
+        names = {f.name for f in fields(Preprocessing)}
+        return {k: v for k, v in value.items() if k in names}
+    return value
 
 
 def flatten(d: dict, prefix: str = "") -> dict:

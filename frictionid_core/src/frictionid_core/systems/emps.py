@@ -1,7 +1,8 @@
-"""One-joint systems τ = J·q̈ + τ_f(q̇) + offset: one inertia (or mass) parameter.
+"""Independent-joint systems τ_j = J_j·q̈_j + τ_f(q̇_j) + offset_j: one inertia (or mass) per joint.
 
-A one-joint system differs from another only by its parameter's name and bounds and its
-pre-processing defaults, so a new one is one :func:`one_joint` entry in :data:`ONE_JOINT`.
+A system of this family differs from another only by its parameter's name and bounds, how
+many joints it takes and its pre-processing, so a new one is one :func:`one_joint` entry in
+:data:`ONE_JOINT`.
 """
 
 from __future__ import annotations
@@ -12,16 +13,30 @@ from frictionid_core.preprocess import Prepared, Preprocessing
 from frictionid_core.systems.system import System
 
 
-def _inertia_column(p: Prepared, joints: list[str]) -> np.ndarray:
-    return p.qdd[:, :1]
+def _inertia_columns(p: Prepared, joints: list[str]) -> np.ndarray:
+    """(J·N, J): q̈_j on the rows of joint j."""
+    n, nj = p.qdd.shape
+    out = np.zeros((nj * n, nj))
+    for j in range(nj):
+        out[j * n : (j + 1) * n, j] = p.qdd[:, j]
+    return out
 
 
-def one_joint(name: str, inertia: str, bounds: tuple[float, float], preprocessing: Preprocessing) -> System:
-    """The one-joint system ``name`` whose inertia parameter ``inertia`` has search ``bounds``."""
-    return System(name, 1, _inertia_column, (inertia,), {inertia: bounds}, preprocessing)
+def one_joint(name: str, inertia: str, bounds: tuple[float, float], preprocessing: Preprocessing,
+              joints: int | None = 1) -> System:
+    """The system ``name`` of ``joints`` independent joints (None: any number), each with the
+    inertia parameter ``inertia`` (search ``bounds``)."""
+    return System(name, joints, _inertia_columns, (inertia,), {inertia: bounds}, preprocessing, per_joint=True)
 
 
-# EMPS (1-DOF prismatic, M in kg): τ = M·q̈ + τ_f(q̇) + offset; protocol of docs/reference.md#emps-idim-ls at 1 kHz.
-EMPS = one_joint("emps", "M", (0.0, 500.0), Preprocessing(cutoff_hz=100.0, order=4, decimate=10, trim_start=49))
+# EMPS (1-DOF prismatic, M in kg): τ = M·q̈ + τ_f(q̇) + offset under the fixed benchmark protocol of
+# docs/reference.md#emps-idim-ls at 1 kHz (49 samples trimmed at the start, every row kept, metrics on
+# the decimated filtered force), exact to the reference figures.
+EMPS_PROTOCOL = Preprocessing(cutoff_hz=100.0, order=4, decimate=10, trim_start_s=0.049, trim_end_s=0.0,
+                              min_speed=0.0, metric="filtered")
+EMPS = one_joint("emps", "M", (0.0, 500.0), EMPS_PROTOCOL)
+# Any joints, each τ = J·q̈ + τ_f(q̇) + offset (J in kg·m², or kg for a prismatic joint); pre-processing
+# chosen from the data.
+JOINT = one_joint("joint", "J", (0.0, 1e3), Preprocessing(), joints=None)
 
-ONE_JOINT = (EMPS,)
+ONE_JOINT = (EMPS, JOINT)

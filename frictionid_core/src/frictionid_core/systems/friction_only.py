@@ -1,5 +1,5 @@
 """The friction-only system: the rigid-body torque is already removed from the effort,
-τ = τ_f(q̇) + offset, on any number of joints."""
+τ = τ_f(q̇) + offset, on any number of joints; pre-processing chosen from the data."""
 
 from __future__ import annotations
 

@@ -16,17 +16,13 @@ from frictionid_core.preprocess import Prepared, Preprocessing
 from frictionid_core.robots.base import base_parameter_names, check_excitation, robot_base_parameters
 from frictionid_core.systems.system import RobotInfo, System
 
-# Robot data: zero-phase 50 Hz Butterworth on position (excitation trajectories are slow; the
-# lower cut-off cuts the noise of q̈) and no decimation: the model evaluates the Stribeck dip
-# at the (decimated) velocity while the measured torque would be low-passed by the decimation
-# filter, and at a fast reversal (|q̈| ≈ 9 rad/s² crosses a 0.025 rad/s dip in ~5 ms) even the
-# 200 Hz anti-alias filter of decimation by 2 biases vs and δ. 200 samples are trimmed at each
-# end: the edge transient of the forward–backward 50 Hz filter (odd-reflection padding flips
-# the sign of q̈ at the edge) still biases q̈ after 50 ms.
-ROBOT_PREPROCESSING = Preprocessing(cutoff_hz=50.0, order=4, decimate=1, trim_start=200, trim_end=200)
-# Rows with |q̇| below this (rad/s) are left out: near a reversal the sign of the estimated
-# velocity is unreliable, and one wrong sign is a 2·Fs outlier that biases vs and δ.
-ROBOT_MIN_SPEED = 3e-3
+# Robot data: every setting chosen from the data (frictionid_core.preprocess): the cut-off from
+# the motion's bandwidth keeps q̈ above the position noise; the analysis rate ≥ 10 × the cut-off;
+# trims of 5/fc at both ends cover the forward–backward filter's edge transient; rows slower than
+# 10 σ of the velocity noise (and 5e-4 × the top speed) are left out (the sign of q̇ is noise
+# there, one wrong sign a 2·Fs outlier). A Stribeck dip crossed at reversals faster than those
+# rates follow makes identify() refit at the rates the dip needs.
+ROBOT_PREPROCESSING = Preprocessing()
 
 # Rows of the excitation test: one in this many samples.
 _CHECK_STRIDE = 10
@@ -59,7 +55,7 @@ def robot_system(robot, name: str, joint_map: dict[str, str] | None = None, base
         return cols
 
     return System(name, tuple(robot.joints), columns, names, bounds, preprocessing, dict(joint_map or {}),
-                  ROBOT_MIN_SPEED, info, drive)
+                  robot=info, drive=drive)
 
 
 def _check_rank(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list[str], name: str) -> None:

@@ -2,7 +2,7 @@
 
 A system turns pre-processed signals into the full-rate rigid-body columns of the
 observation matrix, says which data joints it models and how its data are pre-processed by
-default.
+default (settings left None are chosen from the data: :mod:`frictionid_core.preprocess`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import numpy as np
 
 from frictionid_core.errors import InputError
 from frictionid_core.observation import Observation, build_observation
-from frictionid_core.preprocess import Prepared, Preprocessing, prepare
+from frictionid_core.preprocess import Prepared, Preprocessing, preprocess
 from frictionid_core.timeseries import JointSeries
 
 if TYPE_CHECKING:
@@ -54,18 +54,17 @@ class System:
             hold each, through ``joint_map``), or None (any joints).
         columns: prepared signals + model joint names (data order) → rigid columns (J·N, R),
             joint-major rows.
-        rigid_names: rigid-body parameter names (R).
-        rigid_bounds: default search bounds of those parameters.
-        preprocessing: default pre-processing.
+        rigid_names: rigid-body parameter names (R), or with ``per_joint`` the base names of one
+            joint's parameters (see :meth:`parameter_names`).
+        rigid_bounds: default search bounds of those parameters (by base name with ``per_joint``).
+        preprocessing: default pre-processing (None fields: chosen from the data).
         joint_map: {data joint name: model joint name} where they differ.
-        min_speed: rows whose (decimated) joint speed |q̇| is below this are left out of the
-            identification (zeroed: torque, every column and the velocity), because the sign of
-            a noisy velocity near a reversal is unreliable and one wrong sign is a 2·Fs outlier;
-            None keeps every row. Same unit as the velocity (m/s or rad/s).
         robot: the robot model and base parameters of a robot system (None otherwise).
         drive: the transmission between the log and the model's joints (None: the log is on
             the joint side, in N·m and rad). With ``friction_on: motor`` the fit rows are the
             drive's motors (see :func:`observe`); a robot system's columns are then its motor rows.
+        per_joint: each joint has its own ``rigid_names`` (``<joint>/J`` with several joints),
+            its columns acting on its own rows only.
     """
 
     name: str
@@ -75,14 +74,28 @@ class System:
     rigid_bounds: dict[str, tuple[float, float]]
     preprocessing: Preprocessing
     joint_map: dict[str, str] = field(default_factory=dict)
-    min_speed: float | None = None
     robot: RobotInfo | None = None
+    per_joint: bool = False
     drive: Drive | None = None
 
     @property
     def motor_rows(self) -> bool:
         """True when the fit rows are the drive's motors (``friction_on: motor``)."""
         return self.drive is not None and self.drive.friction_on == "motor"
+
+    def parameter_names(self, joints: list[str]) -> list[str]:
+        """The rigid-body parameter names on data of ``joints`` (prefixed ``<joint>/`` when a
+        per-joint system sees several joints, like the friction parameters)."""
+        if not self.per_joint:
+            return list(self.rigid_names)
+        if len(joints) == 1:
+            return list(self.rigid_names)
+        return [f"{j}/{n}" for j in joints for n in self.rigid_names]
+
+    def parameter_bounds(self, joints: list[str]) -> dict[str, tuple[float, float]]:
+        """Default search bounds by the names of :meth:`parameter_names`."""
+        names = self.parameter_names(joints)
+        return {n: self.rigid_bounds[n.rsplit("/", 1)[-1]] for n in names if n.rsplit("/", 1)[-1] in self.rigid_bounds}
 
     def model_joints(self, joints: list[str]) -> list[str]:
         """The model's names of the data joints ``joints``."""
@@ -125,47 +138,59 @@ def parse_joint_map(text: str | None) -> dict[str, str]:
 
 
 def observe(series: JointSeries, system: System, settings: Preprocessing | None = None) -> Observation:
-    """Pre-process ``series`` and build the decimated observation of ``system``
-    (``settings`` overrides the system's pre-processing).
+    """Pre-process ``series`` (unset settings chosen from its data) and build the decimated
+    observation of ``system`` (``settings`` overrides the system's pre-processing), without its
+    slow rows (see :func:`exclude_rows`).
 
     A system with a drive first takes the log to the joint side (:meth:`Drive.to_joint_side`).
     With friction on the motors the rows are the referred motor torques u = C⁻ᵀ·τ, named after
-    the motors, with the referred velocity w = C·q̇ as each row's friction velocity (ẇ = C·q̈).
+    the motors, with the referred velocity w = C·q̇ as each row's friction velocity (ẇ = C·q̈);
+    a motor's slow-row threshold is the largest of the joints it turns with.
     """
     drive = system.drive
     if drive is not None:
         series = drive.to_joint_side(series, system.joint_map)
-    system.check_joints(list(series.joints), series.source)
-    settings = settings or system.preprocessing
-    prepared = prepare(series, settings)
-    rigid = system.columns(prepared, system.model_joints(list(series.joints)))
-    rows, row_names = prepared, list(series.joints)
+    joints = list(series.joints)
+    system.check_joints(joints, series.source)
+    prepared, resolved, report, notes = preprocess(series, settings or system.preprocessing)
+    rigid = system.columns(prepared, system.model_joints(joints))
+    rows, row_names = prepared, joints
+    min_speed = np.array([resolved.min_speed[j] for j in joints])
     if system.motor_rows:
         rows = replace(prepared, qd=drive.motor_velocity(prepared.qd), qdd=drive.motor_velocity(prepared.qdd),
                        tau=drive.referred_motor_torque(prepared.tau))
         row_names = drive.motor_names()
-    obs = build_observation(rows, row_names, rigid, list(system.rigid_names), settings)
-    if system.motor_rows:
-        obs.coupling, obs.data_joints = drive.C, list(series.joints)
-    if system.min_speed:
-        exclude_slow_rows(obs, system.min_speed)
+        min_speed = np.array([min_speed[drive.C[m] != 0.0].max() for m in range(len(joints))])
+    obs = build_observation(rows, row_names, rigid, system.parameter_names(joints), resolved)
+    obs.report, obs.notes = report, notes
+    slow = np.abs(obs.velocity) < min_speed
+    for o in (obs, obs.sampled):
+        if o is None:
+            continue
+        if system.motor_rows:
+            o.coupling, o.data_joints = drive.C, joints
+        o.report = report
+        exclude_rows(o, slow)
+    report["min_speed_rows"] = dict(zip(row_names, map(float, min_speed)))
+    report["slow_rows_excluded"] = dict(zip(row_names, map(int, slow.sum(axis=0))))
     return obs
 
 
-def exclude_slow_rows(obs: Observation, min_speed: float) -> int:
-    """Zero the rows of ``obs`` whose joint speed is below ``min_speed`` (they then add nothing
-    to any least-squares cost or fit metric); returns how many rows were excluded."""
+def exclude_rows(obs: Observation, rows: np.ndarray) -> None:
+    """Leave out the rows where ``rows`` (Nd, J) is True: zero their torque, every column and
+    the velocity (they then add nothing to any least-squares cost) and mark them unused.
+
+    Rows slower than the min speed go: near standstill and reversals the sign of a noisy
+    velocity is unreliable, and one wrong sign is a 2·Fc outlier."""
     nd = obs.n_samples
-    count = 0
     for j in range(len(obs.joints)):
-        slow = np.abs(obs.velocity[:, j]) < min_speed
+        slow = rows[:, j]
         if not slow.any():
             continue
-        count += int(slow.sum())
-        rows = j * nd + np.flatnonzero(slow)
-        obs.y[rows] = 0.0
-        obs.rigid[rows] = 0.0
+        index = j * nd + np.flatnonzero(slow)
+        obs.y[index] = 0.0
+        obs.rigid[index] = 0.0
+        obs.used[index] = False
         obs.velocity[slow, j] = 0.0
         for col in obs.columns[j].values():
             col[slow] = 0.0
-    return count

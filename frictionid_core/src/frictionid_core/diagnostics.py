@@ -1,0 +1,127 @@
+"""Honest warnings about an identification: one-line strings naming the problem and the way out.
+
+Every check returns a list of messages (empty when all is well); the identification stores
+them in ``result["warnings"]`` and the command line prints each as ``frictionid: warning: …``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# A parameter within this fraction of its search range (or of the bound's magnitude) from a bound is at it.
+AT_BOUND_RTOL = 1e-6
+# q̈ is noise-dominated when differentiated position noise makes up more than this share of its
+# filtered variance (inertias then come out low by about 1.5–2 × the share).
+QDD_NOISE_SHARE_LIMIT = 0.02
+# A joint moves in one direction only when fewer than this share of its used rows go the other way.
+ONE_DIRECTION_SHARE = 0.01
+# Names (last component, after "/" or ".") of parameters that cannot be negative.
+INERTIAS = ("J", "M", "ZZ")
+ROTOR_INERTIA_SUFFIX = "Ia"
+VISCOUS = ("Fv", "Fv_pos", "Fv_neg")
+_LISTED = 8  # names listed in a grouped message
+
+
+def _base(name: str) -> str:
+    return name.rsplit("/", 1)[-1].rsplit(".", 1)[-1]
+
+
+def _listing(names: list[str]) -> str:
+    more = f", … ({len(names)} in all)" if len(names) > _LISTED else ""
+    return ", ".join(names[:_LISTED]) + more
+
+
+def parameter_warnings(names: list[str], values: np.ndarray, std: dict[str, float], lower: np.ndarray,
+                       upper: np.ndarray) -> list[str]:
+    """Parameters at a search bound, σ larger than the value, Fs < Fc, negative viscous friction
+    or inertia. Parameters with lower == upper (fixed) are not judged."""
+    out = []
+    at_bound = []
+    for name, x, lo, hi in zip(names, values, lower, upper):
+        if lo == hi:
+            continue
+        for side, b in (("lower", lo), ("upper", hi)):
+            if np.isfinite(b) and abs(x - b) <= AT_BOUND_RTOL * max(abs(b), hi - lo):
+                at_bound.append(f"{name} ({side} {b:.6g})")
+    if at_bound:
+        out.append(f"parameter(s) at a search bound: {_listing(at_bound)}: the optimum may lie beyond; "
+                   "widen the bounds (--bounds NAME=LO:HI) or check the model")
+    value = dict(zip(names, map(float, values)))
+    vague = [n for n in names if np.isfinite(std.get(n, np.nan)) and std[n] > abs(value[n])]
+    if vague:
+        out.append(f"σ > |value| for {len(vague)} parameter(s), not determined by these data: {_listing(vague)}")
+    for name in names:
+        base = _base(name)
+        if base.startswith("Fs"):
+            fc = name[: len(name) - len(base)] + "Fc" + base[2:]
+            if fc in value and value[name] < value[fc]:
+                out.append(f"{name} = {value[name]:.6g} < {fc} = {value[fc]:.6g}: static friction below the Coulomb "
+                           "level (friction rising out of standstill, not dipping); if unexpected, compare with "
+                           "--friction coulomb")
+        if base in VISCOUS and value[name] < 0:
+            out.append(f"{name} = {value[name]:.6g} < 0: negative viscous friction is not physical (too little "
+                       "speed range, or torque the model does not explain)")
+        if (base in INERTIAS or base.endswith(ROTOR_INERTIA_SUFFIX)) and value[name] < 0:
+            out.append(f"{name} = {value[name]:.6g} < 0: negative inertia is not physical (q̈ too small or "
+                       "noise-dominated, or a transmission the model lacks, e.g. a coupled wrist: --drive)")
+    return out
+
+
+def acceleration_warnings(report: dict, cutoff_hz: float, chosen: bool) -> list[str]:
+    """Moving joints whose filtered q̈ is noise-dominated (``report``: of
+    :func:`frictionid_core.preprocess.preprocess`; ``chosen``: the cut-off came from the data)."""
+    out = []
+    share = report.get("qdd_noise_share", {})
+    for joint in report.get("moving_joints", []):
+        s = share.get(joint)
+        if s is None or s <= QDD_NOISE_SHARE_LIMIT:
+            continue
+        head = (f"{joint}: the acceleration is noise-dominated ({100 * s:.3g} % of the filtered q̈ variance is "
+                f"position noise at the {cutoff_hz:.4g} Hz cut-off): inertia comes out low")
+        bandwidth = report.get("bandwidth_hz")
+        if chosen or bandwidth is None:
+            out.append(head + "; the motion is too small for the position noise: record larger or longer motion")
+        else:
+            out.append(head + f"; lower the cut-off (the motion's bandwidth {bandwidth:.3g} Hz suggests "
+                              f"--cutoff {10 * bandwidth:.3g})")
+    return out
+
+
+def stamp_warnings(notes: list[str]) -> list[str]:
+    """The notes that say stamps were repaired or samples resampled (with their counts)."""
+    return [n for n in notes if "stamp" in n]
+
+
+def direction_problems(obs, names: list[str]) -> tuple[list[str], list[str]]:
+    """(errors, warnings) for joints that move in one direction only (or not at all) on the used
+    rows of ``obs``, given the model's free parameter ``names``: then a constant offset and the
+    Coulomb level (or the other branch of an asymmetric law) cannot be told apart."""
+    errors, warnings = [], []
+    nd, nj = obs.n_samples, len(obs.joints)
+    for j, joint in enumerate(obs.joints):
+        prefix = f"{joint}/" if nj > 1 else ""
+        used = obs.used[j * nd : (j + 1) * nd]
+        v = obs.velocity[used, j]
+        if v.size == 0:
+            speed = obs.report.get("min_speed_rows", {}).get(joint, obs.preprocessing.min_speed.get(joint, np.nan))
+            errors.append(f"{joint} never moves faster than its min speed {speed:.3g}: nothing to identify its "
+                          "friction from; lower --min-speed or leave the joint out (--joints)")
+            continue
+        pos, neg = int(np.count_nonzero(v > 0)), int(np.count_nonzero(v < 0))
+        minority = min(pos, neg)
+        if minority >= ONE_DIRECTION_SHARE * v.size:
+            continue
+        where = (f"{joint} moves in one direction only ({minority} of {v.size} used rows go the "
+                 f"{'negative' if pos >= neg else 'positive'} way)")
+        if prefix + "offset" in names and prefix + "Fc" in names:
+            msg = (f"{where}: its offset and Coulomb friction cannot be told apart; fix one, e.g. "
+                   f"--fix {prefix}offset=0")
+        else:
+            branch = "neg" if pos >= neg else "pos"
+            lost = [n for n in names if n.startswith(prefix) and n.endswith(f"_{branch}")]
+            if not lost:
+                continue
+            msg = f"{where}: {', '.join(lost)} are not identifiable; use a symmetric friction law (no --asymmetric)"
+        (errors if minority == 0 else warnings).append(msg)
+    return errors, warnings
+
