@@ -59,7 +59,8 @@ def build_model(series: JointSeries, system: str | System, friction: str, asymme
 def identify(series: JointSeries, *, system: str | System = "emps", joint_map: dict[str, str] | None = None,
              friction: str = "coulomb", asymmetric: bool = False, solver: str = "ls", seed: int = 0,
              varpro: bool | None = None, warm_start: bool = True, preprocessing: Preprocessing | None = None,
-             bounds: dict[str, tuple[float, float]] | None = None, **solver_options) -> Identification:
+             bounds: dict[str, tuple[float, float]] | None = None, progress=None,
+             **solver_options) -> Identification:
     """Identify the parameters of ``system`` with ``friction`` from ``series``.
 
     Args:
@@ -79,6 +80,8 @@ def identify(series: JointSeries, *, system: str | System = "emps", joint_map: d
             model; False gives them a purely random start, the thesis protocol.
         preprocessing: filter/decimation settings (default: the system's).
         bounds: {name: (lo, hi)} search-bound overrides (see ``IdentificationModel``).
+        progress: ``progress(generation, evaluations, best_cost)`` during an optimiser run (see
+            :class:`frictionid_core.optim.Problem`); not called by ``ls``.
         **solver_options: budgets (pop, generations, calls) and method options.
     """
     t0 = time.perf_counter()
@@ -100,7 +103,8 @@ def identify(series: JointSeries, *, system: str | System = "emps", joint_map: d
         std = {model.names[i]: float(s) for i, s in zip(model.linear_index, fit.std)}
         cond = fit.cond
     else:
-        x, res = solve_model(model, solver, seed=seed, varpro=varpro, warm_start=warm_start, **solver_options)
+        x, res = solve_model(model, solver, seed=seed, varpro=varpro, warm_start=warm_start, progress=progress,
+                             **solver_options)
         extra["optimizer"] = res.to_dict()
         extra["varpro"] = varpro
         extra["warm_start"] = warm_start
@@ -116,16 +120,17 @@ def identify(series: JointSeries, *, system: str | System = "emps", joint_map: d
 
 
 def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpro: bool = False,
-                warm_start: bool = True, **solver_options):
+                warm_start: bool = True, progress=None, **solver_options):
     """Minimise the model's cost with ``solver``; returns (parameters (k,), OptimResult).
 
     Local solvers start from the best of a sample of closed-form solutions (:func:`_start_point`);
     with ``warm_start`` population methods and bo/dt evaluate it first (as ``problem.x0``).
-    With ``varpro`` the solver sees only the nonlinear parameters.
+    With ``varpro`` the solver sees only the nonlinear parameters; ``progress``: see :func:`identify`.
     """
     from frictionid_core.optim import minimize
 
     problem = _varpro_problem(model) if varpro else _full_problem(model)
+    problem.progress = progress
     if model.nonlinear_index.size and (warm_start or solver == "lm"):
         start = _start_point(model, np.random.default_rng(seed))
         problem.x0 = start[model.nonlinear_index] if varpro else start
