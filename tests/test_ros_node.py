@@ -492,21 +492,22 @@ def test_bad_data_fail_with_a_clear_message(identified, ros, node, offline):
 
 
 def test_save_and_load(identified, ros, node, workdir, offline):
-    path = workdir / "saved.json"
-    res = ros.call(ParametersFile, "/frictionid/save", ParametersFile.Request(path=str(path)))
+    folder = workdir / "results"  # the folder of results_file: the only one ~/save and ~/load use
+    path = folder / "saved.json"
+    res = ros.call(ParametersFile, "/frictionid/save", ParametersFile.Request(path="saved.json"))  # relative name
     assert res.success and res.path == str(path), res.message
     saved = json.loads(path.read_text())
     assert {"system", "friction", "asymmetric", "solver", "params", "std", "metrics", "per_joint"} <= set(saved)
-    # load a plain `frictionid identify --json` file with other values
+    # load a plain `frictionid identify --json` file with other values (an absolute path inside the folder)
     other = offline.to_dict()
     other["params"] = {k: v * 1.5 for k, v in other["params"].items()}
-    plain = workdir / "plain.json"
+    plain = folder / "plain.json"
     plain.write_text(json.dumps(other))
     res = ros.call(ParametersFile, "/frictionid/load", ParametersFile.Request(path=str(plain)))
     assert res.success, res.message
     assert dict(zip(ros.latched_parameters().joints[0].param_names,
                     ros.latched_parameters().joints[0].param_values))["Fc"] == pytest.approx(other["params"]["Fc"])
-    res = ros.call(ParametersFile, "/frictionid/load", ParametersFile.Request(path=str(workdir / "missing.json")))
+    res = ros.call(ParametersFile, "/frictionid/load", ParametersFile.Request(path="missing.json"))
     assert not res.success and "missing.json" in res.message
     res = ros.call(ParametersFile, "/frictionid/load", ParametersFile.Request(path=str(path)))  # back
     assert res.success, res.message

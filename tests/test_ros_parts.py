@@ -231,15 +231,18 @@ def test_identify_service_answers_and_activates(tmp_path):
     published = []
     active = ActiveParameters(cfg.results_file, published.append, log=LOG)
     service = IdentifyService(lambda: cfg, inputs, active, {"joint_states": "/joint_states"}, None, log=LOG)
-    ok, message, result = service.handle(Identify.Request())
+    answer = service.handle(Identify.Request())
+    ok, message, result = answer.ok, answer.message, answer.identified
     assert not ok and message.startswith("too little data") and result is None
     assert (service.last_ok, service.last_status) == (False, message)
     stamps, _, _ = _feed(inputs)
-    ok, message, result = service.handle(Identify.Request(joints=["b"], dry_run=True))
+    answer = service.handle(Identify.Request(joints=["b"], dry_run=True))
+    ok, message, result = answer.ok, answer.message, answer.identified
     assert ok and "dry run" in message and not published and not cfg.results_file.exists()
     # noise-free data: only the pre-processing (filtered derivatives) moves the estimates, by < 0.1 %
     assert list(result.per_joint) == ["b"] and result.per_joint["b"].params["Fc"] == pytest.approx(FC[1], rel=1e-3)
-    ok, message, result = service.handle(Identify.Request())
+    answer = service.handle(Identify.Request())
+    ok, message, result = answer.ok, answer.message, answer.identified
     assert ok and message.startswith("identified friction-only/coulomb with ls on 1000 samples of ['a', 'b']")
     assert f"saved to {cfg.results_file}" in message and service.last_status == message
     for i, j in enumerate("ab"):
@@ -258,8 +261,8 @@ def test_active_parameters_merge_save_and_load(tmp_path):
     changes = []
     active = ActiveParameters(cfg.results_file, changes.append, log=LOG)
     service = IdentifyService(lambda: cfg, inputs, active, {"joint_states": "/joint_states"}, None, log=LOG)
-    assert service.handle(Identify.Request(joints=["a"]))[0]
-    assert service.handle(Identify.Request(joints=["b"], friction_model="tustin", solver="lm"))[0]
+    assert service.handle(Identify.Request(joints=["a"])).ok
+    assert service.handle(Identify.Request(joints=["b"], friction_model="tustin", solver="lm")).ok
     assert {j: p.friction for j, p in active.results.per_joint.items()} == {"a": "coulomb", "b": "tustin"}
     assert active.save(active.file("")) == (True, f"saved parameters of ['a', 'b'] to {cfg.results_file}")
     other = tmp_path / "other.json"
