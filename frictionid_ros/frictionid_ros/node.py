@@ -25,15 +25,12 @@ it (the default) it configures and activates itself and offers none.
 
 Concurrency: the input callbacks (joint states, effort, reference, feed-forward) run on a hidden
 helper node ``_frictionid_input`` spun in its own thread by rclpy's EventsExecutor (or a
-SingleThreadedExecutor, ``input_executor``) — the only writer of the ring buffers (rclpy's
-MultiThreadedExecutor tops out below ~2 kHz). Services, the action and diagnostics run on this
-node in a MultiThreadedExecutor (:mod:`.runner`): ``~/identify`` is in a reentrant callback
-group, so a second request is answered "busy" at once while the first one waits for the
-identification, which runs in a low-priority worker process (``identification_worker: process``,
-see :mod:`frictionid_ros.worker`) or a worker thread (``thread``). What the callbacks do is in
-ROS-free modules: :mod:`.inputs` (buffers, feed-forward velocity), :mod:`.service`
-(``~/identify``: :mod:`.request`, :mod:`.window`; limits, cancel), :mod:`.store` (active
-parameters, results folder); :mod:`.messages` builds the outputs, :mod:`.action` serves the action.
+SingleThreadedExecutor, ``input_executor``), the only writer of the ring buffers. Services, the
+action and diagnostics run on this node in a MultiThreadedExecutor (:mod:`.runner`); a second
+``~/identify`` is answered "busy" at once while the first one waits for the identification in a
+low-priority worker process (:mod:`.worker`) or thread. What the callbacks do is in ROS-free
+modules: :mod:`.inputs`, :mod:`.service` (with :mod:`.request`, :mod:`.window`: limits, cancel),
+:mod:`.store` (active parameters, results folder); :mod:`.messages` builds the outputs.
 """
 
 from __future__ import annotations
@@ -129,7 +126,7 @@ class FrictionIdNode(LifecycleNode):
         except FrictionIdError as exc:
             self._failure = str(exc)
             self._log.error(f"configure failed: {exc}")
-            self._close()
+            self.close()
             return TransitionCallbackReturn.FAILURE
         return TransitionCallbackReturn.SUCCESS
 
@@ -142,12 +139,10 @@ class FrictionIdNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def on_cleanup(self, state) -> TransitionCallbackReturn:
-        self._close()
+        self.close()
         return TransitionCallbackReturn.SUCCESS
 
-    def on_shutdown(self, state) -> TransitionCallbackReturn:
-        self._close()
-        return TransitionCallbackReturn.SUCCESS
+    on_shutdown = on_cleanup
 
     def _open(self) -> None:
         """Create what the node serves with (configure)."""
@@ -232,8 +227,9 @@ class FrictionIdNode(LifecycleNode):
             f"{cfg.buffer_seconds:g} s ({cfg.capacity} samples), input QoS {cfg.qos}, results {cfg.results_file}"
             + (f", restored parameters of {restored}" if restored else ""))
 
-    def _close(self) -> None:
-        """Cancel a running identification and remove what :meth:`_open` created (cleanup, shutdown)."""
+    def close(self) -> None:
+        """Cancel a running identification (a waiting ~/identify answers), end the worker process and
+        remove what :meth:`_open` created (cleanup, shutdown, end of the process)."""
         self._ff_on = False
         service = getattr(self, "identify_service", None)
         if service is not None:
@@ -250,7 +246,7 @@ class FrictionIdNode(LifecycleNode):
             destroy(entity)
 
     def _keep(self, destroy, entity):
-        """Remember ``entity`` (and how to ``destroy`` it) for :meth:`_close`; returns it."""
+        """Remember ``entity`` (and how to ``destroy`` it) for :meth:`close`; returns it."""
         self._entities.append((destroy, entity))
         return entity
 
@@ -392,10 +388,6 @@ class FrictionIdNode(LifecycleNode):
             ("joint buffer", ok, message, values),
             ("identification", service.last_ok, ("busy; last: " if busy else "") + service.last_status[:300], ident),
         ], self.get_clock().now().to_msg()))
-
-    def close(self) -> None:
-        """Let a waiting ~/identify answer and return; end the worker process."""
-        self._close()
 
 
 def main(argv: list[str] | None = None) -> int:
