@@ -9,7 +9,8 @@ friction-only, 6 joints, default sensor-data QoS) on a private ROS domain:
 
 1. load: a publisher subprocess sends JointState (6 joints, position/velocity/effort of a
    known Coulomb + viscous friction) at 1 kHz for ``--duration`` s, stamped with its sample time
-   (like a driver's clock); the actual send time of every message is recorded.
+   (like a driver's clock); the actual send time of every message is recorded. The node starts
+   with that friction as its active parameters, so it feeds forward from the first message.
    Meanwhile identifications run: an ``ls`` one every 10 s and a long ``de`` (Tustin) action goal
    from 30 % to 80 % of the run, then cancelled. Measured: messages sent vs taken in by the node
    (its /diagnostics ``received``), feed-forward messages received here, feed-forward latency
@@ -55,6 +56,7 @@ NS = 1_000_000_000
 JOINTS = [f"joint{i + 1}" for i in range(6)]
 FV = np.array([3.0, 2.5, 2.0, 1.0, 0.8, 0.5])  # true viscous friction [N·m·s/rad]
 FC = np.array([1.5, 1.2, 1.0, 0.6, 0.4, 0.3])  # true Coulomb friction [N·m]
+HUGE_BUDGET = 100_000  # generations of the long de runs (the node's max_budget is raised to it): never finish
 
 
 def _env(domain: int) -> dict:
@@ -128,6 +130,8 @@ class Node:
     buffer_seconds: {float(buffer_s)}
     smoothing_eps: 0.01
     diagnostics_period_s: 1.0
+    max_missing_pct: 50.0
+    max_budget: {HUGE_BUDGET}
     input_executor: "{executor}"
     results_file: "{workdir / 'parameters.json'}"
 {lines}""")
@@ -324,6 +328,15 @@ def pct(a, q):
     return float(np.percentile(a, q)) if a.size else float("nan")
 
 
+def write_true_parameters(path: Path) -> None:
+    """The true friction of the published motion as the node's results file."""
+    from frictionid_ros.store import JointParams, Results, write_results
+
+    write_results(path, Results({j: JointParams(j, "friction-only", "coulomb", False, "ls",
+                                                {"Fv": float(FV[i]), "Fc": float(FC[i]), "offset": 0.0})
+                                 for i, j in enumerate(JOINTS)}))
+
+
 def lat_stats(lat_s: np.ndarray) -> dict:
     """p50, p99, max [ms] and n of latencies [s]."""
     return {"p50": pct(lat_s, 50) * 1e3, "p99": pct(lat_s, 99) * 1e3, "max": pct(lat_s, 100) * 1e3,
@@ -362,13 +375,17 @@ def phase_load(bench: Bench, node: Node, args, work: Path, domain: int, buffer_s
             if de["handle"] is None and now - t_load > 0.3 * args.duration:
                 de["start"] = time.monotonic()
                 de["handle"] = bench.send_goal(de["feedback"], friction_model="tustin", solver="de", population=200,
-                                               budget=1000, window_seconds=min(5.0, buffer_s), dry_run=True)
-            if de["handle"] is not None and "end" not in de and now - t_load > 0.8 * args.duration:
-                bench.wait(de["handle"].cancel_goal_async(), 10)
-                got = bench.wait(de["handle"].get_result_async(), 30)
-                de["end"] = time.monotonic()
-                idents.append([(de["start"], de["end"], bool(got and got.result.success),
-                                got.result.message if got else "timeout", None)])
+                                               budget=HUGE_BUDGET, window_seconds=0.9 * buffer_s, dry_run=True)
+            if de["handle"] is not None and "end" not in de:
+                if "result" not in de:
+                    de["result"] = de["handle"].get_result_async()
+                    de["result"].add_done_callback(lambda _: de.setdefault("done_at", time.monotonic()))
+                if "done_at" not in de and "cancelled" not in de and now - t_load > 0.8 * args.duration:
+                    de["cancelled"] = bench.wait(de["handle"].cancel_goal_async(), 10)
+                got = bench.wait(de["result"], 30) if "done_at" in de else None
+                if got is not None:
+                    de["end"] = de["done_at"]
+                    idents.append([(de["start"], de["end"], bool(got.result.success), got.result.message, None)])
             time.sleep(0.25)
     finally:
         if pub.poll() is None:
@@ -448,8 +465,8 @@ def phase_cancel(bench: Bench, cycles: int) -> dict:
     rows = []
     for _ in range(cycles):
         feedback = []
-        handle = bench.send_goal(feedback, friction_model="tustin", solver="de", population=200, budget=1000,
-                                 window_seconds=5.0)
+        handle = bench.send_goal(feedback, friction_model="tustin", solver="de", population=200,
+                                 budget=HUGE_BUDGET, window_seconds=5.0)
         deadline = time.monotonic() + 60
         while not any(f.generation for _, f in feedback) and time.monotonic() < deadline:
             time.sleep(0.01)
@@ -521,7 +538,8 @@ def phase_crash(bench: Bench, node: Node, args, work: Path, domain: int, buffer_
     subprocess.run([sys.executable, __file__, "--role", "publisher", "--rate", str(args.rate), "--duration", "3",
                     "--pub-out", str(pub2_out)], env=_env(domain), timeout=60)
     box = []
-    slow = Identify.Request(friction_model="tustin", solver="de", population=100, budget=1000, window_seconds=3.0)
+    slow = Identify.Request(friction_model="tustin", solver="de", population=100, budget=HUGE_BUDGET,
+                            window_seconds=3.0)
     threading.Thread(target=lambda: box.append(bench.call(Identify, "/frictionid/identify", slow, timeout=300)),
                      daemon=True).start()
     busy, deadline = "False", time.monotonic() + 20
@@ -577,6 +595,7 @@ def main() -> int:
     buffer_s = args.buffer or max(5.0, round(args.duration / 3))
     extra = {} if args.worker_nice is None else {"worker_nice": args.worker_nice}
     work = Path(tempfile.mkdtemp(prefix="frictionid_bench_"))
+    write_true_parameters(work / "parameters.json")  # restored at start: feed-forward from the first message
     result = {"input_executor": args.input_executor, "node_parameters": extra, "duration_s": args.duration,
               "rate_hz": args.rate, "joints": len(JOINTS), "buffer_seconds": buffer_s, "domain": domain,
               "cpus": os.cpu_count(), "loadavg_start": os.getloadavg()}

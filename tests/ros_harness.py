@@ -14,6 +14,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
@@ -73,6 +74,15 @@ class NodeProcess:
 
     def stderr(self) -> str:
         return self.err.read_text()
+
+
+def start_node(workdir: Path, ros: "Ros", params: Path, tag: str, *args: str, domain: int = DOMAIN) -> NodeProcess:
+    """``frictionid_node --params-file params *args`` on ``domain``, once it offers ``~/identify``
+    (at once with ``--lifecycle``: an unconfigured node offers nothing yet)."""
+    proc = NodeProcess(workdir, ["--params-file", str(params), *args], tag, domain)
+    if "--lifecycle" not in args:
+        ros.wait_service(proc)
+    return proc
 
 
 class Ros:
@@ -262,3 +272,17 @@ class Ros:
                 seen = (len(self.ff_state), self.ff_state[-1].header.stamp if self.ff_state else None,
                         {k: v[0] for k, v in self.diag.items()})
             raise AssertionError(f"{exc}; client saw {seen}; node stderr:\n{proc.stderr()[-3000:]}") from None
+
+
+@pytest.fixture(scope="module")
+def ros():
+    """The rclpy client of a test module, on DOMAIN (also the ROS_DOMAIN_ID meanwhile)."""
+    old = os.environ.get("ROS_DOMAIN_ID")
+    os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)  # also passed to rclpy.init explicitly
+    r = Ros()
+    yield r
+    r.close()
+    if old is None:
+        os.environ.pop("ROS_DOMAIN_ID", None)
+    else:
+        os.environ["ROS_DOMAIN_ID"] = old

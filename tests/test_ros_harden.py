@@ -12,7 +12,6 @@ feed-forward). Requests name their data window by stamps, so the probe joint sta
 from __future__ import annotations
 
 import json
-import os
 import threading
 import time
 import warnings
@@ -20,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from ros_harness import DOMAIN, NS, RELIABLE, ROOT, NodeProcess, Ros
+from ros_harness import DOMAIN, NS, RELIABLE, ROOT, NodeProcess, Ros, ros, start_node  # noqa: F401 - ros: the client fixture
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
@@ -40,8 +39,9 @@ pytestmark = [pytest.mark.ros, pytest.mark.filterwarnings("ignore::DeprecationWa
 
 BAG = ROOT / "bags" / "emps_estimation"
 SECONDS = 8.0  # replayed part of the bag [s]
-# Huge but within the default limits (max_budget 1000, max_population 200): about a minute or more.
-HUGE = dict(friction_model="tustin", solver="de", population=200, budget=1000)
+# The node's limits: a budget high enough for a job that runs for minutes on any machine (HUGE).
+LIMITS = dict(max_budget=100_000, max_population=200, max_window_seconds=60.0)
+HUGE = dict(friction_model="tustin", solver="de", population=200, budget=100_000)
 OWN_DOMAIN = DOMAIN + 20  # of the tests that start a node of their own
 
 
@@ -69,24 +69,8 @@ def workdir(tmp_path_factory) -> Path:
     return tmp_path_factory.mktemp("frictionid_harden")
 
 
-@pytest.fixture(scope="module")
-def ros():
-    old = os.environ.get("ROS_DOMAIN_ID")
-    os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)
-    r = Ros()
-    yield r
-    r.close()
-    if old is None:
-        os.environ.pop("ROS_DOMAIN_ID", None)
-    else:
-        os.environ["ROS_DOMAIN_ID"] = old
-
-
 def _start(workdir: Path, ros: Ros, name: str, *args: str, domain: int = DOMAIN, **params) -> NodeProcess:
-    proc = NodeProcess(workdir, ["--params-file", str(_params_file(workdir, name, **params)), *args], name, domain)
-    if "--lifecycle" not in args:
-        ros.wait_service(proc)
-    return proc
+    return start_node(workdir, ros, _params_file(workdir, name, **LIMITS, **params), name, *args, domain=domain)
 
 
 def _feed(ros: Ros, seconds: float = SECONDS, rate: float = 2.0) -> dict:
@@ -206,7 +190,7 @@ def test_path_and_limit_parameters_are_fixed_at_start(window, ros, node, workdir
 
 def test_requests_over_a_limit_are_refused(window, ros, node):
     active = _active(ros)
-    cases = [(dict(budget=2_000_000_000), "'budget' = 2000000000 is over the node's limit max_budget = 1000"),
+    cases = [(dict(budget=2_000_000_000), "'budget' = 2000000000 is over the node's limit max_budget = 100000"),
              (dict(population=100_000), "'population' = 100000 is over the node's limit max_population = 200"),
              (dict(window_seconds=3600.0), "window_seconds = 3600 s is over the node's limit max_window_seconds = 60 s"),
              (dict(window_start=_time(1 * NS), window_end=_time(7200 * NS)), "max_window_seconds = 60 s")]
@@ -216,7 +200,7 @@ def test_requests_over_a_limit_are_refused(window, ros, node):
         handle = ros.send_goal(solver="de", **fields)
         got = ros.wait(handle.get_result_async(), 30.0, "action result")
         assert got.status == GoalStatus.STATUS_ABORTED and needle in got.result.message, got.result.message
-    assert not ros.identify(**window, **{**HUGE, "budget": 1001}).success  # HUGE is at the limit, one more is not
+    assert not ros.identify(**window, **{**HUGE, "budget": 100_001}).success  # HUGE is at the limit, one more is not
     assert _active(ros) == active
     res = ros.identify(**window)  # not stuck busy
     assert res.success, res.message

@@ -14,7 +14,6 @@ parameters by ≤ 0.33 % (offset) and cutting 50 samples at each window edge by 
 from __future__ import annotations
 
 import json
-import os
 import signal
 import threading
 import time
@@ -23,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from ros_harness import DOMAIN, NS, RELIABLE, ROOT, NodeProcess, Ros
+from ros_harness import NS, RELIABLE, ROOT, NodeProcess, Ros, ros, start_node  # noqa: F401 - ros: the client fixture
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
@@ -55,19 +54,6 @@ def workdir(tmp_path_factory) -> Path:
     return tmp_path_factory.mktemp("frictionid_ros")
 
 
-@pytest.fixture(scope="module")
-def ros():
-    old = os.environ.get("ROS_DOMAIN_ID")
-    os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)  # also passed to rclpy.init explicitly
-    r = Ros()
-    yield r
-    r.close()
-    if old is None:
-        os.environ.pop("ROS_DOMAIN_ID", None)
-    else:
-        os.environ["ROS_DOMAIN_ID"] = old
-
-
 def _params_file(workdir: Path) -> Path:
     p = workdir / "params.yaml"
     p.write_text(f"""/**/frictionid:
@@ -85,9 +71,7 @@ def _params_file(workdir: Path) -> Path:
 
 
 def _start(workdir: Path, ros: Ros, tag: str) -> NodeProcess:
-    proc = NodeProcess(workdir, ["--params-file", str(_params_file(workdir))], tag)
-    ros.wait_service(proc)
-    return proc
+    return start_node(workdir, ros, _params_file(workdir), tag)
 
 
 @pytest.fixture(scope="module")

@@ -312,7 +312,20 @@ def test_window_longer_than_the_limit_is_refused(tmp_path):
         _window(cfg, inputs, window_start=_time(int(stamps[0])))  # an open range
 
 
-# --------------------------------------------------------------------------- results folder
+# --------------------------------------------------------------------------- results folder, cancel, wall time
+
+
+def _service_with_parameters(tmp_path, **changes):
+    """An IdentifyService (worker thread) on 1 s of data that identified once, and its active parameters."""
+    cfg = _cfg(tmp_path, identification_worker="thread", max_budget=100_000, **changes)
+    inputs = _inputs(cfg)
+    _feed(inputs)
+    active = ActiveParameters(cfg.results_file, lambda r: None, log=LOG)
+    service = IdentifyService(lambda: cfg, inputs, active, {"joint_states": "/joint_states"}, None, log=LOG)
+    assert service.handle(Identify.Request()).ok
+    return service, active
+
+
 
 
 def test_request_paths_stay_inside_the_results_folder(tmp_path):
@@ -342,12 +355,7 @@ def test_request_paths_stay_inside_the_results_folder(tmp_path):
 
 
 def test_the_node_overwrites_only_its_own_files(tmp_path):
-    cfg = _cfg(tmp_path, identification_worker="thread")
-    inputs = _inputs(cfg)
-    _feed(inputs)
-    active = ActiveParameters(cfg.results_file, lambda r: None, log=LOG)
-    service = IdentifyService(lambda: cfg, inputs, active, {"joint_states": "/joint_states"}, None, log=LOG)
-    assert service.handle(Identify.Request()).ok
+    _, active = _service_with_parameters(tmp_path)
     foreign = tmp_path / "foreign.json"
     for text in ('{"params": {}}', "not json", '{"format": "other/1"}'):
         foreign.write_text(text)
@@ -358,25 +366,11 @@ def test_the_node_overwrites_only_its_own_files(tmp_path):
     assert active.save(active.file("mine.json"))[0] and active.save(active.file("mine.json"))[0]  # its own: again
 
 
-# --------------------------------------------------------------------------- cancel, wall time
-
-
-def _slow_service(tmp_path, **changes):
-    """An IdentifyService (worker thread) on 1 s of data, and its active parameters."""
-    cfg = _cfg(tmp_path, identification_worker="thread", **changes)
-    inputs = _inputs(cfg)
-    _feed(inputs)
-    active = ActiveParameters(cfg.results_file, lambda r: None, log=LOG)
-    service = IdentifyService(lambda: cfg, inputs, active, {"joint_states": "/joint_states"}, None, log=LOG)
-    assert service.handle(Identify.Request()).ok
-    return service, active
-
-
-HUGE = dict(friction_model="tustin", solver="de", population=200, budget=1000)
+HUGE = dict(friction_model="tustin", solver="de", population=200, budget=100_000)  # minutes on any machine
 
 
 def test_cancel_stops_the_identification_and_keeps_the_parameters(tmp_path):
-    service, active = _slow_service(tmp_path)
+    service, active = _service_with_parameters(tmp_path)
     before = active.results
     control, box = JobControl(), {}
     t = threading.Thread(target=lambda: box.setdefault("answer", service.handle(Identify.Request(**HUGE), control)))
@@ -394,7 +388,7 @@ def test_cancel_stops_the_identification_and_keeps_the_parameters(tmp_path):
 
 
 def test_wall_time_limit_stops_the_identification(tmp_path):
-    service, active = _slow_service(tmp_path, max_wall_s=0.5)
+    service, active = _service_with_parameters(tmp_path, max_wall_s=0.5)
     before = active.results
     answer = service.handle(Identify.Request(**HUGE))
     assert not answer.ok and answer.cancelled and active.results is before
@@ -415,7 +409,8 @@ def test_worker_process_cancel_kill_and_priority():
         assert os.getpriority(os.PRIO_PROCESS, pid) == 7
         control = JobControl()
         threading.Timer(1.0, control.cancel, ("stop",)).start()
-        reply = worker.run(emps, dict(system="emps", friction="tustin", solver="de", pop=200, generations=1000), control)
+        reply = worker.run(emps, dict(system="emps", friction="tustin", solver="de", pop=200, generations=100_000),
+                           control)
         assert reply == ("cancelled", "cancelled") and control.progress[0] >= 1 and worker.pid == pid
         tx40 = load(ROOT / "bags" / "tx40_excitation")
         control = JobControl()
