@@ -84,8 +84,8 @@ def _guarded(fn):
             return fn(self, *args)
         except Exception as exc:  # noqa: BLE001 - the node must stay alive
             key = (fn.__name__, type(exc).__name__, str(exc))
-            # once per distinct error, not at 1 kHz; none when shutting down (a publish may fail)
-            if self.context.ok() and key not in self._logged_errors:
+            # once per distinct error, not at 1 kHz; none when closing (a publish may fail)
+            if self.context.ok() and self._entities and key not in self._logged_errors:
                 if len(self._logged_errors) < 100:
                     self._logged_errors.add(key)
                 self._log.error(f"{fn.__name__}: {type(exc).__name__}: {exc}\n{traceback.format_exc()}")
@@ -241,8 +241,8 @@ class FrictionIdNode(LifecycleNode):
             self.input_executor.remove_node(self.input_node)  # a no-op if configure failed before adding it
             self.input_node.destroy_node()
             self.input_node = None
-        while self._entities:
-            destroy, entity = self._entities.pop()
+        entities, self._entities = self._entities, []  # empty first: a callback racing this logs nothing
+        for destroy, entity in reversed(entities):
             destroy(entity)
 
     def _keep(self, destroy, entity):

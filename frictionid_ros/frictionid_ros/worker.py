@@ -366,6 +366,8 @@ class WorkerProcess:
         the child if it has not stopped within CANCEL_GRACE_S.
         """
         control = control or JobControl()
+        if self._closed:
+            return ("error", "node shutting down")
         self._ids += 1
         job = _Job(self._ids, series, kwargs, control)
         self._jobs.put(job)
@@ -373,6 +375,8 @@ class WorkerProcess:
         while not job.done.wait(0.05):
             if control.cancelled and time.monotonic() - control.cancelled_at > CANCEL_GRACE_S:
                 self._kill(job)
+            if self._closed and not self._thread.is_alive():  # stopped meanwhile: no one will answer
+                return ("error", "node shutting down")
         return job.reply
 
     def stop(self, timeout: float = 2.0) -> None:
