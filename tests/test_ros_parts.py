@@ -397,13 +397,17 @@ def test_wall_time_limit_stops_the_identification(tmp_path):
 
 @pytest.mark.slow
 def test_worker_process_cancel_kill_and_priority():
-    """The child stops at the optimiser's next report; one busy elsewhere (building a TX40 model,
-    no report for seconds) is killed and replaced; it runs at the requested niceness."""
+    """A job cancelled before the child is ready never runs; the child stops at the optimiser's
+    next report; one busy elsewhere (building a TX40 model, no report for seconds) is killed and
+    replaced; it runs at the requested niceness."""
     from frictionid_core.io import load
 
+    emps = load(ROOT / "bags" / "emps_estimation").slice(0, 4000)
     worker = WorkerProcess(nice=7)
     try:
-        emps = load(ROOT / "bags" / "emps_estimation").slice(0, 4000)
+        control = JobControl()  # cancelled while the child still starts (imports, warm-up: seconds)
+        threading.Timer(0.05, control.cancel, ("early",)).start()
+        assert worker.run(emps, dict(system="emps"), control) == ("cancelled", "early")
         assert worker.run(emps, dict(system="emps"))[0] == "ok"
         pid = worker.pid
         assert os.getpriority(os.PRIO_PROCESS, pid) == 7

@@ -373,8 +373,14 @@ class WorkerProcess:
         self._jobs.put(job)
         control.on_cancel(lambda: self._interrupt(job))
         while not job.done.wait(0.05):
-            if control.cancelled and time.monotonic() - control.cancelled_at > CANCEL_GRACE_S:
-                self._kill(job)
+            if control.cancelled:
+                with self._lock:
+                    sent = job.sent
+                if not sent:  # still waiting for the child (starting): the owner thread will skip it
+                    control.stopped_at = time.monotonic()
+                    return ("cancelled", control.reason)
+                if time.monotonic() - control.cancelled_at > CANCEL_GRACE_S:
+                    self._kill(job)
             if self._closed and not self._thread.is_alive():  # stopped meanwhile: no one will answer
                 return ("error", "node shutting down")
         return job.reply
