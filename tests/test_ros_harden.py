@@ -306,24 +306,29 @@ def test_lifecycle_node(own_ros, workdir):
             assert ros.call(ChangeState, "/frictionid/change_state",
                             ChangeState.Request(transition=Transition(id=transition))).success
 
+        def assert_no_feedforward(first_stamp: int) -> None:
+            """Joint states are buffered, no feed-forward is published."""
+            published = int(ros.diag_value("ff_published", status="frictionid: identification",
+                                           newer_than=time.monotonic()))
+            received = ros.received()
+            stamps = first_stamp + np.arange(50) * 1_000_000
+            ros.publish_states(stamps, np.zeros(50), np.full(50, 0.05), np.zeros(50), rate_hz=500, wait=True)
+            assert ros.received() >= received + 50
+            assert int(ros.diag_value("ff_published", status="frictionid: identification",
+                                      newer_than=time.monotonic())) == published
+            assert ros.diag_value("feedforward_on", status="frictionid: identification") == "False"
+
         assert state() == "unconfigured"
         assert not ros.node.create_client(ParametersFile, "/frictionid/save").wait_for_service(timeout_sec=1.0)
         change(Transition.TRANSITION_CONFIGURE)
         assert state() == "inactive"
         ros.wait_service(proc)
-        # inactive: joint states are buffered, no feed-forward
-        published = int(ros.diag_value("ff_published", status="frictionid: identification", newer_than=time.monotonic()))
-        received = ros.received()
-        stamps = 9_000 * NS + np.arange(50) * 1_000_000
-        ros.publish_states(stamps, np.zeros(50), np.full(50, 0.05), np.zeros(50), rate_hz=500, wait=True)
-        assert ros.received() >= received + 50
-        assert int(ros.diag_value("ff_published", status="frictionid: identification",
-                                  newer_than=time.monotonic())) == published
-        assert ros.diag_value("feedforward_on", status="frictionid: identification") == "False"
+        assert_no_feedforward(9_000 * NS)
         change(Transition.TRANSITION_ACTIVATE)
         assert state() == "active"
-        ros.assert_alive(proc)
+        ros.assert_alive(proc)  # the restored parameters fed forward
         change(Transition.TRANSITION_DEACTIVATE)
+        assert_no_feedforward(9_100 * NS)
         change(Transition.TRANSITION_CLEANUP)
         assert state() == "unconfigured"
         deadline = time.monotonic() + 20
