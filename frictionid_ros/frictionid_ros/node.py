@@ -234,6 +234,7 @@ class FrictionIdNode(LifecycleNode):
         service = getattr(self, "identify_service", None)
         if service is not None:
             service.stopping.set()
+            service.cancel_running("node shutting down")  # the worker child stops before its stdin closes
         if self._worker is not None:
             self._worker.stop()
             self._worker = None
