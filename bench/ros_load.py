@@ -14,10 +14,11 @@ friction-only, 6 joints, default sensor-data QoS) on a private ROS domain:
    Meanwhile identifications run: an ``ls`` one every 10 s and a long ``de`` (Tustin) action goal
    from 30 % to 80 % of the run, then cancelled. Measured: messages sent vs taken in by the node
    (its /diagnostics ``received``), feed-forward messages received here, feed-forward latency
-   (a) inside the node, middleware receipt of the joint state → both messages published (the
-   node's /diagnostics p50/p99/max over its last 4096 messages, reported each second) and (b) end
-   to end, send → ``~/friction_torque_state`` received here (two DDS hops + both executors;
-   matched by stamp to the recorded send time), p50/p99/max idle and during an identification
+   (a) inside the node, receipt of the joint state → both messages published (the node's
+   /diagnostics p50/p99/max over its last 4096 messages, reported each second) and (b) end to
+   end, send → ``~/friction_torque_state`` received back in the publisher process (like a driver
+   and its controller: two DDS hops + both executors; matched by stamp to the recorded send
+   time), p50/p99/max idle and during an identification
    (after the first SETTLE_S seconds, reported apart: discovery, the first messages);
    node RSS each 0.25 s. The ring buffer is shorter than the run (``--buffer``), so memory must
    plateau once it is full.
@@ -73,20 +74,62 @@ def _env(domain: int) -> dict:
 # ----------------------------------------------------------------------------- publisher role
 
 
+class FeedForwardProbe:
+    """Receive times of ``~/friction_torque_state`` in the process that publishes the joint
+    states (a robot driver and its controller): its own EventsExecutor thread, preallocated
+    arrays, nothing else in the process but the publishing loop."""
+
+    def __init__(self, node, size: int):
+        from rclpy.experimental import EventsExecutor
+        from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+        from sensor_msgs.msg import JointState
+
+        self.stamp = np.zeros(size, dtype=np.int64)  # stamp of each feed-forward message [ns]
+        self.recv = np.zeros(size, dtype=np.int64)  # its receive time [ns, system clock]
+        self.mono = np.zeros(size)  # its receive time [s, time.monotonic: the same clock in every process]
+        self.n = 0
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
+        node.create_subscription(JointState, "/frictionid/friction_torque_state", self._on_ff, qos)
+        self.executor = EventsExecutor(context=node.context)
+        self.executor.add_node(node)
+        self._stop = threading.Event()
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+
+    def _spin(self):
+        while not self._stop.is_set():
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def _on_ff(self, m):
+        now, mono, i = time.time_ns(), time.monotonic(), self.n
+        if i < len(self.recv):
+            self.recv[i], self.mono[i] = now, mono
+            self.stamp[i] = m.header.stamp.sec * NS + m.header.stamp.nanosec
+        self.n = i + 1
+
+    def close(self):
+        self._stop.set()
+        self.thread.join(2)
+        self.executor.shutdown(timeout_sec=2)
+
+
 def run_publisher(rate: float, duration: float, out: Path) -> None:
-    """Publish JointState at ``rate`` Hz for ``duration`` s (best effort, like a robot driver)."""
+    """Publish JointState at ``rate`` Hz for ``duration`` s (best effort, like a robot driver) and
+    receive the node's feed-forward; writes ``out`` (JSON) and ``out``.npz (send and receive times)."""
     import rclpy
     from rclpy.qos import qos_profile_sensor_data
     from sensor_msgs.msg import JointState
 
+    sys.setswitchinterval(0.0005)  # the probe's thread gets the GIL from the publishing loop at once
     rclpy.init()
     node = rclpy.create_node("bench_joint_state_publisher")
     pub = node.create_publisher(JointState, "/joint_states", qos_profile_sensor_data)
+    n = int(rate * duration)
+    probe = FeedForwardProbe(node, n + 1000)
     deadline = time.monotonic() + 10
     while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
         time.sleep(0.01)
     time.sleep(0.5)
-    n = int(rate * duration)
     k = np.arange(n) / rate
     freq = 0.2 + 0.07 * np.arange(6)
     amp = 0.8
@@ -111,10 +154,14 @@ def run_publisher(rate: float, duration: float, out: Path) -> None:
         send_ns[i] = time.time_ns()
         pub.publish(msg)
     wall = time.monotonic() - t0
-    np.save(out.with_suffix(".npy"), send_ns)
-    out.write_text(json.dumps({"sent": n, "wall_s": wall, "late_2ms": late, "cpu_s": time.process_time(),
-                               "base_ns": base_ns}))
-    time.sleep(0.5)
+    cpu = time.process_time()
+    time.sleep(0.5)  # the last feed-forward messages
+    probe.close()
+    m = min(probe.n, len(probe.recv))
+    np.savez(out.with_suffix(".npz"), send_ns=send_ns, ff_stamp=probe.stamp[:m], ff_recv=probe.recv[:m],
+             ff_mono=probe.mono[:m])
+    out.write_text(json.dumps({"sent": n, "wall_s": wall, "late_2ms": late, "cpu_s": cpu, "base_ns": base_ns,
+                               "feedforward_received": probe.n}))
     node.destroy_node()
     rclpy.try_shutdown()
 
@@ -162,16 +209,11 @@ class Bench:
         from frictionid_interfaces.msg import IdentifiedParameters
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-        from sensor_msgs.msg import JointState
 
         self.rclpy = rclpy
         self.ctx = rclpy.Context()
         rclpy.init(context=self.ctx, domain_id=domain)
         self.node = rclpy.create_node("frictionid_bench", context=self.ctx)
-        self.ff_stamp = np.zeros(2_000_000, dtype=np.int64)  # stamp of each feed-forward message [ns]
-        self.ff_recv = np.zeros(2_000_000, dtype=np.int64)  # its receive time [ns, system clock]
-        self.lat_t = np.zeros(2_000_000)  # its receive time (monotonic) [s]
-        self.n_ff = 0
         self.diag = {}
         self.diag_log = []
         self.lock = threading.Lock()
@@ -180,13 +222,10 @@ class Bench:
         self.latched = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                                   durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.IdentifiedParameters = IdentifiedParameters
-        self.node.create_subscription(JointState, "/frictionid/friction_torque_state", self._on_ff, rel)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, rel)
-        # Feed-forward subscription on its own executor thread: nothing else delays it (rclpy's
-        # EventsExecutor: about half the CPU of a SingleThreadedExecutor at 1 kHz, less self-disturbance).
-        from rclpy.experimental import EventsExecutor
-
-        self.executor = EventsExecutor(context=self.ctx)
+        # /diagnostics on its own executor thread, the clients on another (the feed-forward is
+        # received in the publisher process: FeedForwardProbe)
+        self.executor = SingleThreadedExecutor(context=self.ctx)
         self.executor.add_node(self.node)
         self.svc_node = rclpy.create_node("frictionid_bench_client", context=self.ctx)
         self.svc_executor = SingleThreadedExecutor(context=self.ctx)
@@ -225,15 +264,6 @@ class Bench:
             except Exception:  # noqa: BLE001
                 if self._closing.is_set() or not self.ctx.ok():
                     return
-
-    def _on_ff(self, m):
-        now = time.time_ns()
-        i = self.n_ff
-        if i < len(self.ff_recv):
-            self.ff_recv[i] = now
-            self.ff_stamp[i] = m.header.stamp.sec * NS + m.header.stamp.nanosec
-            self.lat_t[i] = time.monotonic()
-        self.n_ff = i + 1
 
     def _on_diag(self, arr):
         with self.lock:
@@ -344,6 +374,18 @@ def write_true_parameters(path: Path) -> None:
                                  for i, j in enumerate(JOINTS)}))
 
 
+def timeline(lat_s: np.ndarray, t_s: np.ndarray, during: np.ndarray, step: float = 2.0) -> list:
+    """[start [s], p50, p99, max [ms], share during an identification] of each ``step`` s: tells a
+    burst of the machine (every percentile up) from the node's."""
+    rows = []
+    for a in np.arange(0.0, float(np.nanmax(t_s, initial=0.0)), step):
+        m = (t_s >= a) & (t_s < a + step) & np.isfinite(lat_s)
+        if m.any():
+            rows.append([round(float(a), 1), *(round(pct(lat_s[m], q) * 1e3, 3) for q in (50, 99, 100)),
+                         round(float(during[m].mean()), 2)])
+    return rows
+
+
 def lat_stats(lat_s: np.ndarray) -> dict:
     """p50, p99, max [ms] and n of latencies [s]."""
     return {"p50": pct(lat_s, 50) * 1e3, "p99": pct(lat_s, 99) * 1e3, "max": pct(lat_s, 100) * 1e3,
@@ -399,7 +441,7 @@ def phase_load(bench: Bench, node: Node, args, work: Path, domain: int, buffer_s
             pub.kill()
     load_wall = time.monotonic() - t_load
     cpu = {"node": (_cpu_s(node.proc.pid) - cpu0["node"]) / load_wall,
-           "bench_subscriber": (time.process_time() - cpu0["bench"]) / load_wall}
+           "bench_clients": (time.process_time() - cpu0["bench"]) / load_wall}
     time.sleep(2.5)  # let the last identification and diagnostics in
     if de["handle"] is not None and "end" not in de:  # not answered during the load phase
         got = bench.wait(de["result"], 30) if "result" in de else None
@@ -409,16 +451,16 @@ def phase_load(bench: Bench, node: Node, args, work: Path, domain: int, buffer_s
     pubres = json.loads(pub_out.read_text())
     received = int(bench.diag_value("received", fresh_after=time.monotonic()))
     done_idents = [b[0] for b in idents if b]
-    n = min(bench.n_ff, len(bench.ff_recv))
-    send_ns = np.load(pub_out.with_suffix(".npy"))
-    idx = np.round((bench.ff_stamp[:n] - pubres["base_ns"]) * args.rate / NS).astype(np.int64)
+    times = np.load(pub_out.with_suffix(".npz"))
+    send_ns, ff_mono = times["send_ns"], times["ff_mono"]
+    idx = np.round((times["ff_stamp"] - pubres["base_ns"]) * args.rate / NS).astype(np.int64)
     ok = (idx >= 0) & (idx < len(send_ns))
-    lat = np.full(n, np.nan)  # end to end: actual send → feed-forward received here [s]
-    lat[ok] = (bench.ff_recv[:n][ok] - send_ns[idx[ok]]) * 1e-9
-    during = np.zeros(n, bool)
+    lat = np.full(len(idx), np.nan)  # end to end: actual send → feed-forward received by the publisher [s]
+    lat[ok] = (times["ff_recv"][ok] - send_ns[idx[ok]]) * 1e-9
+    during = np.zeros(len(idx), bool)
     for a, b, *_ in done_idents:
-        during |= (bench.lat_t[:n] >= a) & (bench.lat_t[:n] <= b)
-    settled = bench.lat_t[:n] >= t_load + SETTLE_S  # idle/during: after the start-up transient
+        during |= (ff_mono >= a) & (ff_mono <= b)
+    settled = ff_mono >= t_load + SETTLE_S  # idle/during: after the start-up transient
     reports = [(t, d["frictionid: identification"]) for t, d in bench.diag_log
                if "frictionid: identification" in d and d["frictionid: identification"]["ff_published"] != "0"]
     node_us = {k: [float(r[f"ff_latency_{k}_us"]) for _, r in reports] for k in ("p50", "p99", "max")}
@@ -446,11 +488,11 @@ def phase_load(bench: Bench, node: Node, args, work: Path, domain: int, buffer_s
         "sent": pubres["sent"], "publisher_wall_s": round(pubres["wall_s"], 3),
         "publisher_late_gt_2ms": pubres["late_2ms"],
         "cpu_cores": {**{k: round(v, 3) for k, v in cpu.items()},
-                      "publisher": round(pubres["cpu_s"] / pubres["wall_s"], 3)},
+                      "publisher_and_probe": round(pubres["cpu_s"] / pubres["wall_s"], 3)},
         "received_by_node": received, "lost": pubres["sent"] - received,
         "rejected": int(bench.diag_value("rejected")),
         "feedforward_published_by_node": int(bench.diag_value("ff_published", status="frictionid: identification")),
-        "feedforward_received_here": int(bench.n_ff),
+        "feedforward_received_by_publisher": int(pubres["feedforward_received"]),
         "node_latency_us": {"p50_median": pct(node_us["p50"], 50), "p99_median": pct(node_us["p99"], 50),
                             "p99_worst": max(node_us["p99"], default=None),
                             "max_worst": max(node_us["max"], default=None),
@@ -458,7 +500,8 @@ def phase_load(bench: Bench, node: Node, args, work: Path, domain: int, buffer_s
         "end_to_end_latency_ms": {"all": lat_stats(lat), "start_up": lat_stats(lat[~settled]),
                                   "idle": lat_stats(lat[settled & ~during]),
                                   "during_identification": lat_stats(lat[settled & during])},
-        "worst_end_to_end": [{"ms": round(float(lat[i]) * 1e3, 3), "at_s": round(float(bench.lat_t[i] - t_load), 3),
+        "end_to_end_timeline_ms": timeline(lat, ff_mono - t_load, during),
+        "worst_end_to_end": [{"ms": round(float(lat[i]) * 1e3, 3), "at_s": round(float(ff_mono[i] - t_load), 3),
                               "during_identification": bool(during[i])}
                              for i in np.argsort(np.nan_to_num(lat, nan=-1.0))[::-1][:8]],
         "long_identification": {"feedback_messages": len(de["feedback"]),
@@ -651,8 +694,8 @@ def main() -> int:
     L, C = result["load"], result["cancel"]
     e2e = L["end_to_end_latency_ms"]
     print(f"load: {L['sent']} sent at {args.rate:g} Hz x {len(JOINTS)} joints, node received {L['received_by_node']} "
-          f"(lost {L['lost']}); feed-forward published {L['feedforward_published_by_node']}, received here "
-          f"{L['feedforward_received_here']}")
+          f"(lost {L['lost']}); feed-forward published {L['feedforward_published_by_node']}, received by the "
+          f"publisher {L['feedforward_received_by_publisher']}")
     print(f"  CPU [cores]: {L['cpu_cores']}")
     print(f"  node feed-forward latency (receipt -> published): p50 {L['node_latency_us']['p50_median']:.0f} us, "
           f"p99 (median of the 1 s reports) {L['node_latency_us']['p99_median']:.0f} us, worst report p99 "
@@ -660,7 +703,7 @@ def main() -> int:
           f"idle {L['node_latency_us']['idle']}, during identification {L['node_latency_us']['during_identification']}")
     for name in ("start_up", "idle", "during_identification"):
         f = e2e[name]
-        print(f"  end to end (pub -> node -> here), {name.replace('_', ' ')}: p50 {f['p50']:.3f} ms, "
+        print(f"  end to end (publisher -> node -> publisher), {name.replace('_', ' ')}: p50 {f['p50']:.3f} ms, "
               f"p99 {f['p99']:.3f} ms, max {f['max']:.3f} ms (n={f['n']})")
     print(f"  worst end to end: {L['worst_end_to_end']}")
     print(f"  long de goal: {L['long_identification']}")
