@@ -13,7 +13,7 @@ friction-only, 6 joints, default sensor-data QoS) on a private ROS domain:
    with that friction as its active parameters, so it feeds forward from the first message.
    Meanwhile identifications run: an ``ls`` one every 10 s and a long ``de`` (Tustin) action goal
    from 30 % to 80 % of the run, then cancelled. Measured: messages sent vs taken in by the node
-   (its /diagnostics ``received``), feed-forward messages received here, feed-forward latency
+   (its /diagnostics ``received``), feed-forward messages received back, feed-forward latency
    (a) inside the node, receipt of the joint state → both messages published (the node's
    /diagnostics p50/p99/max over its last 4096 messages, reported each second) and (b) end to
    end, send → ``~/friction_torque_state`` received back in the publisher process (like a driver
@@ -669,7 +669,7 @@ def main() -> int:
               "rate_hz": args.rate, "joints": len(JOINTS), "buffer_seconds": buffer_s, "domain": domain,
               "cpus": os.cpu_count(), "loadavg_start": os.getloadavg()}
     bench = Bench(domain)
-    gc.freeze()  # as the node does: no ~100 ms full collections stalling the subscriber
+    gc.freeze()  # as the node does: no ~100 ms full collections stalling the clients
     node = Node(work, domain, buffer_s, "load", args.input_executor, extra)
     try:
         result["node_start_s"] = wait_ready(bench, node)
