@@ -229,14 +229,11 @@ class _Child:
 
 
 def _lower_priority() -> None:
-    """Niceness and CPU set of the environment (FRICTIONID_WORKER_NICE, FRICTIONID_WORKER_CPUS),
-    set before any thread starts: every thread of the child inherits them."""
+    """The niceness of the environment (FRICTIONID_WORKER_NICE), set before any thread starts:
+    every thread of the child inherits it."""
     try:
         os.nice(int(os.environ.get("FRICTIONID_WORKER_NICE", "0")))
-        cpus = [int(c) for c in os.environ.get("FRICTIONID_WORKER_CPUS", "").split(",") if c]
-        if cpus:
-            os.sched_setaffinity(0, cpus)
-    except (OSError, ValueError, AttributeError):  # no such CPU, or not Linux: run as is
+    except (OSError, ValueError):
         pass
 
 
@@ -268,14 +265,13 @@ class _Job:
 class WorkerProcess:
     """Parent side: one child, one identification at a time, replaced if it dies or is killed.
 
-    ``nice``: niceness added to the child's [0..19]; ``cpus``: CPUs it may run on (empty: any),
-    and as many BLAS/numba threads (one if empty). A long-lived owner thread starts the child and
+    ``nice``: niceness added to the child's [0..19]; the child runs one BLAS/numba thread. A long-lived owner thread starts the child and
     reads from it: Linux's PR_SET_PDEATHSIG is tied to the thread that created the child, so that
     thread must live as long as the node.
     """
 
-    def __init__(self, nice: int = 0, cpus: tuple[int, ...] = ()):
-        self._nice, self._cpus = int(nice), tuple(cpus)
+    def __init__(self, nice: int = 0):
+        self._nice = int(nice)
         self._proc: subprocess.Popen | None = None
         self._jobs: queue.Queue = queue.Queue()
         self._lock = threading.Lock()  # stdin writes, job.sent, the running job
@@ -296,10 +292,9 @@ class WorkerProcess:
         import frictionid_ros
 
         paths = [str(Path(m.__file__).resolve().parents[1]) for m in (frictionid_ros, frictionid_core)]
-        env = dict(os.environ, FRICTIONID_WORKER_NICE=str(self._nice),
-                   FRICTIONID_WORKER_CPUS=",".join(map(str, self._cpus)))
+        env = dict(os.environ, FRICTIONID_WORKER_NICE=str(self._nice))
         env["PYTHONPATH"] = os.pathsep.join(paths + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
-        env.update({name: str(max(1, len(self._cpus))) for name in THREAD_VARIABLES})
+        env.update({name: "1" for name in THREAD_VARIABLES})
         self._proc = subprocess.Popen([sys.executable, "-m", "frictionid_ros.worker"], stdin=subprocess.PIPE,
                                       stdout=subprocess.PIPE, env=env, close_fds=True)
         return self._proc
