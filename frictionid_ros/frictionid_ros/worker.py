@@ -5,8 +5,8 @@ rather than a thread: the pipeline is CPU-bound Python/numpy and, in a thread, w
 GIL from the 1 kHz input callback (measured: end-to-end feed-forward latency p50 12 ms, p99
 39 ms during an identification instead of < 1 ms), and its temporary arrays would stay in the
 node's heap. The child also isolates the node from a crashing solver, and it can be killed.
-It runs at a low priority (``nice``) with one BLAS/numba thread per allowed CPU (one by
-default), so the identification never takes every core from the feed-forward path.
+It runs at a low priority (``nice``) with one BLAS/numba thread, so the identification never
+takes every core from the feed-forward path.
 
 Protocol on the child's stdin/stdout: 8-byte little-endian length + pickle, both ways.
 Node → child: ``("job", id, series, kwargs)``, ``("cancel", id)``. Child → node: ``("ready", pid)``
@@ -265,8 +265,8 @@ class _Job:
 class WorkerProcess:
     """Parent side: one child, one identification at a time, replaced if it dies or is killed.
 
-    ``nice``: niceness added to the child's [0..19]; the child runs one BLAS/numba thread. A long-lived owner thread starts the child and
-    reads from it: Linux's PR_SET_PDEATHSIG is tied to the thread that created the child, so that
+    ``nice``: niceness added to the child's [0..19]; the child runs one BLAS/numba thread. A
+    long-lived owner thread starts the child and reads from it: Linux's PR_SET_PDEATHSIG is tied to the thread that created the child, so that
     thread must live as long as the node.
     """
 
