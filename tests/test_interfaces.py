@@ -23,6 +23,7 @@ with warnings.catch_warnings():
 
     try:
         from frictionid_interfaces.msg import IdentifiedParameters, JointFriction
+        from frictionid_interfaces.action import Identify as IdentifyAction
         from frictionid_interfaces.srv import Identify, ParametersFile
     except ImportError as exc:  # pragma: no cover - message for a broken setup
         raise ImportError(
@@ -116,6 +117,14 @@ def test_identify_response_and_parameters_file():
     }
     assert Identify.Response().success is False
     assert ParametersFile.Request().path == ""
+
+
+def test_identify_action_goal_result_feedback():
+    """The action's goal and result are the service's request and response (one parser serves both)."""
+    assert _fields(IdentifyAction.Goal) == _fields(Identify.Request)
+    assert _fields(IdentifyAction.Result) == _fields(Identify.Response)
+    assert _fields(IdentifyAction.Feedback) == {
+        "generation": "uint32", "evaluations": "uint32", "best_cost": "double", "elapsed_s": "double"}
 
 
 def test_field_types_are_enforced_when_checking():

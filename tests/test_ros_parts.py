@@ -6,7 +6,11 @@ from __future__ import annotations
 
 import json
 import logging
+import os
+import threading
+import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,17 +23,19 @@ with warnings.catch_warnings():
     from std_msgs.msg import Float64MultiArray
 
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_ros.config import PARAMETERS, make_config
+from frictionid_ros.config import LIMITS, PARAMETERS, PATH_PARAMETERS, make_config
 from frictionid_ros.inputs import Inputs
 from frictionid_ros.request import parse_request
 from frictionid_ros.service import IdentifyService
-from frictionid_ros.store import ActiveParameters, read_results
+from frictionid_ros.store import ActiveParameters, read_results, request_path
+from frictionid_ros.worker import JobControl, WorkerProcess
 from frictionid_ros.window import window_series
 
 NS = 1_000_000_000
 T0 = 1_700_000_000 * NS  # first stamp [ns]
 PERIOD = 1_000_000  # 1 kHz [ns]
 LOG = logging.getLogger(__name__)
+ROOT = Path(__file__).resolve().parents[1]
 FV, FC = np.array([2.0, 1.0]), np.array([0.5, 0.3])  # joints a, b
 
 
@@ -107,6 +113,11 @@ def test_request_defaults_and_overrides(tmp_path):
     (dict(window_seconds=float("nan")), r"window_seconds must be >= 0"),
     (dict(window_seconds=2.0, window_end=_time(T0)), r"both window_seconds and window_start/window_end"),
     (dict(window_start=_time(T0), window_end=_time(T0)), r"window_end must be after window_start"),
+    (dict(budget=1001), r"request field 'budget' = 1001 is over the node's limit max_budget = 1000"),
+    (dict(population=2**31 - 1), r"request field 'population' = 2147483647 is over the node's limit max_population"),
+    (dict(window_seconds=61.0), r"window_seconds = 61 s is over the node's limit max_window_seconds = 60 s"),
+    (dict(window_start=_time(T0), window_end=_time(T0 + 61 * NS)),
+     r"window_start..window_end = 61 s is over the node's limit max_window_seconds = 60 s"),
 ])
 def test_request_errors_name_the_field(tmp_path, fields, needle):
     with pytest.raises(FrictionIdError, match=needle):
@@ -119,6 +130,19 @@ def test_parameters_share_the_validation_and_name_the_parameter(tmp_path):
         _cfg(tmp_path, friction_model="lugre")
     with pytest.raises(FrictionIdError, match=r"^parameter 'solver': unknown solver 'x'"):
         _cfg(tmp_path, solver="x")
+    with pytest.raises(FrictionIdError, match=r"^parameter 'window_seconds' = 90.0 s is over the limit "
+                                              r"max_window_seconds = 60.0 s"):
+        _cfg(tmp_path, window_seconds=90.0)
+    with pytest.raises(FrictionIdError, match=r"^parameter 'worker_nice' must lie in 0..19, got 20"):
+        _cfg(tmp_path, worker_nice=20)
+    assert _cfg(tmp_path).results_dir == tmp_path  # the folder of results_file by default
+    assert _cfg(tmp_path, results_dir=str(tmp_path / "r")).results_dir == tmp_path / "r"
+
+
+def test_paths_and_limits_are_start_up_parameters():
+    """A client's runtime parameter change can name no file and lift no limit."""
+    for name in PATH_PARAMETERS + LIMITS:
+        assert PARAMETERS[name][2], f"parameter '{name}' must be read-only"
 
 
 # --------------------------------------------------------------------------- window
@@ -231,15 +255,18 @@ def test_identify_service_answers_and_activates(tmp_path):
     published = []
     active = ActiveParameters(cfg.results_file, published.append, log=LOG)
     service = IdentifyService(lambda: cfg, inputs, active, {"joint_states": "/joint_states"}, None, log=LOG)
-    ok, message, result = service.handle(Identify.Request())
+    answer = service.handle(Identify.Request())
+    ok, message, result = answer.ok, answer.message, answer.identified
     assert not ok and message.startswith("too little data") and result is None
     assert (service.last_ok, service.last_status) == (False, message)
     stamps, _, _ = _feed(inputs)
-    ok, message, result = service.handle(Identify.Request(joints=["b"], dry_run=True))
+    answer = service.handle(Identify.Request(joints=["b"], dry_run=True))
+    ok, message, result = answer.ok, answer.message, answer.identified
     assert ok and "dry run" in message and not published and not cfg.results_file.exists()
     # noise-free data: only the pre-processing (filtered derivatives) moves the estimates, by < 0.1 %
     assert list(result.per_joint) == ["b"] and result.per_joint["b"].params["Fc"] == pytest.approx(FC[1], rel=1e-3)
-    ok, message, result = service.handle(Identify.Request())
+    answer = service.handle(Identify.Request())
+    ok, message, result = answer.ok, answer.message, answer.identified
     assert ok and message.startswith("identified friction-only/coulomb with ls on 1000 samples of ['a', 'b']")
     assert f"saved to {cfg.results_file}" in message and service.last_status == message
     for i, j in enumerate("ab"):
@@ -258,8 +285,8 @@ def test_active_parameters_merge_save_and_load(tmp_path):
     changes = []
     active = ActiveParameters(cfg.results_file, changes.append, log=LOG)
     service = IdentifyService(lambda: cfg, inputs, active, {"joint_states": "/joint_states"}, None, log=LOG)
-    assert service.handle(Identify.Request(joints=["a"]))[0]
-    assert service.handle(Identify.Request(joints=["b"], friction_model="tustin", solver="lm"))[0]
+    assert service.handle(Identify.Request(joints=["a"])).ok
+    assert service.handle(Identify.Request(joints=["b"], friction_model="tustin", solver="lm")).ok
     assert {j: p.friction for j, p in active.results.per_joint.items()} == {"a": "coulomb", "b": "tustin"}
     assert active.save(active.file("")) == (True, f"saved parameters of ['a', 'b'] to {cfg.results_file}")
     other = tmp_path / "other.json"
@@ -273,3 +300,126 @@ def test_active_parameters_merge_save_and_load(tmp_path):
     assert len(changes) == 3
     assert fresh.load(tmp_path / "missing.json") == (False, f"{tmp_path / 'missing.json'}: no such parameters file")
     assert ActiveParameters(tmp_path / "none.json", changes.append, LOG).save(other)[1].startswith("no active")
+
+
+def test_window_longer_than_the_limit_is_refused(tmp_path):
+    cfg = _cfg(tmp_path, max_window_seconds=0.5, min_samples=50)
+    inputs = _inputs(cfg)
+    stamps, _, _ = _feed(inputs)  # 1 s of data
+    assert len(_window(cfg, inputs).series) == 501  # the whole buffer: its newest 0.5 s
+    with pytest.raises(InputError, match=r"window of 0.999 s in window_start..window_end is over the limit "
+                                         r"max_window_seconds = 0.5 s"):
+        _window(cfg, inputs, window_start=_time(int(stamps[0])))  # an open range
+
+
+# --------------------------------------------------------------------------- results folder, cancel, wall time
+
+
+def _service_with_parameters(tmp_path, **changes):
+    """An IdentifyService (worker thread) on 1 s of data that identified once, and its active parameters."""
+    cfg = _cfg(tmp_path, identification_worker="thread", max_budget=100_000, **changes)
+    inputs = _inputs(cfg)
+    _feed(inputs)
+    active = ActiveParameters(cfg.results_file, lambda r: None, log=LOG)
+    service = IdentifyService(lambda: cfg, inputs, active, {"joint_states": "/joint_states"}, None, log=LOG)
+    assert service.handle(Identify.Request()).ok
+    return service, active
+
+
+
+
+def test_request_paths_stay_inside_the_results_folder(tmp_path):
+    folder, outside = tmp_path / "results", tmp_path / "outside"
+    folder.mkdir()
+    outside.mkdir()
+    (outside / "notes.txt").write_text("x")
+    (folder / "sub").mkdir()
+    (folder / "out").symlink_to(outside, target_is_directory=True)
+    (folder / "evil.json").symlink_to(outside / "notes.txt")
+    (folder / "alias.json").symlink_to(folder / "sub" / "p.json")  # a link inside the folder is fine
+    assert request_path(folder, "p.json") == folder / "p.json"
+    assert request_path(folder, "sub/p.json") == request_path(folder, str(folder / "sub" / "p.json"))
+    assert request_path(folder, "./sub//p.json") == folder / "sub" / "p.json"
+    assert request_path(folder, "alias.json") == folder / "sub" / "p.json"
+    refused = {str(outside / "notes.txt"): "outside the results folder", "/etc/passwd": "outside the results folder",
+               "../outside/notes.txt": "'..'", "sub/../../outside/x.json": "'..'",
+               "out/x.json": "symbolic link", "evil.json": "symbolic link", ".": "symbolic link",
+               "none/x.json": "no such folder", "a\0b": "NUL"}
+    for name, needle in refused.items():
+        with pytest.raises(FrictionIdError, match="refused") as err:
+            request_path(folder, name)
+        assert needle in str(err.value) and f"inside the results folder {folder}" in str(err.value), str(err.value)
+    # a folder reached through a symbolic link: its real path is accepted as inside too
+    (tmp_path / "link").symlink_to(folder, target_is_directory=True)
+    assert request_path(tmp_path / "link", str(folder / "p.json")) == folder / "p.json"
+
+
+def test_the_node_overwrites_only_its_own_files(tmp_path):
+    _, active = _service_with_parameters(tmp_path)
+    foreign = tmp_path / "foreign.json"
+    for text in ('{"params": {}}', "not json", '{"format": "other/1"}'):
+        foreign.write_text(text)
+        ok, message = active.save(active.file("foreign.json"))
+        assert not ok and "not a parameters file written by this node" in message and foreign.read_text() == text
+    (tmp_path / "dir.json").mkdir()
+    assert not active.save(active.file("dir.json"))[0]
+    assert active.save(active.file("mine.json"))[0] and active.save(active.file("mine.json"))[0]  # its own: again
+
+
+HUGE = dict(friction_model="tustin", solver="de", population=200, budget=100_000)  # minutes on any machine
+
+
+def test_cancel_stops_the_identification_and_keeps_the_parameters(tmp_path):
+    service, active = _service_with_parameters(tmp_path)
+    before = active.results
+    control, box = JobControl(), {}
+    t = threading.Thread(target=lambda: box.setdefault("answer", service.handle(Identify.Request(**HUGE), control)))
+    t.start()
+    while control.progress[0] < 2:  # two generations done
+        time.sleep(0.01)
+    assert service.running is control and service.handle(Identify.Request()).message.startswith("busy")
+    assert service.cancel_running("cancelled by the test")
+    t.join(30)
+    answer = box["answer"]
+    assert not answer.ok and answer.cancelled and answer.identified is None
+    assert answer.message.startswith("cancelled by the test after") and "active parameters unchanged" in answer.message
+    assert active.results is before and service.running is None and not service.cancel_running("again")
+    assert service.handle(Identify.Request()).ok  # not stuck busy
+
+
+def test_wall_time_limit_stops_the_identification(tmp_path):
+    service, active = _service_with_parameters(tmp_path, max_wall_s=0.5)
+    before = active.results
+    answer = service.handle(Identify.Request(**HUGE))
+    assert not answer.ok and answer.cancelled and active.results is before
+    assert answer.message.startswith("stopped: over the wall-time limit max_wall_s = 0.5 s after"), answer.message
+
+
+@pytest.mark.slow
+def test_worker_process_cancel_kill_and_priority():
+    """A job cancelled before the child is ready never runs; the child stops at the optimiser's
+    next report; one busy elsewhere (building a TX40 model, no report for seconds) is killed and
+    replaced; it runs at the requested niceness."""
+    from frictionid_core.io import load
+
+    emps = load(ROOT / "bags" / "emps_estimation").slice(0, 4000)
+    worker = WorkerProcess(nice=7)
+    try:
+        control = JobControl()  # cancelled while the child still starts (imports, warm-up: seconds)
+        threading.Timer(0.05, control.cancel, ("early",)).start()
+        assert worker.run(emps, dict(system="emps"), control) == ("cancelled", "early")
+        assert worker.run(emps, dict(system="emps"))[0] == "ok"
+        pid = worker.pid
+        assert os.getpriority(os.PRIO_PROCESS, pid) == 7
+        control = JobControl()
+        threading.Timer(1.0, control.cancel, ("stop",)).start()
+        reply = worker.run(emps, dict(system="emps", friction="tustin", solver="de", pop=200, generations=100_000),
+                           control)
+        assert reply == ("cancelled", "cancelled") and control.progress[0] >= 1 and worker.pid == pid
+        tx40 = load(ROOT / "bags" / "tx40_excitation")
+        control = JobControl()
+        threading.Timer(1.0, control.cancel, ("stop",)).start()
+        assert worker.run(tx40, dict(system="tx40"), control) == ("cancelled", "stop")
+        assert worker.run(emps, dict(system="emps"))[0] == "ok" and worker.pid != pid  # a new child
+    finally:
+        worker.stop()

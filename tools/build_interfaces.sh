@@ -24,7 +24,7 @@ PY="$VENV/bin/python"
 [ -x "$PY" ] || die "no Python at $PY (run 'make setup' / create the venv first)"
 [ -f "$PKG/CMakeLists.txt" ] || die "interface package not found at $PKG"
 command -v cmake >/dev/null || die "cmake not found on PATH"
-for dep in rosidl_default_generators ament_cmake builtin_interfaces std_msgs; do
+for dep in rosidl_default_generators ament_cmake builtin_interfaces std_msgs action_msgs; do
   [ -d "$VENV/share/$dep/cmake" ] \
     || die "'$dep' is not installed in $VENV (pip install the ROS build tools from requirements.txt)"
 done
@@ -67,6 +67,6 @@ cmake --install "$BUILD" > "$BUILD/install.log" 2>&1 \
 
 # Smoke test in a fresh interpreter (the wheels' bootstrapper sets LD_LIBRARY_PATH).
 env -u _ROS_WHEELS_BOOTSTRAP_COMPLETE -u PYTHONPATH "$PY" -c \
-  'from frictionid_interfaces.msg import IdentifiedParameters, JointFriction; from frictionid_interfaces.srv import Identify, ParametersFile; Identify.Request(); IdentifiedParameters()' \
+  'from frictionid_interfaces.msg import IdentifiedParameters, JointFriction; from frictionid_interfaces.srv import Identify, ParametersFile; from frictionid_interfaces.action import Identify as IdentifyAction; Identify.Request(); IdentifyAction.Feedback(); IdentifiedParameters()' \
   || die "installed, but 'import frictionid_interfaces' fails in $PY"
 echo "build_interfaces.sh: OK, frictionid_interfaces installed into $VENV"

@@ -31,6 +31,8 @@ WORKERS = ("process", "thread")
 EXECUTORS = ("events", "single_threaded")
 
 # name: (default, description, read_only). Empty string-array defaults are declared typed.
+# Every parameter naming a file or folder (system urdf:PATH, results_file, results_dir) and every
+# limit is read-only: set at start-up, never by a client at runtime (PATH_PARAMETERS, LIMITS).
 PARAMETERS: dict[str, tuple[object, str, bool]] = {
     "joints": ([], "joint names to buffer, identify and feed forward, in this order "
                    "(empty: the names of the first joint_states message)", True),
@@ -68,8 +70,19 @@ PARAMETERS: dict[str, tuple[object, str, bool]] = {
     "smoothing_eps": (0.01, "sign smoothing tanh(v/eps) of the feed-forward [rad/s | m/s]; 0 = sign(v)", False),
     "results_file": ("~/.ros/frictionid/parameters.json", "JSON file of the active parameters: written "
                                                            "after each identification, read at start", True),
+    "results_dir": ("", "the only folder ~/save and ~/load may use; empty = the folder of results_file", True),
+    "max_budget": (1000, "largest budget a request may ask for [generations | cost calls]", True),
+    "max_population": (200, "largest population a request may ask for", True),
+    "max_window_seconds": (60.0, "longest data window of an identification [s]", True),
+    "max_wall_s": (120.0, "wall time after which an identification is stopped [s]", True),
+    "worker_nice": (19, "niceness of the identification worker process, 0..19 (19: the feed-forward "
+                        "path gets the CPU first)", True),
     "diagnostics_period_s": (1.0, "period of /diagnostics [s]", True),
 }
+
+
+PATH_PARAMETERS = ("system", "results_file", "results_dir")
+LIMITS = ("max_budget", "max_population", "max_window_seconds", "max_wall_s", "worker_nice")
 
 
 @dataclass(frozen=True)
@@ -99,6 +112,12 @@ class Config:
     feedforward_rate_hz: float
     smoothing_eps: float
     results_file: Path
+    results_dir: Path
+    max_budget: int
+    max_population: int
+    max_window_seconds: float
+    max_wall_s: float
+    worker_nice: int
     diagnostics_period_s: float
 
     @property
@@ -154,7 +173,7 @@ def make_config(values: dict) -> Config:
     joints = tuple(str(j) for j in v["joints"] if str(j))
     if len(set(joints)) != len(joints):
         raise FrictionIdError(f"parameter 'joints': duplicated names in {list(joints)}")
-    for name in ("buffer_seconds", "max_rate_hz", "diagnostics_period_s"):
+    for name in ("buffer_seconds", "max_rate_hz", "diagnostics_period_s", "max_window_seconds", "max_wall_s"):
         if not float(v[name]) > 0.0:
             raise FrictionIdError(f"parameter '{name}' must be > 0, got {v[name]}")
     for name in ("window_seconds", "max_missing_pct", "filter_cutoff_hz", "feedforward_rate_hz", "smoothing_eps"):
@@ -163,6 +182,14 @@ def make_config(values: dict) -> Config:
     for name in ("decimation", "min_samples"):
         if int(v[name]) < 0:
             raise FrictionIdError(f"parameter '{name}' must be >= 0, got {v[name]}")
+    for name in ("max_budget", "max_population"):
+        if int(v[name]) < 1:
+            raise FrictionIdError(f"parameter '{name}' must be >= 1, got {v[name]}")
+    if not 0 <= int(v["worker_nice"]) <= 19:
+        raise FrictionIdError(f"parameter 'worker_nice' must lie in 0..19, got {v['worker_nice']}")
+    if float(v["window_seconds"]) > float(v["max_window_seconds"]):
+        raise FrictionIdError(f"parameter 'window_seconds' = {v['window_seconds']} s is over the limit "
+                              f"max_window_seconds = {v['max_window_seconds']} s")
     if not 1 <= int(v["qos_depth"]) <= 100_000:
         raise FrictionIdError(f"parameter 'qos_depth' must lie in 1..100000, got {v['qos_depth']}")
     cap = float(v["buffer_seconds"]) * float(v["max_rate_hz"])
@@ -170,6 +197,7 @@ def make_config(values: dict) -> Config:
         raise FrictionIdError(f"buffer_seconds * max_rate_hz = {cap:.0f} samples is too large (max 5e7)")
     if v["velocity_source"] == "reference" and not v["reference_topic"]:
         raise FrictionIdError("velocity_source 'reference' needs a reference_topic")
+    results_file = Path(os.path.expanduser(str(v["results_file"]))).absolute()
     return Config(
         joints=joints,
         system=check_system(str(v["system"])),
@@ -194,7 +222,13 @@ def make_config(values: dict) -> Config:
         reference_topic=str(v["reference_topic"]),
         feedforward_rate_hz=float(v["feedforward_rate_hz"]),
         smoothing_eps=float(v["smoothing_eps"]),
-        results_file=Path(os.path.expanduser(str(v["results_file"]))).absolute(),
+        results_file=results_file,
+        results_dir=Path(os.path.expanduser(str(v["results_dir"]))).absolute() if v["results_dir"] else results_file.parent,
+        max_budget=int(v["max_budget"]),
+        max_population=int(v["max_population"]),
+        max_window_seconds=float(v["max_window_seconds"]),
+        max_wall_s=float(v["max_wall_s"]),
+        worker_nice=int(v["worker_nice"]),
         diagnostics_period_s=float(v["diagnostics_period_s"]),
     )
 

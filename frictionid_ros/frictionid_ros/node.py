@@ -1,6 +1,6 @@
 """The ``frictionid`` ROS 2 node: buffer joint states, identify friction on request, feed forward.
 
-    frictionid_node [--params-file config/frictionid.yaml] [--ros-args ...]
+    frictionid_node [--params-file config/frictionid.yaml] [--lifecycle] [--ros-args ...]
     python -m frictionid_ros.node --ros-args --params-file config/frictionid.yaml -p system:=friction-only
 
 Topics (``~`` = ``/frictionid``):
@@ -12,42 +12,45 @@ Topics (``~`` = ``/frictionid``):
   ``~/friction_torque_state`` (JointState: velocity used, effort = friction torque; header
   stamp = the stamp of the joint state that triggered it), ``/diagnostics`` (~1 Hz).
 
-Services: ``~/identify`` (Identify), ``~/reset`` (std_srvs/Trigger: clear the buffer),
-``~/save`` and ``~/load`` (ParametersFile).
+Services: ``~/identify`` (Identify), ``~/reset`` (std_srvs/Trigger: clear the buffer, cancel a
+running identification), ``~/save`` and ``~/load`` (ParametersFile: files of the results folder
+only). Action: ``~/identify`` (frictionid_interfaces/action/Identify: feedback, cancel).
+
+Lifecycle: a managed node (rclpy LifecycleNode). ``configure`` creates the subscriptions,
+publishers, services, action, worker and restores the parameters; ``activate`` starts the
+feed-forward, ``deactivate`` stops it (buffering and identification go on); ``cleanup`` and
+``shutdown`` cancel a running identification and remove everything ``configure`` created.
+With ``--lifecycle`` the node starts unconfigured and offers the lifecycle services; without
+it (the default) it configures and activates itself and offers none.
 
 Concurrency: the input callbacks (joint states, effort, reference, feed-forward) run on a hidden
 helper node ``_frictionid_input`` spun in its own thread by rclpy's EventsExecutor (or a
-SingleThreadedExecutor, ``input_executor``) — the only writer of the ring buffers (rclpy's
-MultiThreadedExecutor tops out below ~2 kHz). Services and diagnostics run on this node in a
-MultiThreadedExecutor: ``~/identify`` is in a reentrant callback group, so a second request is
-answered "busy" at once while the first one waits for the identification, which runs in a
-worker process (``identification_worker: process``, see :mod:`frictionid_ros.worker`) or a
-worker thread (``thread``). What the callbacks do is in ROS-free modules: :mod:`.inputs`
-(buffers, feed-forward velocity), :mod:`.service` (``~/identify``: :mod:`.request`,
-:mod:`.window`), :mod:`.store` (active parameters); :mod:`.messages` builds the outputs.
+SingleThreadedExecutor, ``input_executor``), the only writer of the ring buffers. Services, the
+action and diagnostics run on this node in a MultiThreadedExecutor (:mod:`.runner`); a second
+``~/identify`` is answered "busy" at once while the first one waits for the identification in a
+low-priority worker process (:mod:`.worker`) or thread. What the callbacks do is in ROS-free
+modules: :mod:`.inputs`, :mod:`.service` (with :mod:`.request`, :mod:`.window`: limits, cancel),
+:mod:`.store` (active parameters, results folder); :mod:`.messages` builds the outputs.
 """
 
 from __future__ import annotations
 
-import argparse
 import functools
 import sys
-import threading
 import time
 import traceback
 import warnings
 from dataclasses import replace
-from pathlib import Path
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, pulled in by rosidl on some versions
-    import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
     from frictionid_interfaces.msg import IdentifiedParameters
     from frictionid_interfaces.srv import Identify, ParametersFile
     from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
     from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
-    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.lifecycle import LifecycleNode, TransitionCallbackReturn
     from rclpy.node import Node
     from rclpy.parameter import Parameter
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -58,15 +61,16 @@ with warnings.catch_warnings():
 from frictionid_core.errors import FrictionIdError
 
 from frictionid_ros import config as cfgmod
+from frictionid_ros.action import IdentifyActionServer
 from frictionid_ros.buffer import NS
 from frictionid_ros.inputs import Inputs
 from frictionid_ros.messages import diagnostic_array, parameters_msg
+from frictionid_ros.runner import make_input_executor, run
 from frictionid_ros.service import IdentifyService
 from frictionid_ros.store import ActiveParameters, Results
 from frictionid_ros.worker import WorkerProcess, rss_kb
 
 SERVICE_DEPTH = 1000  # request queue of each service [requests]
-GIL_SWITCH_INTERVAL = 0.0005  # [s]
 
 
 def _guarded(fn):
@@ -80,8 +84,8 @@ def _guarded(fn):
             return fn(self, *args)
         except Exception as exc:  # noqa: BLE001 - the node must stay alive
             key = (fn.__name__, type(exc).__name__, str(exc))
-            # once per distinct error, not at 1 kHz; none when shutting down (a publish may fail)
-            if self.context.ok() and key not in self._logged_errors:
+            # once per distinct error, not at 1 kHz; none when closing (a publish may fail)
+            if self.context.ok() and self._entities and key not in self._logged_errors:
                 if len(self._logged_errors) < 100:
                     self._logged_errors.add(key)
                 self._log.error(f"{fn.__name__}: {type(exc).__name__}: {exc}\n{traceback.format_exc()}")
@@ -94,20 +98,65 @@ def _guarded(fn):
     return wrapper
 
 
-class FrictionIdNode(Node):
-    """See the module docstring. Raises FrictionIdError for a bad configuration."""
+class FrictionIdNode(LifecycleNode):
+    """See the module docstring. Raises FrictionIdError for a bad configuration; ``lifecycle``:
+    start unconfigured with the lifecycle services, else configure and activate at once."""
 
-    def __init__(self, *, context=None):
-        super().__init__(cfgmod.NODE_NAME, context=context)
+    def __init__(self, *, context=None, lifecycle: bool = False):
+        super().__init__(cfgmod.NODE_NAME, context=context, enable_communication_interface=lifecycle)
         self.cfg = cfg = self._declare_parameters()
         self._log = self.get_logger()
         self._logged_errors: set = set()
+        self._ff_on = False  # publish the feed-forward (lifecycle state active)
+        self._entities: list = []  # (destroy, entity) of what configure created, for cleanup
+        self._failure = ""
+        self.input_node = self._worker = None
+        self.input_executor = make_input_executor(cfg.input_executor, self._log, self.context)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        if not lifecycle:
+            for step, trigger in (("configure", self.trigger_configure), ("activate", self.trigger_activate)):
+                if trigger() != TransitionCallbackReturn.SUCCESS:
+                    raise FrictionIdError(f"{step} failed: {self._failure or 'see the log'}")
+
+    # ------------------------------------------------------------------ lifecycle
+
+    def on_configure(self, state) -> TransitionCallbackReturn:
+        try:
+            self._open()
+        except FrictionIdError as exc:
+            self._failure = str(exc)
+            self._log.error(f"configure failed: {exc}")
+            self.close()
+            return TransitionCallbackReturn.FAILURE
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state) -> TransitionCallbackReturn:
+        self._ff_on = True
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_deactivate(self, state) -> TransitionCallbackReturn:
+        self._ff_on = False
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_cleanup(self, state) -> TransitionCallbackReturn:
+        self.close()
+        return TransitionCallbackReturn.SUCCESS
+
+    on_shutdown = on_cleanup
+
+    def _open(self) -> None:
+        """Create what the node serves with (configure)."""
+        cfg = self.cfg
         self.inputs = Inputs(lambda: self.cfg, self._log.warning)
+        try:
+            cfg.results_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            self._log.warning(f"results folder {cfg.results_dir}: {exc.strerror or exc}")
         # Active parameters: restored from the results file so the feed-forward resumes.
-        self.active = ActiveParameters(cfg.results_file, self._on_parameters, self._log)
+        self.active = ActiveParameters(cfg.results_file, self._on_parameters, self._log, cfg.results_dir)
         self.active.restore()
         self.inputs.set_params(self.active.results.per_joint)
-        self._worker = WorkerProcess() if cfg.identification_worker == "process" else None
+        self._worker = WorkerProcess(cfg.worker_nice) if cfg.identification_worker == "process" else None
 
         # Inputs on a hidden helper node with its own single-threaded executor (module docstring):
         # rclpy's MultiThreadedExecutor tops out below ~2 kHz; one thread writes every buffer.
@@ -118,7 +167,6 @@ class FrictionIdNode(Node):
             history=HistoryPolicy.KEEP_LAST, depth=cfg.qos_depth,
             reliability=ReliabilityPolicy.BEST_EFFORT if cfg.qos == "sensor_data" else ReliabilityPolicy.RELIABLE,
             durability=DurabilityPolicy.VOLATILE)
-        self.input_executor = make_input_executor(cfg.input_executor, self._log, self.context)
         events = not isinstance(self.input_executor, SingleThreadedExecutor)
 
         def sub(typ, topic, callback):  # callback(message, receipt time [ns, system clock])
@@ -136,42 +184,72 @@ class FrictionIdNode(Node):
         if cfg.velocity_source == "reference":
             self.topics["reference"] = self.resolve_topic_name(cfg.reference_topic)
             sub(JointState, self.topics["reference"], self._on_reference)
+        if cfg.feedforward_rate_hz > 0.0:
+            inp.create_timer(1.0 / cfg.feedforward_rate_hz, self._on_ff_timer)
 
         qos_out = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
         latched = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self._pub_params = self.create_publisher(IdentifiedParameters, "~/parameters", latched)
-        self._pub_ff = self.create_publisher(Float64MultiArray, "~/friction_torque", qos_out)
-        self._pub_ff_state = self.create_publisher(JointState, "~/friction_torque_state", qos_out)
-        self._pub_diag = self.create_publisher(DiagnosticArray, "/diagnostics", qos_out)
+        self._pub_params = self._keep(self.destroy_publisher,
+                                      self.create_publisher(IdentifiedParameters, "~/parameters", latched))
+        self._pub_ff, self._pub_ff_state, self._pub_diag = (
+            self._keep(self.destroy_publisher, self.create_publisher(typ, topic, qos_out)) for typ, topic in (
+                (Float64MultiArray, "~/friction_torque"), (JointState, "~/friction_torque_state"),
+                (DiagnosticArray, "/diagnostics")))
         self._ff_msg = Float64MultiArray()
         self._ff_state_msg = JointState()
 
-        # Deep request queues: a burst of calls is answered (most of them "busy"), not dropped by DDS.
-        qos_srv = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=SERVICE_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
-        admin = MutuallyExclusiveCallbackGroup()
-        self.create_service(Identify, "~/identify", self._on_identify, qos_profile=qos_srv,
-                            callback_group=ReentrantCallbackGroup())
-        self.create_service(Trigger, "~/reset", self._on_reset, qos_profile=qos_srv, callback_group=admin)
-        self.create_service(ParametersFile, "~/save", self._on_save, qos_profile=qos_srv, callback_group=admin)
-        self.create_service(ParametersFile, "~/load", self._on_load, qos_profile=qos_srv, callback_group=admin)
-        self.create_timer(cfg.diagnostics_period_s, self._on_diagnostics,
-                          callback_group=MutuallyExclusiveCallbackGroup())
-        if cfg.feedforward_rate_hz > 0.0:
-            inp.create_timer(1.0 / cfg.feedforward_rate_hz, self._on_ff_timer)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
-
         self.identify_service = IdentifyService(lambda: self.cfg, self.inputs, self.active, self.topics, self._worker,
                                                 self._log)
+        # Deep request queues: a burst of calls is answered (most of them "busy"), not dropped by DDS.
+        qos_srv = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=SERVICE_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
+        admin, identify = MutuallyExclusiveCallbackGroup(), ReentrantCallbackGroup()
+        for typ, name, callback, group in ((Identify, "~/identify", self._on_identify, identify),
+                                           (Trigger, "~/reset", self._on_reset, admin),
+                                           (ParametersFile, "~/save", self._on_save, admin),
+                                           (ParametersFile, "~/load", self._on_load, admin)):
+            self._keep(self.destroy_service, self.create_service(typ, name, callback, qos_profile=qos_srv,
+                                                                 callback_group=group))
+        self._keep(self.destroy_timer, self.create_timer(cfg.diagnostics_period_s, self._on_diagnostics,
+                                                         callback_group=MutuallyExclusiveCallbackGroup()))
+        action = IdentifyActionServer(self, self.identify_service, lambda: self.inputs.joints, self._log_identify,
+                                      identify)
+        self._keep(lambda a: a.destroy(), action)
+
         if cfg.joints:
             self.inputs.setup(list(cfg.joints))
         restored = sorted(self.active.results.per_joint)
         if restored:
             self._pub_params.publish(parameters_msg(self.active.results, self.inputs.joints))
+        self.input_executor.add_node(inp)
         self._log.info(
-            f"ready: system {cfg.system}, joints {list(cfg.joints) or '(from the first message)'}, buffer "
+            f"configured: system {cfg.system}, joints {list(cfg.joints) or '(from the first message)'}, buffer "
             f"{cfg.buffer_seconds:g} s ({cfg.capacity} samples), input QoS {cfg.qos}, results {cfg.results_file}"
             + (f", restored parameters of {restored}" if restored else ""))
+
+    def close(self) -> None:
+        """Cancel a running identification (a waiting ~/identify answers), end the worker process and
+        remove what :meth:`_open` created (cleanup, shutdown, end of the process)."""
+        self._ff_on = False
+        service = getattr(self, "identify_service", None)
+        if service is not None:
+            service.stopping.set()
+            service.cancel_running("node shutting down")  # the worker child stops before its stdin closes
+        if self._worker is not None:
+            self._worker.stop()
+            self._worker = None
+        if self.input_node is not None:
+            self.input_executor.remove_node(self.input_node)  # a no-op if configure failed before adding it
+            self.input_node.destroy_node()
+            self.input_node = None
+        entities, self._entities = self._entities, []  # empty first: a callback racing this logs nothing
+        for destroy, entity in reversed(entities):
+            destroy(entity)
+
+    def _keep(self, destroy, entity):
+        """Remember ``entity`` (and how to ``destroy`` it) for :meth:`close`; returns it."""
+        self._entities.append((destroy, entity))
+        return entity
 
     # ------------------------------------------------------------------ parameters
 
@@ -199,8 +277,9 @@ class FrictionIdNode(Node):
         self.cfg = replace(
             self.cfg, solve=cfg.solve, window_seconds=cfg.window_seconds, min_samples=cfg.min_samples,
             max_missing_pct=cfg.max_missing_pct, smoothing_eps=cfg.smoothing_eps)
-        if self.inputs.ff is not None:
-            self.inputs.ff.eps = cfg.smoothing_eps
+        inputs = getattr(self, "inputs", None)
+        if inputs is not None and inputs.ff is not None:
+            inputs.ff.eps = cfg.smoothing_eps
         return SetParametersResult(successful=True)
 
     # ------------------------------------------------------------------ inputs and feed-forward
@@ -227,7 +306,7 @@ class FrictionIdNode(Node):
     def _publish_ff(self, t_rx: int = 0) -> None:
         """Publish the friction torque at the current velocity; ``t_rx``: receipt time of the trigger [ns]."""
         inp, ff = self.inputs, self.inputs.ff
-        if ff is None or not ff.active:
+        if ff is None or not ff.active or not self._ff_on:
             return
         values = ff.torque(inp.v, inp.tau).tolist()
         st = self._ff_state_msg
@@ -246,14 +325,18 @@ class FrictionIdNode(Node):
 
     @_guarded
     def _on_identify(self, req, res):
-        res.success, res.message, identified = self.identify_service.handle(req)
-        if identified is not None:
-            res.result = parameters_msg(identified, self.inputs.joints)
-        if res.success:
-            self._log.info(f"identify: {res.message}")
-        else:  # rclpy forbids one call site logging at two severities
-            self._log.warning(f"identify: {res.message}")
+        answer = self.identify_service.handle(req)
+        res.success, res.message = answer.ok, answer.message
+        if answer.identified is not None:
+            res.result = parameters_msg(answer.identified, self.inputs.joints)
+        self._log_identify(answer.ok, answer.message)
         return res
+
+    def _log_identify(self, ok: bool, message: str) -> None:
+        if ok:
+            self._log.info(f"identify: {message}")
+        else:  # rclpy forbids one call site logging at two severities
+            self._log.warning(f"identify: {message}")
 
     def _on_parameters(self, results: Results) -> None:
         """New active parameters (under ``active.lock``): feed them forward and publish them."""
@@ -263,20 +346,29 @@ class FrictionIdNode(Node):
 
     @_guarded
     def _on_reset(self, req, res):
-        res.success, res.message = True, f"buffer cleared ({self.inputs.clear()} samples dropped)"
+        cancelled = self.identify_service.cancel_running("cancelled by ~/reset")
+        res.success, res.message = True, (f"buffer cleared ({self.inputs.clear()} samples dropped)"
+                                          + ("; running identification cancelled" if cancelled else ""))
         self._log.info(res.message)
         return res
 
     @_guarded
     def _on_save(self, req, res):
-        path = self.active.file(req.path)
-        res.path, (res.success, res.message) = str(path), self.active.save(path)
-        return res
+        return self._file_request(req, res, self.active.save)
 
     @_guarded
     def _on_load(self, req, res):
-        path = self.active.file(req.path)
-        res.path, (res.success, res.message) = str(path), self.active.load(path)
+        return self._file_request(req, res, self.active.load)
+
+    def _file_request(self, req, res, action):
+        """~/save or ~/load: a file of the results folder (refused otherwise, nothing touched)."""
+        try:
+            path = self.active.file(req.path)
+        except FrictionIdError as exc:
+            res.success, res.message = False, str(exc)
+            self._log.warning(f"{'save' if action == self.active.save else 'load'}: {exc}")
+            return res
+        res.path, (res.success, res.message) = str(path), action(path)
         return res
 
     # ------------------------------------------------------------------ diagnostics
@@ -287,113 +379,21 @@ class FrictionIdNode(Node):
         pid = self._worker.pid if self._worker is not None else None
         values.update(rss_kb=rss_kb(), worker_pid=pid or "", worker_rss_kb=rss_kb(pid) if pid else 0)
         service = self.identify_service
-        busy = service.busy
+        busy, running = service.busy, service.running
         ident = {"busy": busy, "last_success": service.last_ok, "last_status": service.last_status,
-                 "active_joints": ",".join(sorted(self.active.results.per_joint)), **self.inputs.feedforward_values()}
+                 "active_joints": ",".join(sorted(self.active.results.per_joint)),
+                 "feedforward_on": self._ff_on, "last_cancel_ms": f"{service.last_cancel_ms:.1f}",
+                 "running_s": f"{time.monotonic() - running.t_start:.1f}" if running is not None else "",
+                 **self.inputs.feedforward_values()}
         self._pub_diag.publish(diagnostic_array(self.get_fully_qualified_name(), [
             ("joint buffer", ok, message, values),
             ("identification", service.last_ok, ("busy; last: " if busy else "") + service.last_status[:300], ident),
         ], self.get_clock().now().to_msg()))
 
-    def close(self) -> None:
-        """Let a waiting ~/identify answer and return; end the worker process."""
-        self.identify_service.stopping.set()
-        if self._worker is not None:
-            self._worker.stop()
-
-    def destroy_node(self) -> None:
-        self.input_node.destroy_node()
-        super().destroy_node()
-
-
-def _ros_argv(argv: list[str]) -> list[str]:
-    """rclpy arguments, with ``--params-file`` outside ``--ros-args`` turned into a ROS argument."""
-    from rclpy.utilities import remove_ros_args
-
-    parser = argparse.ArgumentParser(prog="frictionid_node", description="Joint friction identification node.")
-    parser.add_argument("--params-file", action="append", default=[], type=Path,
-                        help="YAML parameters (frictionid: ros__parameters: ...); same as --ros-args --params-file")
-    opts = parser.parse_args(remove_ros_args(argv)[1:])
-    extra = []
-    for f in opts.params_file:
-        if not f.is_file():
-            raise FrictionIdError(f"{f}: no such parameters file")
-        extra += ["--params-file", str(f.absolute())]
-    # ours first: explicit --ros-args -p/--params-file given later take precedence
-    return argv[:1] + (["--ros-args", *extra, "--"] if extra else []) + argv[1:]
-
-
-def make_input_executor(kind: str, log, context=None):
-    """The executor of the input node: rclpy's EventsExecutor (C++ event queue: about half the CPU
-    per message and a shorter latency tail than the SingleThreadedExecutor, measured in
-    bench/ros_load.py) or the SingleThreadedExecutor (the fallback if rclpy lacks the former)."""
-    if kind == "events":
-        try:
-            from rclpy.experimental import EventsExecutor
-
-            return EventsExecutor(context=context)
-        except Exception as exc:  # noqa: BLE001 - older rclpy: no EventsExecutor
-            log.warning(f"EventsExecutor unavailable ({type(exc).__name__}: {exc}); using SingleThreadedExecutor")
-    return SingleThreadedExecutor(context=context)
-
-
-def _spin(executor, node) -> None:
-    """Spin until shutdown. SIGINT/SIGTERM shut the context down, and an executor caught between
-    two waits then raises RCLError ("context is not valid"): that is a normal end too."""
-    context = node.context
-    while context.ok():
-        try:
-            executor.spin_once(timeout_sec=0.1)
-        except (KeyboardInterrupt, ExternalShutdownException):
-            return
-        except Exception as exc:  # noqa: BLE001
-            if not context.ok():
-                return
-            node.get_logger().error(f"executor: {type(exc).__name__}: {exc}")
-
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the node until SIGINT/SIGTERM; exit code 0, or 2 with one line for a bad configuration."""
-    argv = list(sys.argv if argv is None else argv)
-    try:
-        rclpy.init(args=_ros_argv(argv))
-    except FrictionIdError as exc:  # a missing --params-file
-        print(f"frictionid_node: error: {exc}", file=sys.stderr)
-        return 2
-    except Exception as exc:  # e.g. an unreadable --params-file given after --ros-args
-        print(f"frictionid_node: error: cannot initialise ROS: {exc}", file=sys.stderr)
-        return 2
-    # A thread waiting for the GIL gets it after at most this long (default 5 ms): bounds how
-    # long the services/diagnostics threads can delay the 1 kHz input callback.
-    sys.setswitchinterval(GIL_SWITCH_INTERVAL)
-    node, executors, input_thread = None, [], None
-    try:
-        node = FrictionIdNode()
-        inputs = node.input_executor
-        inputs.add_node(node.input_node)
-        services = MultiThreadedExecutor(num_threads=4)
-        services.add_node(node)
-        executors = [inputs, services]
-        input_thread = threading.Thread(target=_spin, args=(inputs, node.input_node), name="frictionid-input",
-                                        daemon=True)
-        input_thread.start()
-        _spin(services, node)
-    except FrictionIdError as exc:
-        print(f"frictionid_node: error: {exc}", file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.close()
-        for ex in executors:
-            ex.shutdown(timeout_sec=1.0)
-        if input_thread is not None:
-            input_thread.join(timeout=2.0)  # never destroy a node under a spinning executor
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    """Run the node until SIGINT/SIGTERM (see :func:`frictionid_ros.runner.run`)."""
+    return run(FrictionIdNode, argv)
 
 
 if __name__ == "__main__":

@@ -11,10 +11,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from frictionid_core.errors import InputError
+from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.options import SolveOptions
 
-from frictionid_ros.buffer import stamp_ns
+from frictionid_ros.buffer import NS, stamp_ns
 from frictionid_ros.config import Config, solve_options
 
 
@@ -49,11 +49,17 @@ class Job:
 
 
 def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
-    """Validate an Identify request against the node's settings ``cfg`` and ``buffered`` joints.
+    """Validate an Identify request (service request or action goal: the same fields) against the
+    node's settings ``cfg`` and ``buffered`` joints.
 
     Seed: > 0 as given, 0 the configured seed, < 0 a random one. Raises FrictionIdError (InputError
-    for joints and window) naming the field.
+    for joints and window) naming the field, or the limit (``max_budget``, ``max_population``,
+    ``max_window_seconds``) a value is over.
     """
+    for name, limit in (("budget", cfg.max_budget), ("population", cfg.max_population)):
+        if int(getattr(req, name)) > limit:
+            raise FrictionIdError(f"request field '{name}' = {getattr(req, name)} is over the node's limit "
+                                  f"max_{name} = {limit}")
     joints = list(req.joints) or list(buffered)
     unknown = [j for j in joints if j not in buffered]
     if unknown:
@@ -74,6 +80,11 @@ def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
         raise InputError("both window_seconds and window_start/window_end given; use one of them")
     if start and end and end <= start:
         raise InputError("window_end must be after window_start")
+    span = ws or ((end - start) / NS if start and end else 0.0)
+    if span > cfg.max_window_seconds:
+        what = f"window_seconds = {ws:g} s" if ws else f"window_start..window_end = {span:g} s"
+        raise InputError(f"request field {what} is over the node's limit max_window_seconds = "
+                         f"{cfg.max_window_seconds:g} s")
     if ws == 0.0 and not (start or end):
         ws = cfg.window_seconds
     return Job(joints, options, ws, start, end, bool(req.dry_run))

@@ -1,10 +1,11 @@
-"""The ``~/identify`` service without ROS: one identification at a time, answered in one line."""
+"""The ``~/identify`` service and action without ROS: one identification at a time, answered in one line."""
 
 from __future__ import annotations
 
 import threading
 import time
 import traceback
+from dataclasses import dataclass
 
 from frictionid_core.errors import FrictionIdError
 
@@ -13,7 +14,20 @@ from frictionid_ros.inputs import Inputs
 from frictionid_ros.request import Job, parse_request, summary
 from frictionid_ros.store import ActiveParameters, Results, split_identification
 from frictionid_ros.window import Selection, window_series
-from frictionid_ros.worker import WorkerProcess, checked_result, run_identification
+from frictionid_ros.worker import Cancelled, JobControl, WorkerProcess, checked_result, run_identification
+
+WAIT_PERIOD_S = 0.05  # how often a waiting request checks the wall time and calls on_wait [s]
+
+
+@dataclass
+class Answer:
+    """The answer to one request: ``ok``, one-line ``message``, the identification if ``ok``;
+    ``cancelled``: stopped by a cancel (client, ``~/reset``) or the wall-time limit."""
+
+    ok: bool
+    message: str
+    identified: Results | None = None
+    cancelled: bool = False
 
 
 class IdentifyService:
@@ -21,10 +35,12 @@ class IdentifyService:
 
     A request arriving while an identification runs is answered "busy" at once. The
     identification runs in ``worker`` (a child process) or, without one, a thread, while the
-    caller's thread waits and gives up when :attr:`stopping` is set. ``settings()`` returns the
-    node's current :class:`~frictionid_ros.config.Config`; ``topics`` the resolved
-    ``joint_states`` (and ``effort``) topic names; ``log`` has ``.error``. The last answer is
-    kept for the diagnostics (:attr:`last_ok`, :attr:`last_status`).
+    caller's thread waits; it is stopped by :meth:`cancel_running`, by the wall-time limit
+    ``max_wall_s`` and when :attr:`stopping` is set. ``settings()`` returns the node's current
+    :class:`~frictionid_ros.config.Config`; ``topics`` the resolved ``joint_states`` (and
+    ``effort``) topic names; ``log`` has ``.error``. The last answer is kept for the diagnostics
+    (:attr:`last_ok`, :attr:`last_status`), and the last cancel's latency (cancel → identification
+    stopped) in :attr:`last_cancel_ms`.
     """
 
     def __init__(self, settings, inputs: Inputs, active: ActiveParameters, topics: dict[str, str],
@@ -39,59 +55,89 @@ class IdentifyService:
         self._log = log
         self.stopping = threading.Event()
         self._busy = threading.Lock()
-        self._busy_since = 0.0
+        self._running: JobControl | None = None
         self.last_ok, self.last_status = True, "no identification yet"
+        self.last_cancel_ms = float("nan")
 
     @property
     def busy(self) -> bool:
         return self._busy.locked()
 
-    def handle(self, req) -> tuple[bool, str, Results | None]:
-        """Answer an Identify request: (success, message, the identification if successful)."""
-        t_start = time.monotonic()
+    @property
+    def running(self) -> JobControl | None:
+        """The control of the identification under way, if any."""
+        return self._running
+
+    def cancel_running(self, reason: str) -> bool:
+        """Stop the identification under way (its request is answered ``reason``); False if none."""
+        control = self._running
+        return control is not None and control.cancel(reason)
+
+    def handle(self, req, control: JobControl | None = None, on_wait=None) -> Answer:
+        """Answer an Identify request (or action goal). ``control``: lets the caller cancel the
+        identification and read its progress; ``on_wait(control)`` is called every WAIT_PERIOD_S
+        while it runs (the action publishes its feedback there)."""
+        control = control or JobControl()
         try:
             job = parse_request(req, self._settings(), self._inputs.joints)
         except FrictionIdError as exc:
             return self._record(False, str(exc))
         if not self._busy.acquire(blocking=False):  # not recorded: the running one is the news
-            return False, (f"busy: an identification is already running (for "
-                           f"{time.monotonic() - self._busy_since:.1f} s); try again later"), None
+            running = self._running
+            since = f" (for {time.monotonic() - running.t_start:.1f} s)" if running is not None else ""
+            return Answer(False, f"busy: an identification is already running{since}; try again later")
         try:
-            self._busy_since = time.monotonic()
-            box: dict = {}
-            done = threading.Event()
-
-            def work():
-                try:
-                    box["result"] = self._run(job)
-                except BaseException as exc:  # reported to the caller below, never kills the node
-                    box["error"] = exc
-                finally:
-                    done.set()
-
-            threading.Thread(target=work, name="frictionid-identify", daemon=True).start()
-            while not done.wait(0.1):
-                if self.stopping.is_set():
-                    return self._record(False, "node shutting down")
-            if "error" in box:
-                exc = box["error"]
-                if isinstance(exc, FrictionIdError):
-                    return self._record(False, str(exc))
-                self._log.error("identification crashed:\n" + "".join(traceback.format_exception(exc)))
-                return self._record(False, f"identification failed: {type(exc).__name__}: {exc}")
-            d, sel = box["result"]
-            stamp = time.time_ns()
-            n = len(sel.series)
-            identified = Results(split_identification(d, stamp), d, sel.start_ns, sel.end_ns, n, stamp)
-            text = summary(job, d, n, time.monotonic() - t_start)
-            text += " (dry run: active parameters unchanged)" if job.dry_run else self._active.activate(identified)
-            if sel.notes:
-                text += "; notes: " + "; ".join(sel.notes)
-            return self._record(True, text, identified)
+            self._running = control
+            return self._wait(job, control, on_wait)
         finally:
+            self._running = None
             self._busy.release()
 
-    def _run(self, job: Job) -> tuple[dict, Selection]:
+    def _wait(self, job: Job, control: JobControl, on_wait) -> Answer:
+        box: dict = {}
+        done = threading.Event()
+
+        def work():
+            try:
+                box["result"] = self._run(job, control)
+            except BaseException as exc:  # reported to the caller below, never kills the node
+                box["error"] = exc
+            finally:
+                control.stopped_at = control.stopped_at or time.monotonic()
+                done.set()
+
+        threading.Thread(target=work, name="frictionid-identify", daemon=True).start()
+        limit = self._settings().max_wall_s
+        while not done.wait(WAIT_PERIOD_S):
+            if self.stopping.is_set():
+                control.cancel("node shutting down")
+                return self._record(False, "node shutting down")
+            if time.monotonic() - control.t_start > limit:
+                control.cancel(f"stopped: over the wall-time limit max_wall_s = {limit:g} s")
+            if on_wait is not None:
+                on_wait(control)
+        exc = box.get("error")
+        if control.cancelled or isinstance(exc, Cancelled):
+            self.last_cancel_ms = (control.stopped_at - control.cancelled_at) * 1e3
+            return self._record(False, f"{control.reason or exc} after {control.stopped_at - control.t_start:.2f} s "
+                                       f"(identification stopped {self.last_cancel_ms:.0f} ms after the cancel); "
+                                       "active parameters unchanged", cancelled=True)
+        if exc is not None:
+            if isinstance(exc, FrictionIdError):
+                return self._record(False, str(exc))
+            self._log.error("identification crashed:\n" + "".join(traceback.format_exception(exc)))
+            return self._record(False, f"identification failed: {type(exc).__name__}: {exc}")
+        d, sel = box["result"]
+        stamp = time.time_ns()
+        n = len(sel.series)
+        identified = Results(split_identification(d, stamp), d, sel.start_ns, sel.end_ns, n, stamp)
+        text = summary(job, d, n, time.monotonic() - control.t_start)
+        text += " (dry run: active parameters unchanged)" if job.dry_run else self._active.activate(identified)
+        if sel.notes:
+            text += "; notes: " + "; ".join(sel.notes)
+        return self._record(True, text, identified)
+
+    def _run(self, job: Job, control: JobControl) -> tuple[dict, Selection]:
         """Identify the job's window: (the core's result dict, the window)."""
         cfg = self._settings()
         inputs = self._inputs
@@ -99,10 +145,10 @@ class IdentifyService:
                             self._topics.get("effort", ""))
         kwargs = job.identify_kwargs(cfg.system, self._pre)
         kwargs["drive"] = cfg.drive  # read-only: the one of start-up
-        reply = (self._worker.run(sel.series, kwargs, self.stopping) if self._worker is not None
-                 else run_identification(sel.series, kwargs))
+        reply = (self._worker.run(sel.series, kwargs, control) if self._worker is not None
+                 else run_identification(sel.series, kwargs, control.report))
         return checked_result(reply, self._log.error), sel
 
-    def _record(self, ok: bool, message: str, identified: Results | None = None):
+    def _record(self, ok: bool, message: str, identified: Results | None = None, cancelled: bool = False) -> Answer:
         self.last_ok, self.last_status = ok, message
-        return ok, message, identified
+        return Answer(ok, message, identified, cancelled)

@@ -9,8 +9,9 @@ The results file is JSON: the last identification exactly as ``Identification.to
   of the last identification and when it ran [ns since the epoch].
 
 A plain ``frictionid identify --json`` file (no ``per_joint``) is accepted by :func:`read_results`.
-Files are written atomically (temporary file + ``os.replace``). :class:`ActiveParameters` holds
-the node's active parameters and saves them.
+Files are written atomically (temporary file + ``os.replace``), never over a file the node did
+not write; requests name files inside the node's results folder only (:func:`request_path`).
+:class:`ActiveParameters` holds the node's active parameters and saves them.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from pathlib import Path
 from frictionid_core.drive import friction_rows
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import get_model
+from frictionid_core.jsonfile import write_json
 
 FORMAT = "frictionid_ros/1"
 
@@ -120,28 +122,55 @@ class Results:
 
 
 def write_results(path: Path, results: Results) -> Path:
-    """Write ``results`` atomically to ``path`` (directories created); returns the absolute path."""
-    path = Path(path).expanduser().absolute()
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        with open(tmp, "w") as f:
-            json.dump(results.to_dict(), f, indent=2, allow_nan=True)
-            f.write("\n")
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-        try:  # make the rename itself durable
-            fd = os.open(path.parent, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
-        except OSError:
+    """Write ``results`` atomically and durably to ``path`` (folders created); returns the absolute
+    path. Refuses to replace an existing file that is not a parameters file of the node
+    (:func:`check_replaceable`)."""
+    check_replaceable(Path(path))
+    return write_json(path, results.to_dict(), durable=True)
+
+
+def check_replaceable(path: Path) -> None:
+    """FrictionIdError unless ``path`` is free or a parameters file written by the node (its
+    ``format`` is FORMAT): the node never overwrites another file."""
+    if not os.path.lexists(path):
+        return
+    fmt = None
+    if path.is_file() and not path.is_symlink():
+        try:
+            data = json.loads(path.read_text())
+            fmt = data.get("format") if isinstance(data, dict) else None
+        except (OSError, UnicodeDecodeError, ValueError):
             pass
-    except OSError as exc:
-        raise FrictionIdError(f"{path}: cannot write parameters ({exc.strerror or exc})") from None
-    return path
+    if fmt != FORMAT:
+        raise FrictionIdError(f"{path}: refused: the file exists and is not a parameters file written by this node "
+                              f"(no \"format\": \"{FORMAT}\"); the node overwrites no other file")
+
+
+def request_path(folder: Path, name: str) -> Path:
+    """The file ``name`` of a ``~/save`` or ``~/load`` request: a path relative to ``folder`` (the
+    node's results folder) or an absolute path inside it, with symbolic links resolved.
+
+    Refused with a FrictionIdError naming the rule: a ``..`` component, an absolute path outside
+    ``folder``, a path whose real location is outside ``folder`` (a symbolic link leading out),
+    a sub-folder that does not exist. Nothing outside ``folder`` is looked at."""
+    rule = f"~/save and ~/load use only files inside the results folder {folder}"
+    if "\0" in name:
+        raise FrictionIdError(f"{name!r}: refused: a NUL character in the name; {rule}")
+    path = Path(name)
+    real_folder = Path(os.path.realpath(folder))
+    if ".." in path.parts:
+        raise FrictionIdError(f"'{name}': refused: '..' in the path; {rule}")
+    if path.is_absolute():
+        if not any(path.is_relative_to(f) for f in (folder, real_folder)):
+            raise FrictionIdError(f"'{name}': refused: outside the results folder; {rule}")
+    else:
+        path = folder / path
+    real = Path(os.path.realpath(path))
+    if real == real_folder or not real.is_relative_to(real_folder):
+        raise FrictionIdError(f"'{name}': refused: leads out of the results folder (symbolic link); {rule}")
+    if not real.parent.is_dir():
+        raise FrictionIdError(f"'{name}': refused: no such folder inside the results folder; {rule}")
+    return real
 
 
 def read_results(path: Path) -> Results:
@@ -187,18 +216,20 @@ class ActiveParameters:
 
     Every change goes to ``on_change(results)`` (feed-forward, publication) under :attr:`lock`
     and is saved to ``path`` (the ``results_file``); ``log`` reports a failed save (``.error``).
+    Requests name files in ``folder`` (default: the folder of ``path``).
     """
 
-    def __init__(self, path: Path, on_change, log):
+    def __init__(self, path: Path, on_change, log, folder: Path | None = None):
         self.path = Path(path)
+        self.folder = Path(folder) if folder is not None else self.path.parent
         self._on_change = on_change
         self._log = log
         self.lock = threading.Lock()
         self.results = Results()
 
-    def file(self, path: str) -> Path:
-        """A service request's file: ``path`` (``~`` expanded) made absolute; empty: :attr:`path`."""
-        return Path(os.path.expanduser(path)).absolute() if path else self.path
+    def file(self, name: str) -> Path:
+        """A service request's file (:func:`request_path` in :attr:`folder`); empty: :attr:`path`."""
+        return request_path(self.folder, name) if name else self.path
 
     def restore(self) -> None:
         """Read ``path`` if it exists (at start; ``on_change`` is not called)."""

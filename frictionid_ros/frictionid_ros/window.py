@@ -44,11 +44,15 @@ def window_series(job: Job, cfg: Config, ring: JointRing | None, topic: str,
         keep = (t >= job.start_ns) & ((t <= job.end_ns) if job.end_ns else True)
         what = "in window_start..window_end"
     else:
-        span = job.window_seconds or cfg.buffer_seconds
+        span = job.window_seconds or min(cfg.buffer_seconds, cfg.max_window_seconds)
         keep = t >= t.max() - int(span * NS)
         what = f"in the last {span:g} s"
     w = w.take(keep)
     n = len(w)
+    span = (int(w.t_ns.max()) - int(w.t_ns.min())) / NS if n else 0.0
+    if span > cfg.max_window_seconds:
+        raise InputError(f"window of {span:g} s {what} is over the limit max_window_seconds = "
+                         f"{cfg.max_window_seconds:g} s")
     if n < need:
         raise InputError(f"too little data: {n} joint-state samples {what} (need at least {cfg.min_samples}); "
                          f"{ring.count} buffered")

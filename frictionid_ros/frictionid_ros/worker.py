@@ -1,15 +1,21 @@
-"""Identification worker process (no ROS import).
+"""Identification worker process and the control of one identification (no ROS import).
 
 The node runs ``frictionid_core.identification`` in a child process (``python -m frictionid_ros.worker``)
 rather than a thread: the pipeline is CPU-bound Python/numpy and, in a thread, would take the
 GIL from the 1 kHz input callback (measured: end-to-end feed-forward latency p50 12 ms, p99
 39 ms during an identification instead of < 1 ms), and its temporary arrays would stay in the
-node's heap. The child also isolates the node from a crashing solver.
+node's heap. The child also isolates the node from a crashing solver, and it can be killed.
+It runs at a low priority (``nice``) with one BLAS/numba thread, so the identification never
+takes every core from the feed-forward path.
 
 Protocol on the child's stdin/stdout: 8-byte little-endian length + pickle, both ways.
-Request ``(series: JointSeries, kwargs: dict)``; reply ``("ok", Identification.to_dict())``,
-``("error", message)`` for a FrictionIdError or ``("crash", message)`` for anything else.
-The child exits when its stdin closes, and at once if the node dies (PR_SET_PDEATHSIG).
+Node → child: ``("job", id, series, kwargs)``, ``("cancel", id)``. Child → node: ``("ready", pid)``
+once, then per job any number of ``("progress", generation, evaluations, best_cost)`` (at most
+every PROGRESS_PERIOD_S) and one reply: ``("ok", Identification.to_dict())``, ``("error", message)``
+for a FrictionIdError, ``("cancelled", message)`` or ``("crash", message)`` for anything else.
+A cancelled job stops at the optimiser's next generation or cost call; a child that has not
+answered CANCEL_GRACE_S after a cancel is killed and replaced. The child exits when its stdin
+closes, and at once if the node dies (PR_SET_PDEATHSIG).
 """
 
 from __future__ import annotations
@@ -23,16 +29,71 @@ import struct
 import subprocess
 import sys
 import threading
+import time
 import traceback
 from pathlib import Path
 
 _HEADER = struct.Struct("<Q")
+PROGRESS_PERIOD_S = 0.1  # shortest interval between two progress messages of the child [s]
+CANCEL_GRACE_S = 0.25  # a cancelled child still running after this long is killed [s]
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
+
+
+class Cancelled(Exception):
+    """Raised inside an identification (from its progress hook) to stop it."""
+
+
+class JobControl:
+    """Cancellation and progress of one identification, shared by the threads that run and watch it.
+
+    :meth:`cancel` records the first reason and interrupts the running identification (the worker
+    registers how, :meth:`on_cancel`). :attr:`progress` is the optimiser's last report
+    (generation, evaluations, best cost); :attr:`stopped_at` is set when the identification ended
+    [s, ``time.monotonic``].
+    """
+
+    def __init__(self):
+        self.t_start = time.monotonic()
+        self.reason = ""
+        self.cancelled_at = 0.0
+        self.stopped_at = 0.0
+        self.progress: tuple[int, int, float] = (0, 0, math.inf)
+        self._interrupt = None
+        self._lock = threading.Lock()
+
+    @property
+    def cancelled(self) -> bool:
+        return bool(self.reason)
+
+    def cancel(self, reason: str) -> bool:
+        """Stop the identification, saying why; False if it was already cancelled."""
+        with self._lock:
+            if self.reason:
+                return False
+            self.reason, self.cancelled_at = reason, time.monotonic()
+            interrupt = self._interrupt
+        if interrupt is not None:
+            interrupt()
+        return True
+
+    def on_cancel(self, interrupt) -> None:
+        """Call ``interrupt()`` on :meth:`cancel` (at once if already cancelled)."""
+        with self._lock:
+            self._interrupt = interrupt
+            now = bool(self.reason)
+        if now:
+            interrupt()
+
+    def report(self, generation: int, evaluations: int, best_cost: float) -> None:
+        """The optimiser's progress hook in this process: record, and stop if cancelled."""
+        self.progress = (int(generation), int(evaluations), float(best_cost))
+        if self.reason:
+            raise Cancelled(self.reason)
 
 
 def _send(stream, obj) -> None:
     data = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
-    stream.write(_HEADER.pack(len(data)))
-    stream.write(data)
+    stream.write(_HEADER.pack(len(data)) + data)
     stream.flush()
 
 
@@ -47,13 +108,18 @@ def _recv(stream):
     return pickle.loads(data)
 
 
-def run_identification(series, kwargs: dict) -> tuple:
-    """One identification → ("ok", result dict) | ("error", message) | ("crash", message)."""
+def run_identification(series, kwargs: dict, progress=None) -> tuple:
+    """One identification → ("ok", result dict) | ("error" | "cancelled" | "crash", message).
+
+    ``progress``: the optimiser's hook (see :func:`frictionid_core.identification.identify`); it
+    cancels the run by raising :class:`Cancelled`."""
     from frictionid_core.errors import FrictionIdError
     from frictionid_core.identification import identify
 
     try:
-        return ("ok", identify(series, **kwargs).to_dict())
+        return ("ok", identify(series, progress=progress, **kwargs).to_dict())
+    except Cancelled as exc:
+        return ("cancelled", str(exc))
     except FrictionIdError as exc:
         return ("error", str(exc))
     except ImportError as exc:
@@ -64,10 +130,13 @@ def run_identification(series, kwargs: dict) -> tuple:
 
 def checked_result(reply: tuple, log_crash) -> dict:
     """The result dict of a :func:`run_identification` reply; FrictionIdError for an error, a crash
-    (whose full text goes to ``log_crash``) or non-finite parameters."""
+    (whose full text goes to ``log_crash``) or non-finite parameters; :class:`Cancelled` for a
+    cancelled run."""
     from frictionid_core.errors import FrictionIdError
 
     status, payload = reply
+    if status == "cancelled":
+        raise Cancelled(payload)
     if status == "error":
         raise FrictionIdError(payload)
     if status == "crash":
@@ -86,6 +155,9 @@ def rss_kb(pid: int | str = "self") -> int:
             return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") // 1024
     except (OSError, ValueError, IndexError):
         return 0
+
+
+# ----------------------------------------------------------------------------- child side
 
 
 def _die_with_parent() -> None:
@@ -110,12 +182,64 @@ def _warm_up() -> None:
     identify(JointSeries(t, ["w"], q, 2.0 * v + 0.5 * np.sign(v)), system="friction-only")
 
 
+class _Child:
+    """The child's loop: a reader thread takes jobs and cancels from stdin; the main thread identifies."""
+
+    def __init__(self, inp, out):
+        self.out = out
+        self.jobs: queue.Queue = queue.Queue()
+        self.cancelled: set = set()  # ids of cancelled jobs
+        threading.Thread(target=self._read, args=(inp,), daemon=True).start()
+
+    def _read(self, inp) -> None:
+        while True:
+            try:
+                msg = _recv(inp)
+            except (EOFError, OSError, pickle.UnpicklingError):
+                self.jobs.put(None)
+                return
+            if msg[0] == "cancel":
+                self.cancelled.add(msg[1])
+            else:
+                self.jobs.put(msg[1:])
+
+    def serve(self) -> int:
+        while True:
+            job = self.jobs.get()
+            if job is None:
+                return 0
+            job_id, series, kwargs = job
+            last = [0.0]
+
+            def progress(generation, evaluations, best_cost):
+                if job_id in self.cancelled:
+                    raise Cancelled("cancelled")
+                now = time.monotonic()
+                if now - last[0] >= PROGRESS_PERIOD_S:
+                    last[0] = now
+                    _send(self.out, ("progress", generation, evaluations, best_cost))
+
+            reply = (("cancelled", "cancelled") if job_id in self.cancelled
+                     else run_identification(series, kwargs, progress))
+            self.cancelled.discard(job_id)
+            try:
+                _send(self.out, reply)
+            except BrokenPipeError:
+                return 0
+
+
+def _lower_priority() -> None:
+    """The niceness of the environment (FRICTIONID_WORKER_NICE), set before any thread starts:
+    every thread of the child inherits it."""
+    try:
+        os.nice(int(os.environ.get("FRICTIONID_WORKER_NICE", "0")))
+    except (OSError, ValueError):
+        pass
+
+
 def main() -> int:
     _die_with_parent()
-    try:
-        os.nice(5)  # the node's 1 kHz input thread wins the CPU over a long identification
-    except OSError:
-        pass
+    _lower_priority()
     inp, out = sys.stdin.buffer, sys.stdout.buffer
     sys.stdout = sys.stderr  # library prints must not corrupt the protocol channel
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is for the node; it closes our stdin
@@ -124,27 +248,36 @@ def main() -> int:
     except Exception:  # noqa: BLE001 - a warm-up problem shows again on the first request
         pass
     _send(out, ("ready", os.getpid()))
-    while True:
-        try:
-            series, kwargs = _recv(inp)
-        except EOFError:
-            return 0
-        try:
-            _send(out, run_identification(series, kwargs))
-        except BrokenPipeError:
-            return 0
+    return _Child(inp, out).serve()
+
+
+# ----------------------------------------------------------------------------- node side
+
+
+class _Job:
+    def __init__(self, job_id: int, series, kwargs: dict, control: JobControl):
+        self.id, self.series, self.kwargs, self.control = job_id, series, kwargs, control
+        self.reply: tuple | None = None
+        self.done = threading.Event()
+        self.sent = False  # written to the child (under WorkerProcess._lock)
 
 
 class WorkerProcess:
-    """Parent side: one child, one request at a time, restarted if it dies.
+    """Parent side: one child, one identification at a time, replaced if it dies or is killed.
 
-    A long-lived owner thread starts the child and talks to it: Linux's PR_SET_PDEATHSIG is
-    tied to the thread that created the child, so that thread must live as long as the node.
+    ``nice``: niceness added to the child's [0..19]; the child runs one BLAS/numba thread. A
+    long-lived owner thread starts the child and reads from it: Linux's PR_SET_PDEATHSIG is tied to the thread that created the child, so that
+    thread must live as long as the node.
     """
 
-    def __init__(self):
+    def __init__(self, nice: int = 0):
+        self._nice = int(nice)
         self._proc: subprocess.Popen | None = None
         self._jobs: queue.Queue = queue.Queue()
+        self._lock = threading.Lock()  # stdin writes, job.sent, the running job
+        self._running: _Job | None = None
+        self._ids = 0
+        self._closed = False
         self._thread = threading.Thread(target=self._serve, name="frictionid-worker-io", daemon=True)
         self._thread.start()
 
@@ -159,8 +292,9 @@ class WorkerProcess:
         import frictionid_ros
 
         paths = [str(Path(m.__file__).resolve().parents[1]) for m in (frictionid_ros, frictionid_core)]
-        env = dict(os.environ)
+        env = dict(os.environ, FRICTIONID_WORKER_NICE=str(self._nice))
         env["PYTHONPATH"] = os.pathsep.join(paths + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
+        env.update({name: "1" for name in THREAD_VARIABLES})
         self._proc = subprocess.Popen([sys.executable, "-m", "frictionid_ros.worker"], stdin=subprocess.PIPE,
                                       stdout=subprocess.PIPE, env=env, close_fds=True)
         return self._proc
@@ -172,40 +306,83 @@ class WorkerProcess:
             job = self._jobs.get()
             if job is None:
                 return
-            (series, kwargs), box, done = job
             try:
                 if proc is None or proc.poll() is not None:
                     proc, ready = self._start(), False
                 if not ready:
                     _recv(proc.stdout)  # ("ready", pid)
                     ready = True
-                _send(proc.stdin, (series, kwargs))
-                box.append(_recv(proc.stdout))
+                with self._lock:
+                    if job.control.cancelled:
+                        job.reply = ("cancelled", job.control.reason)
+                        continue
+                    _send(proc.stdin, ("job", job.id, job.series, job.kwargs))
+                    job.sent, self._running = True, job
+                while True:
+                    msg = _recv(proc.stdout)
+                    if msg[0] != "progress":
+                        break
+                    job.control.progress = tuple(msg[1:])
+                job.reply = msg
             except (EOFError, OSError, pickle.UnpicklingError) as exc:
                 rc = proc.poll() if proc is not None else None
                 if rc is None and proc is not None:
                     proc.kill()
                     rc = proc.wait()
-                proc = None
-                box.append(("crash", f"identification worker died ({f'exit code {rc}' if rc is not None else exc})"))
+                job.reply = (("cancelled", job.control.reason) if job.control.cancelled else
+                             ("crash", f"identification worker died ({f'exit code {rc}' if rc is not None else exc})"))
+                proc, ready = (None, False) if self._closed else (self._start(), False)  # the next job finds it warm
             finally:
-                done.set()
+                with self._lock:
+                    self._running = None
+                job.control.stopped_at = time.monotonic()
+                job.done.set()
 
-    def run(self, series, kwargs: dict, stopping: threading.Event | None = None) -> tuple:
+    def _interrupt(self, job: _Job) -> None:
+        """Ask the child to stop ``job`` (it stops at the optimiser's next report)."""
+        with self._lock:
+            if job.sent and self._running is job and self._proc is not None:
+                try:
+                    _send(self._proc.stdin, ("cancel", job.id))
+                except OSError:
+                    pass
+
+    def _kill(self, job: _Job) -> None:
+        """Kill the child if it still runs ``job`` (the owner thread then starts a new one)."""
+        with self._lock:
+            proc = self._proc if self._running is job else None
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+
+    def run(self, series, kwargs: dict, control: JobControl | None = None) -> tuple:
         """Identify in the child; returns its reply (see the module docstring).
 
-        Returns ("error", "node shutting down") if ``stopping`` is set while waiting.
+        ``control``: receives the progress; its :meth:`~JobControl.cancel` stops the job, killing
+        the child if it has not stopped within CANCEL_GRACE_S.
         """
-        box: list = []
-        done = threading.Event()
-        self._jobs.put(((series, kwargs), box, done))
-        while not done.wait(0.1):
-            if stopping is not None and stopping.is_set():
+        control = control or JobControl()
+        if self._closed:
+            return ("error", "node shutting down")
+        self._ids += 1
+        job = _Job(self._ids, series, kwargs, control)
+        self._jobs.put(job)
+        control.on_cancel(lambda: self._interrupt(job))
+        while not job.done.wait(0.05):
+            if control.cancelled:
+                with self._lock:
+                    sent = job.sent
+                if not sent:  # still waiting for the child (starting): the owner thread will skip it
+                    control.stopped_at = time.monotonic()
+                    return ("cancelled", control.reason)
+                if time.monotonic() - control.cancelled_at > CANCEL_GRACE_S:
+                    self._kill(job)
+            if self._closed and not self._thread.is_alive():  # stopped meanwhile: no one will answer
                 return ("error", "node shutting down")
-        return box[0]
+        return job.reply
 
     def stop(self, timeout: float = 2.0) -> None:
         """End the child (stdin closed, killed after ``timeout`` s) and the owner thread."""
+        self._closed = True
         self._jobs.put(None)
         proc = self._proc
         if proc is None:

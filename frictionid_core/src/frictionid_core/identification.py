@@ -110,6 +110,7 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
              varpro: bool | None = None, warm_start: bool = True, preprocessing: Preprocessing | None = None,
              bounds: dict[str, tuple[float, float]] | None = None, fixed: dict[str, float] | None = None,
              window: tuple[float | None, float | None] | None = None, drive: Drive | None = None,
+             progress=None,
              **solver_options) -> Identification:
     """Identify the parameters of ``system`` with ``friction`` from ``series``.
 
@@ -141,6 +142,8 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
         fixed: {name: value} parameters held at a value in every solver path (σ 0); a name is a
             full parameter name, a base name (``offset``) or a family (``vs``), as for bounds.
         window: (start_s, end_s) of every source, s from its first sample (None: all of it).
+        progress: ``progress(generation, evaluations, best_cost)`` during an optimiser run (see
+            :class:`frictionid_core.optim.Problem`); not called by ``ls``.
         **solver_options: budgets (pop, generations, calls) and method options.
     """
     t0 = time.perf_counter()
@@ -159,7 +162,8 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
     def fit(model: IdentificationModel):
         if closed_form:
             return (*model.fit_linear(), None)
-        x, res = solve_model(model, solver, seed=seed, varpro=varpro, warm_start=warm_start, **solver_options)
+        x, res = solve_model(model, solver, seed=seed, varpro=varpro, warm_start=warm_start,
+                              progress=progress, **solver_options)
         return x, None, None, res
 
     x, std, cond, res = fit(model)
@@ -281,17 +285,19 @@ def preprocessing_record(obs, metrics: dict, default: Preprocessing, requested: 
 
 
 def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpro: bool = False,
-                warm_start: bool = True, **solver_options):
+                warm_start: bool = True, progress=None, **solver_options):
     """Minimise the model's cost with ``solver``; returns (parameters (k,), OptimResult).
 
     Local solvers start from the best of a sample of closed-form solutions (:func:`_start_point`);
     with ``warm_start`` population methods and bo/dt evaluate it first (as ``problem.x0``).
-    With ``varpro`` the solver sees only the nonlinear parameters; fixed parameters are never searched.
+    With ``varpro`` the solver sees only the nonlinear parameters; fixed parameters are never searched;
+    ``progress``: see :func:`identify`.
     """
     from frictionid_core.optim import minimize
 
     searched = model.searched_nonlinear_index if varpro else model.free_index
     problem = _varpro_problem(model) if varpro else _full_problem(model)
+    problem.progress = progress
     if model.nonlinear_index.size and (warm_start or solver == "lm"):
         problem.x0 = _start_point(model, np.random.default_rng(seed))[searched]
     res = minimize(problem, solver, seed=seed, **solver_options)

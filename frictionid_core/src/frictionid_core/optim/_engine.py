@@ -123,6 +123,8 @@ class PopulationRun:
         self.history_fmin[g] = self.best_f
         self.history_dist_mean[g] = dist_mean(population_u)
         self.generation = g + 1
+        if self.problem.progress is not None:
+            self.problem.progress(self.generation, self.nfev, self.best_f)
 
     def result(self, details: str) -> OptimResult:
         """Build the result; raise :class:`OptimError` if no evaluation was finite."""
@@ -184,4 +186,6 @@ class CallLog:
             self.points_u.append(u)
             n = len(self.points_u)
             self.spread.append(self._pair_sum / (n * (n - 1) / 2) if n > 1 else float("nan"))
+        if self.problem.progress is not None:
+            self.problem.progress(0, self.nfev, self.best_f)
         return cost

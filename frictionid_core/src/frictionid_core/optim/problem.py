@@ -28,6 +28,9 @@ class Problem:
             member of the population methods' initial population, the first bo/dt call.
         batch_residuals: optional (P, k) -> (P, N) residuals of a population in one call; with
             it ``lm`` evaluates each finite-difference Jacobian in one call instead of k.
+        progress: optional ``progress(generation, evaluations, best_cost)``, called after each
+            generation of a population method and each cost call of lm/bo/dt (generation 0);
+            an exception it raises ends the run (how a caller cancels one).
     """
 
     names: list[str]
@@ -37,6 +40,7 @@ class Problem:
     residuals: Callable[[np.ndarray], np.ndarray] | None = None
     x0: np.ndarray | None = None
     batch_residuals: Callable[[np.ndarray], np.ndarray] | None = None
+    progress: Callable[[int, int, float], None] | None = None
 
     def __post_init__(self) -> None:
         self.check()

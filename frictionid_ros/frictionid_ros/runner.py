@@ -1,0 +1,120 @@
+"""The node's process: command line, executors and their threads, signals, orderly shutdown."""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import sys
+import threading
+import warnings
+from pathlib import Path
+
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", DeprecationWarning)  # lark, pulled in by rosidl on some versions
+    import rclpy
+    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
+
+from frictionid_core.errors import FrictionIdError
+
+GIL_SWITCH_INTERVAL = 0.0005  # [s]
+SERVICE_THREADS = 6  # identify (service and action), cancel, reset/save/load, lifecycle, diagnostics
+
+
+def parse_argv(argv: list[str]) -> tuple[list[str], bool]:
+    """(rclpy arguments, lifecycle): ``--params-file`` outside ``--ros-args`` turned into a ROS
+    argument, ``--lifecycle`` taken out."""
+    from rclpy.utilities import remove_ros_args
+
+    parser = argparse.ArgumentParser(prog="frictionid_node", description="Joint friction identification node.")
+    parser.add_argument("--params-file", action="append", default=[], type=Path,
+                        help="YAML parameters (frictionid: ros__parameters: ...); same as --ros-args --params-file")
+    parser.add_argument("--lifecycle", action="store_true",
+                        help="a managed node: starts unconfigured, driven by ~/change_state (configure, activate, "
+                             "deactivate, cleanup, shutdown); without it the node configures and activates itself")
+    opts = parser.parse_args(remove_ros_args(argv)[1:])
+    extra = []
+    for f in opts.params_file:
+        if not f.is_file():
+            raise FrictionIdError(f"{f}: no such parameters file")
+        extra += ["--params-file", str(f.absolute())]
+    rest = [a for a in argv[1:] if a != "--lifecycle"]
+    # ours first: explicit --ros-args -p/--params-file given later take precedence
+    return argv[:1] + (["--ros-args", *extra, "--"] if extra else []) + rest, opts.lifecycle
+
+
+def make_input_executor(kind: str, log, context=None):
+    """The executor of the input node: rclpy's EventsExecutor (C++ event queue: about half the CPU
+    per message and a shorter latency tail than the SingleThreadedExecutor, measured in
+    bench/ros_load.py) or the SingleThreadedExecutor (the fallback if rclpy lacks the former)."""
+    if kind == "events":
+        try:
+            from rclpy.experimental import EventsExecutor
+
+            return EventsExecutor(context=context)
+        except Exception as exc:  # noqa: BLE001 - older rclpy: no EventsExecutor
+            log.warning(f"EventsExecutor unavailable ({type(exc).__name__}: {exc}); using SingleThreadedExecutor")
+    return SingleThreadedExecutor(context=context)
+
+
+def spin(executor, node) -> None:
+    """Spin until shutdown. SIGINT/SIGTERM shut the context down, and an executor caught between
+    two waits then raises RCLError ("context is not valid"): that is a normal end too."""
+    context = node.context
+    while context.ok():
+        try:
+            executor.spin_once(timeout_sec=0.1)
+        except (KeyboardInterrupt, ExternalShutdownException):
+            return
+        except Exception as exc:  # noqa: BLE001
+            if not context.ok():
+                return
+            node.get_logger().error(f"executor: {type(exc).__name__}: {exc}")
+
+
+def run(node_class, argv: list[str] | None = None) -> int:
+    """Run ``node_class(lifecycle=...)`` until SIGINT/SIGTERM; exit code 0, or 2 with one line for a
+    bad configuration. The node's ``input_executor`` spins in a thread of its own, the node in a
+    MultiThreadedExecutor."""
+    argv = list(sys.argv if argv is None else argv)
+    try:
+        ros_argv, lifecycle = parse_argv(argv)
+        rclpy.init(args=ros_argv)
+    except FrictionIdError as exc:  # a missing --params-file
+        print(f"frictionid_node: error: {exc}", file=sys.stderr)
+        return 2
+    except Exception as exc:  # e.g. an unreadable --params-file given after --ros-args
+        print(f"frictionid_node: error: cannot initialise ROS: {exc}", file=sys.stderr)
+        return 2
+    # A thread waiting for the GIL gets it after at most this long (default 5 ms): bounds how
+    # long the services/diagnostics threads can delay the 1 kHz input callback.
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL)
+    node, executors, input_thread = None, [], None
+    try:
+        node = node_class(lifecycle=lifecycle)
+        # The start-up objects (modules, the node: ~90k) are never scanned again by the garbage
+        # collector: a full collection then takes ~0.1 ms instead of ~90 ms, a stall of the 1 kHz
+        # input thread that bench/ros_load.py showed as ~100 ms feed-forward latency bursts.
+        gc.freeze()
+        services = MultiThreadedExecutor(num_threads=SERVICE_THREADS)
+        services.add_node(node)
+        executors = [node.input_executor, services]
+        input_thread = threading.Thread(target=spin, args=(node.input_executor, node), name="frictionid-input",
+                                        daemon=True)
+        input_thread.start()
+        spin(services, node)
+    except FrictionIdError as exc:
+        print(f"frictionid_node: error: {exc}", file=sys.stderr)
+        return 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.close()
+        for ex in executors:
+            ex.shutdown(timeout_sec=1.0)
+        if input_thread is not None:
+            input_thread.join(timeout=2.0)  # never destroy a node under a spinning executor
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
