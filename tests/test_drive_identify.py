@@ -310,8 +310,9 @@ def test_node_identifies_through_its_drive_and_feeds_motor_friction_forward(tmp_
     active = ActiveParameters(cfg.results_file, lambda results: None, log=logging.getLogger(__name__))
     service = IdentifyService(lambda: cfg, inputs, active, {"joint_states": "/joint_states"}, None,
                               log=logging.getLogger(__name__))
-    ok, message, result = service.handle(Identify.Request())
-    assert ok, message
+    answer = service.handle(Identify.Request())
+    assert answer.ok, answer.message
+    result = answer.identified
     assert sorted(result.per_joint) == ["motor_1", "motor_2"] and result.last["drive"]["name"] == "coupled2"
     for m in ("motor_1", "motor_2"):  # noise-free; 200 Hz filter, 1 kHz: within 1 %
         for n in ("Fv", "Fc"):

@@ -417,8 +417,8 @@ def test_worker_process_cancel_kill_and_priority():
                            control)
         assert reply == ("cancelled", "cancelled") and control.progress[0] >= 1 and worker.pid == pid
         tx40 = load(ROOT / "bags" / "tx40_excitation")
-        control = JobControl()
-        threading.Timer(1.0, control.cancel, ("stop",)).start()
+        control = JobControl()  # cancelled while the child loads the bag and builds the TX40 model
+        threading.Timer(0.2, control.cancel, ("stop",)).start()
         assert worker.run(tx40, dict(system="tx40"), control) == ("cancelled", "stop")
         assert worker.run(emps, dict(system="emps"))[0] == "ok" and worker.pid != pid  # a new child
     finally:
