@@ -137,19 +137,18 @@ def test_vectorised_exponential_of_the_dip_kernel_matches_libm():
 
 
 def test_population_cost_does_not_depend_on_the_thread_count(emps_estimation):
-    """The compiled dip sums give one candidate to one thread: bit-identical for 1 or 2 threads,
-    and a NaN shape parameter gives a NaN cost (the optimisers rank it last)."""
-    import numba
+    """The compiled dip sums give one candidate to one thread: bit-identical for 1, 2 or 3
+    threads, and a NaN shape parameter gives a NaN cost (the optimisers rank it last)."""
+    from frictionid_core.parallel import fixed_threads
 
     model = build_model(emps_estimation, "emps", "stribeck", True)
     lo, hi = model.bounds()
     pop = lo + (hi - lo) * np.random.default_rng(5).random((9, model.k))
     pop[4, model.nonlinear_index[0]] = np.nan
-    threads = numba.get_num_threads()
-    try:
-        numba.set_num_threads(1)
+    with fixed_threads(1):
         one = model.batch_cost(pop)
-    finally:
-        numba.set_num_threads(threads)
+    for n in (2, 3):
+        with fixed_threads(n):
+            np.testing.assert_array_equal(model.batch_cost(pop), one)
     np.testing.assert_array_equal(model.batch_cost(pop), one)
     assert np.isnan(one[4]) and np.isfinite(np.delete(one, 4)).all()
