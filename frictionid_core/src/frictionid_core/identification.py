@@ -119,14 +119,15 @@ def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpr
                 warm_start: bool = True, **solver_options):
     """Minimise the model's cost with ``solver``; returns (parameters (k,), OptimResult).
 
-    Local solvers start from the best of a sample of closed-form solutions (:func:`_start_point`);
-    with ``warm_start`` population methods and bo/dt evaluate it first (as ``problem.x0``).
+    Local solvers start from the best of a sample of closed-form solutions (:func:`_start_point`;
+    for a model linear in its parameters, the least-squares optimum); with ``warm_start``
+    population methods and bo/dt evaluate it first (as ``problem.x0``), linear models included.
     With ``varpro`` the solver sees only the nonlinear parameters.
     """
     from frictionid_core.optim import minimize
 
     problem = _varpro_problem(model) if varpro else _full_problem(model)
-    if model.nonlinear_index.size and (warm_start or solver == "lm"):
+    if warm_start or solver == "lm":  # linear models too: their start is the least-squares optimum
         start = _start_point(model, np.random.default_rng(seed))
         problem.x0 = start[model.nonlinear_index] if varpro else start
     res = minimize(problem, solver, seed=seed, **solver_options)
