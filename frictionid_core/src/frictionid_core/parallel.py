@@ -14,6 +14,10 @@ one CPU-bound competitor on 2 cores ran up to 90× slower than on one thread. He
 ``FRICTIONID_THREADS=n`` caps the threads (1: never a second thread); :func:`fixed_threads`
 pins the count (tests, benchmarks). Kernels give each item to one thread, computed in a fixed
 order, so results do not depend on the thread count.
+
+The same stall hits the BLAS (OpenBLAS) and OpenMP pools of numpy, scipy and scikit-learn on
+the small matrices of the surrogate and least-squares solvers: :func:`single_threaded_libraries`
+keeps them at one thread for a block (bo's 100 calls: 4× less CPU on a busy machine).
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from __future__ import annotations
 import itertools
 import os
 import queue
+import sys
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -28,6 +33,7 @@ from functools import lru_cache
 
 _CAP_VARIABLE = "FRICTIONID_THREADS"
 _fixed: int | None = None
+_controller: tuple[int, object] | None = None  # (len(sys.modules) when built, ThreadpoolController)
 
 
 def choose_threads(n_items: int, min_items: int, cpus: float, busy: int) -> int:
@@ -176,3 +182,15 @@ def run_chunks(fn: Callable[[int, int], None], n_items: int, min_items: int = 1)
         return 1
     _POOL.run(fn, split(n_items, threads), threads)
     return threads
+
+
+@contextmanager
+def single_threaded_libraries() -> Iterator[None]:
+    """BLAS and OpenMP thread pools of the loaded libraries at one thread inside the block."""
+    global _controller
+    from threadpoolctl import ThreadpoolController
+
+    if _controller is None or _controller[0] != len(sys.modules):  # rescan (~10 ms) after new imports only
+        _controller = (len(sys.modules), ThreadpoolController())
+    with _controller[1].limit(limits=1):
+        yield
