@@ -36,6 +36,7 @@ import argparse
 import json
 import os
 import platform
+import signal
 import subprocess
 import sys
 import tempfile
@@ -262,6 +263,7 @@ def main(argv=None) -> int:
     ap.add_argument("--no-install", action="store_true", help="do not create bench/.venv-mealpy")
     ap.add_argument("--out", type=Path, help="JSON output (default bench/results/contention[_quick].json)")
     a = ap.parse_args(argv)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # stop the competitors on a kill too
     runs = a.runs or (3 if a.quick else 5)
     loads = [int(x) for x in (a.loads or ("0,1" if a.quick else "0,1,2")).split(",")]
     with_tx40 = not (a.quick or a.no_tx40)
@@ -322,19 +324,27 @@ def main(argv=None) -> int:
                     if n <= 1:
                         cell["results"]["emps-coulomb"] = {"frictionid": run_surrogates(coulomb, ls_cost, r)}
                 res["cells"].append(cell)
-        res["mealpy"] = {s: p.info for s, p in peers.items()}
+                res["mealpy"] = {s: p.info for s, p in peers.items()}
+                write(res, out_path, done=len(res["cells"]) == runs * len(loads))  # a stopped run keeps its cells
+    print("\n".join(res["report"]))
+    print(f"\nwritten {out_path.relative_to(ROOT) if out_path.is_relative_to(ROOT) else out_path} (+ .txt)")
+    return 0
+
+
+def write(res: dict, out_path: Path, done: bool) -> None:
+    """Analyse the cells so far and write the JSON and the text report."""
     for cell in res["cells"]:  # mealpy's final costs count for C* too
         for system, impls in cell["results"].items():
             for run in impls.get("mealpy", {}).values():
                 res["best_cost"][system] = min(res["best_cost"].get(system, np.inf), run["fun"])
+    res["meta"]["complete"] = done
     analyse(res)
     res["report"] = report(res)
-    print("\n".join(res["report"]))
+    if not done:
+        res["report"].insert(0, f"PARTIAL: {len(res['cells'])} of {res['meta']['runs'] * len(res['meta']['loads'])} cells")
     out_path.parent.mkdir(parents=True, exist_ok=True)
     out_path.write_text(json.dumps(res, indent=1))
     out_path.with_suffix(".txt").write_text("\n".join(res["report"]) + "\n")
-    print(f"\nwritten {out_path.relative_to(ROOT) if out_path.is_relative_to(ROOT) else out_path} (+ .txt)")
-    return 0
 
 
 if __name__ == "__main__":
