@@ -10,8 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
-
+from frictionid_core import iir
 from frictionid_core.errors import InputError
 from frictionid_core.timeseries import JointSeries
 
@@ -74,7 +73,7 @@ def lowpass_position(q: np.ndarray, fs: float, cutoff_hz: float, order: int = 4)
     """Zero-phase Butterworth (forward–backward) of each column of q (N, J)."""
     if not 0.0 < cutoff_hz < fs / 2:
         raise InputError(f"filter cut-off {cutoff_hz} Hz must lie in (0, {fs / 2:g}) Hz (the Nyquist frequency)")
-    b, a = signal.butter(order, cutoff_hz / (fs / 2))
+    b, a = iir.butter(order, cutoff_hz / (fs / 2))
     return filtfilt(b, a, q, f"the order-{order} Butterworth filter")
 
 
@@ -84,7 +83,7 @@ def filtfilt(b: np.ndarray, a: np.ndarray, x: np.ndarray, what: str) -> np.ndarr
     pad = 3 * (max(len(a), len(b)) - 1)
     if x.shape[0] <= pad:
         raise InputError(f"{x.shape[0]} samples are too few for {what} (needs more than {pad})")
-    return signal.filtfilt(b, a, x, axis=0, padlen=pad)
+    return iir.filtfilt(b, a, x, pad)
 
 
 def central_difference(y: np.ndarray, dt: float) -> np.ndarray:
@@ -100,7 +99,7 @@ def decimate(x: np.ndarray, n: int) -> np.ndarray:
     """
     if n == 1:
         return x
-    b, a = signal.cheby1(8, 0.05, 0.8 / n)
+    b, a = iir.cheby1(8, 0.05, 0.8 / n)
     return filtfilt(b, a, x, f"the anti-alias filter of decimation by {n}")[decimation_indices(x.shape[0], n)]
 
 
