@@ -82,14 +82,6 @@ class Competitors:
             p.wait()
 
 
-def other_runnable() -> int:
-    """Runnable tasks on the machine besides this one (a snapshot of /proc/loadavg)."""
-    try:
-        return int(Path("/proc/loadavg").read_text().split()[3].split("/")[0]) - 1
-    except (OSError, ValueError, IndexError):
-        return -1
-
-
 # ----------------------------------------------------------------------------- ours
 def run_ours(system: str, model, seed: int, best_cost: dict) -> dict:
     """One seed of every frictionid method on ``model`` (the optimiser's own wall time)."""
@@ -271,6 +263,7 @@ def main(argv=None) -> int:
 
     from frictionid_core.identification import build_model, identify
     from frictionid_core.io import load
+    from frictionid_core.parallel import busy_cpus
     from frictionid_core.simulation import EmpsSimulator
 
     log("[setup] models")
@@ -304,7 +297,7 @@ def main(argv=None) -> int:
         run_surrogates(coulomb, ls_cost, 999)
         for r in range(runs):
             for n in loads:
-                res["meta"]["other_runnable"].append(other_runnable())
+                res["meta"]["other_runnable"].append(busy_cpus())
                 log(f"[run {r + 1}/{runs}] {n} competitor(s)")
                 cell = {"run": r, "load": n, "results": {}}
                 with Competitors(n):
