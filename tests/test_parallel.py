@@ -110,3 +110,27 @@ def test_single_threaded_libraries_limits_blas_inside_the_block_only():
     with parallel.single_threaded_libraries():
         assert set(blas()) == {1}
     assert blas() == before
+
+
+def test_a_forked_child_gets_a_pool_of_its_own():
+    """Worker threads do not survive fork: the child starts its own (a study's process pool)."""
+    import multiprocessing
+
+    with fixed_threads(2):
+        run_chunks(lambda lo, hi: None, 4)  # the parent's worker exists
+        ctx = multiprocessing.get_context("fork")
+        with ctx.Pool(1) as pool:
+            assert pool.apply(_chunks_in_child) == [(0, 2), (2, 4)]
+
+
+def _chunks_in_child() -> list[tuple[int, int]]:
+    seen: list[tuple[int, int]] = []
+    lock = threading.Lock()
+
+    def record(lo: int, hi: int) -> None:
+        with lock:
+            seen.append((lo, hi))
+
+    with fixed_threads(2):
+        run_chunks(record, 4)
+    return sorted(seen)

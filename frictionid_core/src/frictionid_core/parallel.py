@@ -171,6 +171,15 @@ class _Pool:
 _POOL = _Pool()
 
 
+def _reset_after_fork() -> None:  # a forked child has none of the parent's worker threads
+    global _POOL
+    _POOL = _Pool()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_reset_after_fork)
+
+
 def run_chunks(fn: Callable[[int, int], None], n_items: int, min_items: int = 1) -> int:
     """Call ``fn(lo, hi)`` over contiguous chunks covering range(n_items), in as many threads as
     :func:`threads_for` allows (``fn`` should release the GIL: a ``nogil`` numba kernel).
