@@ -65,6 +65,23 @@ def test_competing_processes_take_the_second_thread_away():
             p.wait()
 
 
+def test_a_parallel_call_that_did_not_pay_keeps_the_next_ones_on_one_thread(monkeypatch):
+    """The load snapshot can miss a competitor; the call itself shows it: a helper thread that
+    finished long after the caller (here: its chunk sleeps 0.2 s, the caller's takes nothing)
+    makes the kernels use one thread for BACKOFF_S, then the snapshot decides again."""
+    monkeypatch.setattr(parallel, "_backoff_until", 0.0)
+    monkeypatch.setattr(parallel, "busy_cpus", lambda: 0)
+    monkeypatch.setattr(parallel, "usable_cpus", lambda: 2.0)
+    assert threads_for(10**6, 1) == 2
+    caller = threading.get_ident()
+    slow_helper = lambda lo, hi: None if threading.get_ident() == caller else time.sleep(0.2)  # noqa: E731
+    with fixed_threads(2):
+        run_chunks(slow_helper, 2)
+    assert threads_for(10**6, 1) == 1
+    monkeypatch.setattr(parallel, "_backoff_until", time.monotonic() - 1.0)  # BACKOFF_S later
+    assert threads_for(10**6, 1) == 2
+
+
 def test_pool_runs_every_chunk_once_and_reports_errors():
     seen: list[tuple[int, int]] = []
     lock = threading.Lock()

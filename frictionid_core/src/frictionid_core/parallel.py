@@ -9,7 +9,10 @@ one CPU-bound competitor on 2 cores ran up to 90× slower than on one thread. He
   tasks right now (``/proc/loadavg``), one per ``min_items`` of work), at least 1: one thread
   on a busy machine, and no fork/join for work too small to pay for it;
 * the chunks are claimed by whichever thread is free first, the caller included: a worker the
-  scheduler has not run yet leaves its chunk to the caller instead of stalling the call.
+  scheduler has not run yet leaves its chunk to the caller instead of stalling the call;
+* a load that the snapshot missed shows in the call itself: when the caller waited for the other
+  threads more than half as long as it worked, or did every chunk itself, the kernels stay on
+  one thread for ``BACKOFF_S`` seconds.
 
 ``FRICTIONID_THREADS=n`` caps the threads (1: never a second thread); :func:`fixed_threads`
 pins the count (tests, benchmarks). Kernels give each item to one thread, computed in a fixed
@@ -27,12 +30,16 @@ import os
 import queue
 import sys
 import threading
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from functools import lru_cache
 
 _CAP_VARIABLE = "FRICTIONID_THREADS"
+BACKOFF_S = 2.0  # one thread for this long after a parallel call that did not pay
+STALL_RATIO = 0.5  # ... i.e. whose caller waited for the others more than this × its own work
 _fixed: int | None = None
+_backoff_until = 0.0
 _controller: tuple[int, object] | None = None  # (len(sys.modules) when built, ThreadpoolController)
 
 
@@ -86,7 +93,7 @@ def threads_for(n_items: int, min_items: int) -> int:
     if _fixed is not None:
         return max(1, min(_fixed, n_items))
     cap = _cap()
-    if n_items < 2 * max(min_items, 1) or cap == 1:
+    if n_items < 2 * max(min_items, 1) or cap == 1 or time.monotonic() < _backoff_until:
         return 1
     n = choose_threads(n_items, min_items, usable_cpus(), busy_cpus())
     return n if cap is None else min(n, cap)
@@ -110,6 +117,12 @@ def split(n_items: int, parts: int) -> list[tuple[int, int]]:
     return list(zip(edges[:-1], edges[1:]))
 
 
+def back_off(seconds: float = BACKOFF_S) -> None:
+    """Keep the kernels on one thread for ``seconds`` (a parallel call just did not pay)."""
+    global _backoff_until
+    _backoff_until = time.monotonic() + seconds
+
+
 class _Job:
     """Chunks of one call; any thread claims the next one until none is left."""
 
@@ -121,8 +134,11 @@ class _Job:
         self.done = threading.Event()
         self.error: BaseException | None = None
 
-    def work(self) -> None:
+    def work(self) -> int:
+        """Run chunks until none is left to claim; returns how many this thread ran."""
+        ran = 0
         while (i := next(self.claims)) < len(self.chunks):
+            ran += 1
             try:
                 self.fn(*self.chunks[i])
             except BaseException as exc:  # noqa: BLE001 - re-raised in the calling thread
@@ -131,6 +147,7 @@ class _Job:
                 self.left -= 1
                 if not self.left:
                     self.done.set()
+        return ran
 
 
 class _Pool:
@@ -162,8 +179,12 @@ class _Pool:
                 self.workers += 1
         for _ in range(helpers):
             self.jobs.put(job)
-        job.work()
+        t0 = time.perf_counter()
+        ran = job.work()
+        t1 = time.perf_counter()
         job.done.wait()
+        if ran == len(chunks) or time.perf_counter() - t1 > STALL_RATIO * (t1 - t0):
+            back_off()
         if job.error is not None:
             raise job.error
 
