@@ -70,8 +70,9 @@ def usable_cpus() -> float:
 
 
 def busy_cpus() -> int:
-    """Runnable tasks other than this call and this pool's active workers (a snapshot of
-    ``/proc/loadavg``; 0 where it does not exist)."""
+    """Runnable tasks other than this call and this pool's active workers: a snapshot of
+    ``/proc/loadavg``, machine-wide (with an affinity narrower than the machine it may count
+    tasks on other CPUs: one thread more often, never a stall); 0 where it does not exist."""
     try:
         with open("/proc/loadavg") as fh:
             running = int(fh.read().split()[3].split("/")[0])
@@ -117,7 +118,7 @@ def split(n_items: int, parts: int) -> list[tuple[int, int]]:
     return list(zip(edges[:-1], edges[1:]))
 
 
-def back_off(seconds: float = BACKOFF_S) -> None:
+def _back_off(seconds: float = BACKOFF_S) -> None:
     """Keep the kernels on one thread for ``seconds`` (a parallel call just did not pay)."""
     global _backoff_until
     _backoff_until = time.monotonic() + seconds
@@ -184,7 +185,7 @@ class _Pool:
         t1 = time.perf_counter()
         job.done.wait()
         if ran == len(chunks) or time.perf_counter() - t1 > STALL_RATIO * (t1 - t0):
-            back_off()
+            _back_off()
         if job.error is not None:
             raise job.error
 
