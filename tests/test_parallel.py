@@ -82,7 +82,8 @@ def test_a_parallel_call_that_did_not_pay_keeps_the_next_ones_on_one_thread(monk
     assert threads_for(10**6, 1) == 2
 
 
-def test_pool_runs_every_chunk_once_and_reports_errors():
+def chunks_run(n_items: int, threads: int) -> list[tuple[int, int]]:
+    """The (lo, hi) chunks run_chunks gives out for ``n_items`` on ``threads`` threads, sorted."""
     seen: list[tuple[int, int]] = []
     lock = threading.Lock()
 
@@ -90,9 +91,13 @@ def test_pool_runs_every_chunk_once_and_reports_errors():
         with lock:
             seen.append((lo, hi))
 
-    with fixed_threads(3):
-        assert run_chunks(record, 10) == 3
-    assert sorted(seen) == [(0, 3), (3, 6), (6, 10)]
+    with fixed_threads(threads):
+        assert run_chunks(record, n_items) == threads
+    return sorted(seen)
+
+
+def test_pool_runs_every_chunk_once_and_reports_errors():
+    assert chunks_run(10, 3) == [(0, 3), (3, 6), (6, 10)]
 
     def fail(lo: int, hi: int) -> None:
         if lo:
@@ -100,10 +105,7 @@ def test_pool_runs_every_chunk_once_and_reports_errors():
 
     with fixed_threads(2), pytest.raises(ValueError, match="chunk 5"):
         run_chunks(fail, 10)
-    with fixed_threads(2):  # the pool still works after a failed job
-        seen.clear()
-        run_chunks(record, 4)
-    assert sorted(seen) == [(0, 2), (2, 4)]
+    assert chunks_run(4, 2) == [(0, 2), (2, 4)]  # the pool still works after a failed job
 
 
 def test_simulated_population_does_not_depend_on_the_thread_count():
@@ -137,17 +139,4 @@ def test_a_forked_child_gets_a_pool_of_its_own():
         run_chunks(lambda lo, hi: None, 4)  # the parent's worker exists
         ctx = multiprocessing.get_context("fork")
         with ctx.Pool(1) as pool:
-            assert pool.apply(_chunks_in_child) == [(0, 2), (2, 4)]
-
-
-def _chunks_in_child() -> list[tuple[int, int]]:
-    seen: list[tuple[int, int]] = []
-    lock = threading.Lock()
-
-    def record(lo: int, hi: int) -> None:
-        with lock:
-            seen.append((lo, hi))
-
-    with fixed_threads(2):
-        run_chunks(record, 4)
-    return sorted(seen)
+            assert pool.apply(chunks_run, (4, 2)) == [(0, 2), (2, 4)]
