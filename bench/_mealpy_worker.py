@@ -10,7 +10,8 @@ mode) before any timing.
     python _mealpy_worker.py check DATA.npz POINTS.npy OUT.npy
     python _mealpy_worker.py run   DATA.npz JOB.json   OUT.json
 
-JOB: {"algos": [...], "seeds": [...], "pop": 50, "generations": 100, "settings": {algo: {...}}}.
+JOB: {"algos": [...], "seeds": [...], "pop": 50, "generations": 100, "settings": {algo: {...}}}
+(optional: "run_timeout_s", "cost_timing_calls": calls timing the cost alone, default 1000).
 Each run gets ``epoch = generations - 1`` (mealpy evaluates the initial population, then
 ``pop`` new candidates per epoch) and one candidate per cost call, as mealpy requires.
 """
@@ -100,7 +101,8 @@ def run(data: str, job_path: str, out_path: str) -> None:
     pop, gens = int(job["pop"]), int(job["generations"])
     # time of the cost alone, per candidate (to split mealpy's own overhead from the cost)
     rng = np.random.default_rng(0)
-    pts = cost.lower + rng.random((1000, cost.k)) * (cost.upper - cost.lower)
+    n_timing = int(job.get("cost_timing_calls", 1000))
+    pts = cost.lower + rng.random((n_timing, cost.k)) * (cost.upper - cost.lower)
     for x in pts[:100]:
         obj(x)
     t0 = time.perf_counter()

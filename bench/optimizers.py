@@ -362,9 +362,10 @@ class MealpyPeer:
 
     name = "mealpy"
 
-    def __init__(self, labels, models, generations, install, tmp):
+    def __init__(self, labels, models, generations, install, tmp, *, algos=ALGOS, pop=POP, cost_timing_calls=1000):
         self.labels, self.models, self.generations, self.install, self.tmp = labels, models, generations, install, tmp
-        self.info = {"settings": MEALPY_SETTINGS, "models": {}}
+        self.algos, self.pop, self.cost_timing_calls = tuple(algos), pop, cost_timing_calls
+        self.info = {"settings": {a: MEALPY_SETTINGS[a] for a in self.algos}, "models": {}}
         self.worker = str(BENCH / "_mealpy_worker.py")
 
     def setup(self) -> None:
@@ -399,8 +400,9 @@ class MealpyPeer:
     def run(self, seeds) -> dict:
         out = {}
         for label in self.labels:
-            job = {"algos": list(ALGOS), "seeds": list(seeds), "pop": POP, "generations": self.generations,
-                   "settings": MEALPY_SETTINGS, "run_timeout_s": RUN_TIMEOUT}
+            job = {"algos": list(self.algos), "seeds": list(seeds), "pop": self.pop, "generations": self.generations,
+                   "settings": MEALPY_SETTINGS, "run_timeout_s": RUN_TIMEOUT,
+                   "cost_timing_calls": self.cost_timing_calls}
             jp, op = self.tmp / "mealpy_job.json", self.tmp / f"mealpy_{label}.json"
             jp.write_text(json.dumps(job))
             ok, reason = run_worker([str(self.py), self.worker, "run", str(self.tmp / f"mealpy_{label}.npz"),

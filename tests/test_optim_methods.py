@@ -160,6 +160,29 @@ def test_surrogate_histories_and_reproducibility(surrogate_runs, method):
     assert len(a.history_fmin) == 12
 
 
+def test_dt_surrogate_is_scikit_optimizes_extra_trees():
+    """dt's lean ET surrogate predicts what scikit-optimize's ExtraTreesRegressor would from the
+    same trees: the mean of the trees and std(y|x) = sqrt(E[Var(y|tree)] + Var(E[y|tree]))."""
+    from sklearn.base import clone, is_regressor
+    from skopt.learning.forest import _return_std
+
+    from frictionid_core.optim.dt import ExtraTreesSurrogate
+
+    rng = np.random.default_rng(0)
+    X, Xc = rng.random((40, 3)), rng.random((500, 3))
+    y = np.sin(4 * X[:, 0]) + X[:, 1] ** 2
+    est = ExtraTreesSurrogate(random_state=5)
+    assert is_regressor(est) and clone(est).get_params() == est.get_params()
+    est.fit(X, y)
+    assert len(est.trees_) == 100 and all(t.min_samples_leaf == 3 for t in est.trees_)
+    mean, std = est.predict(Xc, return_std=True)
+    trees_mean = np.mean([t.predict(Xc.astype(np.float32)) for t in est.trees_], axis=0)
+    np.testing.assert_allclose(mean, trees_mean, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(std, _return_std(Xc.astype(np.float32), est.trees_, mean, 0.0), rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(clone(est).fit(X, y).predict(Xc), mean)  # seeded: refits are identical
+    assert np.sqrt(np.mean((est.predict(X) - y) ** 2)) < 0.5 * np.std(y)  # it does fit the data
+
+
 def test_dt_counts_nan_and_still_improves():
     calls = []
 

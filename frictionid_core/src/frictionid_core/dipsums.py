@@ -3,8 +3,9 @@
 The cost and the variable projection of :class:`~frictionid_core.model.IdentificationModel`
 need, per candidate i, only three reductions of the signed dip column d_i (n,) over the rows
 where its branch is active: d_iᵀd_i, d_iᵀy and d_iᵀF (L,). One numba kernel computes them
-without materialising the (P, n) dip array, one candidate per thread (``prange``), so the
-results do not depend on the thread count.
+without materialising the (P, n) dip array, over chunks of candidates in the threads that
+:mod:`frictionid_core.parallel` allows (one on a busy machine or a small population); each
+candidate is computed by one thread, so the results do not depend on the thread count.
 
 The dips are exponentials, and neither numpy (float64 ``exp`` is SIMD only with AVX-512) nor
 numba (no SVML with the PyPI llvmlite) vectorises ``exp`` on AVX2 machines such as these,
@@ -23,9 +24,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from frictionid_core.friction import LAWS, STRIBECK, THRELFALL, TUSTIN
+from frictionid_core.parallel import run_chunks
 
 _E3 = 1.0 - math.exp(-3.0)
 
@@ -38,9 +40,12 @@ _EXP_MIN, _EXP_MAX = -708.0, 709.0  # e^x is a normal float64 in between
 _C = tuple(1.0 / math.factorial(n) for n in range(14))  # Taylor coefficients of e^q
 _STRICT = {"contract"}  # FMA allowed; no reassociation (it would undo the Cody–Waite steps)
 _SUMS = {"contract", "reassoc"}
+# Dip rows per thread below which a second thread costs more than it saves (≈ 0.5 ms of work;
+# the EMPS populations of 50 stay on one thread, see bench/contention.py).
+MIN_CHUNK_ROWS = 150_000
 
 
-@njit(inline="always", fastmath=_STRICT)
+@njit(cache=True, inline="always", fastmath=_STRICT)
 def _exp_begin(x):  # pragma: no cover - compiled
     """(e^q, x/ln2 + _SHIFTER): the mantissa part of e^x and the integer k in float bits."""
     v = min(max(x, _EXP_MIN), _EXP_MAX)
@@ -68,7 +73,7 @@ def _exp_begin(x):  # pragma: no cover - compiled
     return p, t
 
 
-@njit(fastmath=_STRICT)
+@njit(cache=True, nogil=True, fastmath=_STRICT)
 def _exp(x, out, work):  # pragma: no cover - compiled
     """out[r] = e^x[r] for arrays (n,); ``work`` (n,) is scratch. Three distinct arrays: an
     ``out`` that aliases ``x`` would make LLVM fall back to its scalar loop."""
@@ -81,7 +86,7 @@ def _exp(x, out, work):  # pragma: no cover - compiled
         out[r] *= work[r]
 
 
-@njit(fastmath=_SUMS)
+@njit(cache=True, nogil=True, fastmath=_SUMS)
 def _reduce(d, y, Ft, dF):  # pragma: no cover - compiled
     """(dᵀd, dᵀy) and dF[c] = dᵀFt[c] for d, y (n,), Ft (L, n)."""
     dd = 0.0
@@ -97,17 +102,15 @@ def _reduce(d, y, Ft, dF):  # pragma: no cover - compiled
     return dd, dy
 
 
-@njit(cache=True, parallel=True, fastmath=_STRICT)
-def _dip_sums(law, theta, speed, log_speed, mask, Ft, y):  # pragma: no cover - compiled
-    n_pop, n_rows = theta.shape[0], speed.size
-    s_dd = np.zeros(n_pop)
-    s_dy = np.zeros(n_pop)
-    s_dF = np.zeros((n_pop, Ft.shape[0]))
-    for i in prange(n_pop):
+@njit(cache=True, nogil=True, fastmath=_STRICT)
+def _dip_sums_rows(law, theta, speed, log_speed, mask, Ft, y, lo, hi, s_dd, s_dy, s_dF):  # pragma: no cover
+    """Candidates lo..hi−1 of dip_sums, written into s_dd, s_dy (P,) and s_dF (P, L)."""
+    n_rows = speed.size
+    arg = np.empty(n_rows)
+    d = np.empty(n_rows)
+    work = np.empty(n_rows)
+    for i in range(lo, hi):
         a = theta[i, 0]
-        arg = np.empty(n_rows)
-        d = np.empty(n_rows)
-        work = np.empty(n_rows)
         if law == TUSTIN:  # exp(−|v|/vs)
             for r in range(n_rows):
                 arg[r] = -speed[r] / a
@@ -133,7 +136,6 @@ def _dip_sums(law, theta, speed, log_speed, mask, Ft, y):  # pragma: no cover - 
         for r in range(n_rows):
             d[r] *= mask[r]
         s_dd[i], s_dy[i] = _reduce(d, y, Ft, s_dF[i])
-    return s_dd, s_dy, s_dF
 
 
 def dip_sums(friction: str, theta: np.ndarray, speed: np.ndarray, log_speed: np.ndarray, mask: np.ndarray,
@@ -146,8 +148,17 @@ def dip_sums(friction: str, theta: np.ndarray, speed: np.ndarray, log_speed: np.
         speed, log_speed, mask: (n,) |v| > 0, log|v| and the signed branch mask of the rows.
         Ft: (L, n) design rows, transposed; y: (n,) torque rows.
     """
-    return _dip_sums(LAWS[friction].code, np.ascontiguousarray(theta, dtype=float), speed, log_speed, mask,
-                     np.ascontiguousarray(Ft), y)
+    law = LAWS[friction].code
+    theta = np.ascontiguousarray(theta, dtype=float)
+    Ft = np.ascontiguousarray(Ft)
+    n_pop = theta.shape[0]
+    s_dd, s_dy, s_dF = np.zeros(n_pop), np.zeros(n_pop), np.zeros((n_pop, Ft.shape[0]))
+
+    def rows(lo: int, hi: int) -> None:
+        _dip_sums_rows(law, theta, speed, log_speed, mask, Ft, y, lo, hi, s_dd, s_dy, s_dF)
+
+    run_chunks(rows, n_pop, min_items=-(-MIN_CHUNK_ROWS // max(speed.size, 1)))
+    return s_dd, s_dy, s_dF
 
 
 def exp(x: np.ndarray) -> np.ndarray:

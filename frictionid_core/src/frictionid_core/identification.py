@@ -288,8 +288,9 @@ def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpr
                 warm_start: bool = True, progress=None, **solver_options):
     """Minimise the model's cost with ``solver``; returns (parameters (k,), OptimResult).
 
-    Local solvers start from the best of a sample of closed-form solutions (:func:`_start_point`);
-    with ``warm_start`` population methods and bo/dt evaluate it first (as ``problem.x0``).
+    Local solvers start from the best of a sample of closed-form solutions (:func:`_start_point`;
+    for a model linear in its parameters, the least-squares optimum); with ``warm_start``
+    population methods and bo/dt evaluate it first (as ``problem.x0``), linear models included.
     With ``varpro`` the solver sees only the nonlinear parameters; fixed parameters are never searched;
     ``progress``: see :func:`identify`.
     """
@@ -298,7 +299,7 @@ def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpr
     searched = model.searched_nonlinear_index if varpro else model.free_index
     problem = _varpro_problem(model) if varpro else _full_problem(model)
     problem.progress = progress
-    if model.nonlinear_index.size and (warm_start or solver == "lm"):
+    if warm_start or solver == "lm":  # linear models too: their start is the least-squares optimum
         problem.x0 = _start_point(model, np.random.default_rng(seed))[searched]
     res = minimize(problem, solver, seed=seed, **solver_options)
     x = model.embed(res.x, searched)

@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg
 
 from frictionid_core.errors import FrictionIdError
 
@@ -27,7 +26,7 @@ class LinearFit:
 
 def least_squares(X: np.ndarray, y: np.ndarray, names: list[str] | None = None) -> LinearFit:
     """Solve by economic QR; rank-deficient X raises an error naming the collinear columns."""
-    Q, R = linalg.qr(X, mode="economic")
+    Q, R = np.linalg.qr(X)  # economic; numpy: the least-squares path imports no scipy
     diag = np.abs(np.diag(R))
     tol = max(X.shape) * np.finfo(float).eps * (diag.max() if diag.size else 0.0)
     if diag.size and diag.min() <= tol:
@@ -36,9 +35,9 @@ def least_squares(X: np.ndarray, y: np.ndarray, names: list[str] | None = None) 
             f"observation matrix is rank-deficient: parameter(s) {bad} are not identifiable from "
             "these data (not excited, or collinear with others)"
         )
-    coef = linalg.solve_triangular(R, Q.T @ y)
+    coef = np.linalg.solve(R, Q.T @ y)
     resid = y - X @ coef
-    Rinv = linalg.solve_triangular(R, np.eye(R.shape[0]))
+    Rinv = np.linalg.solve(R, np.eye(R.shape[0]))
     std = np.std(resid, ddof=1) * np.sqrt(np.sum(Rinv**2, axis=1))
     s = np.linalg.svd(X, compute_uv=False)
     return LinearFit(coef, std, float(s[0] / s[-1]))

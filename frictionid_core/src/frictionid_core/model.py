@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from frictionid_core.dipsums import dip_sums
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import FrictionModel
 from frictionid_core.linear import least_squares
@@ -66,6 +65,8 @@ class _ActiveDip:
     def sums(self, friction: FrictionModel, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For parameters (P, k), the signed dip column d on the active rows reduced to
         (dᵀd (P,), dᵀy (P,), dᵀF (P, L)) — see :mod:`frictionid_core.dipsums`."""
+        from frictionid_core.dipsums import dip_sums  # numba: only models with a dip need it
+
         dd, dy, dF_nz = dip_sums(friction.name, p[:, self.nl_index], self.speed, self.log_speed, self.mask,
                                  self.Ft_nz, self.y_rows)
         dF = np.zeros((p.shape[0], self.F_rows.shape[1]))

@@ -29,14 +29,13 @@ are the plant's own; force = gtau·(u + pulses) against the recorded gtau·vir.
 
 Parameter vector: ``M`` (kg), the friction model's parameters, then ``offset`` (N;
 symmetric models only), as written by ``frictionid identify``. A population (P, k) is
-simulated in one call by a numba kernel (vectorised across members, chunks in threads).
+simulated in one call by a numba kernel (vectorised across members, chunks of members in the
+threads that :mod:`frictionid_core.parallel` allows).
 """
 
 from __future__ import annotations
 
 import math
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -46,6 +45,7 @@ from numba import njit
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import COULOMB, STRIBECK, THRELFALL, TUSTIN, FrictionModel, get_model
 from frictionid_core.options import CLOCKS
+from frictionid_core.parallel import run_chunks
 from frictionid_core.preprocess import central_difference, lowpass_position
 from frictionid_core.timeseries import JointSeries
 
@@ -58,6 +58,7 @@ PULSES_TOPIC = "/drive_pulses"
 METRIC_KEYS = ("position_relerr_pct", "velocity_relerr_pct", "acceleration_relerr_pct", "force_relerr_pct")
 
 _E3 = 1.0 - math.exp(-3.0)
+MIN_CHUNK_MEMBERS = 8  # members per thread: the kernel vectorises across them
 
 
 # ---------------------------------------------------------------------------- data
@@ -335,28 +336,6 @@ def _simulate_chunk(law, asym, eps, th, mass, off, gtau, kp, kv, sat, periods, t
                 v[i] += h / 6.0 * (a1[i] + 2.0 * a2[i] + 2.0 * a3[i] + a4)
 
 
-_POOL: ThreadPoolExecutor | None = None
-
-
-def _workers() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
-
-
-def _map_chunks(fn, chunks: list) -> None:
-    """Run fn(lo, hi) for every chunk, in threads when there are several (the kernel drops the GIL)."""
-    global _POOL
-    if len(chunks) == 1:
-        fn(*chunks[0])
-        return
-    if _POOL is None:
-        _POOL = ThreadPoolExecutor(max_workers=_workers(), thread_name_prefix="frictionid-sim")
-    for fut in [_POOL.submit(fn, lo, hi) for lo, hi in chunks]:
-        fut.result()
-
-
 # ----------------------------------------------------------------------- simulator
 @dataclass
 class EmpsSimulation:
@@ -497,10 +476,6 @@ class EmpsSimulator:
         out_v, out_a, out_u = np.empty(shape), np.empty(shape), np.empty(shape)
         d = self.data
         law = self.friction.law.code
-        # one chunk per core, at least 8 members each (the kernel vectorises across members)
-        n_chunks = max(1, min(_workers(), P // 8))
-        bounds = np.linspace(0, P, n_chunks + 1).round().astype(int)
-
         def run(lo: int, hi: int) -> None:
             rows = slice(lo, hi) if full else slice(0, 0)
             _simulate_chunk(law, self.friction.asymmetric, self.eps, np.ascontiguousarray(theta_t[:, lo:hi]),
@@ -509,7 +484,7 @@ class EmpsSimulator:
                             self.substeps, full, out_q[lo:hi], out_v[rows], out_a[rows], out_u[rows])
 
         with np.errstate(all="ignore"):
-            _map_chunks(run, list(zip(bounds[:-1], bounds[1:])))
+            run_chunks(run, P, min_items=MIN_CHUNK_MEMBERS)
         return out_q, out_v, out_a, out_u
 
     def simulate(self, params) -> EmpsSimulation:

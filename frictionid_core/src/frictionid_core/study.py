@@ -100,7 +100,7 @@ def run_one(spec: RunSpec) -> dict:
 
 
 def _init_worker() -> None:
-    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    os.environ.setdefault("FRICTIONID_THREADS", "1")  # one process per CPU: no kernel threads (parallel.py)
 
 
 def finished_keys(out_dir: Path) -> set[str]:

@@ -5,6 +5,10 @@ scikit-optimize needs finite values, so a NaN/inf cost is passed to it as the wo
 finite cost seen so far (1e10 before any finite one) while the run's own records keep
 +inf and count it in n_nan. The integer seed given to scikit-optimize is drawn from
 ``rng``, so the same seed reproduces the run.
+
+The surrogates work on at most ``calls`` points: BLAS and OpenMP run single-threaded during
+the run (see :mod:`frictionid_core.parallel`), and scikit-learn's per-call parameter
+validation is off (the inputs are ours and finite).
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import numpy as np
 
 from frictionid_core.optim._engine import CallLog, all_nan_error, check_count, nan_note
 from frictionid_core.optim.problem import OptimResult, Problem
+from frictionid_core.parallel import single_threaded_libraries
 
 PENALTY_BEFORE_FIRST_FINITE = 1e10
 
@@ -51,7 +56,10 @@ def run_skopt(
 
     dimensions = [(float(lo), float(hi)) for lo, hi in zip(problem.lower, problem.upper)]
     seed = int(rng.integers(0, 2**31 - 1))
-    with warnings.catch_warnings():
+    from sklearn import config_context
+
+    with warnings.catch_warnings(), single_threaded_libraries(), config_context(assume_finite=True,
+                                                                               skip_parameter_validation=True):
         warnings.filterwarnings("ignore", message="The objective has been evaluated at")
         minimizer(
             objective, dimensions, n_calls=calls, n_initial_points=n_initial_points,

@@ -25,6 +25,7 @@ from scipy.optimize import least_squares, minimize
 from frictionid_core.errors import OptimError
 from frictionid_core.optim._engine import CallLog, all_nan_error, check_count, nan_note
 from frictionid_core.optim.problem import OptimResult, Problem
+from frictionid_core.parallel import single_threaded_libraries
 
 
 def solve(
@@ -91,10 +92,11 @@ def solve(
                     log.add(xi, float(ri @ ri))
                 return ((R - r0[None, :]) / h[:, None]).T
 
-        sol = least_squares(
-            residuals, x0, bounds=(lower, upper), method="trf", max_nfev=calls,
-            ftol=ftol, xtol=xtol, gtol=gtol, jac=jac, x_scale="jac",
-        )
+        with single_threaded_libraries():  # SVDs of an (n, k) Jacobian: threads stall on a busy machine
+            sol = least_squares(
+                residuals, x0, bounds=(lower, upper), method="trf", max_nfev=calls,
+                ftol=ftol, xtol=xtol, gtol=gtol, jac=jac, x_scale="jac",
+            )
         x = np.clip(sol.x, lower, upper)
         stage = f"least_squares trf ({sol.nfev} steps, {sol.njev} Jacobians): {sol.message}"
     else:

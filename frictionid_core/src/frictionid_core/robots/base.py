@@ -18,7 +18,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg
 
 from frictionid_core.errors import InputError
 
@@ -89,6 +88,8 @@ class BaseParameters:
 
 def base_parameters(W: np.ndarray, names: list[str], tol: float = RANK_TOL) -> BaseParameters:
     """Base parameters of the stacked standard regressor W (rows, P) (see the module doc)."""
+    from scipy import linalg  # pivoted QR (imported here: the one-joint systems need no scipy)
+
     W = np.asarray(W, dtype=float)
     if W.shape[0] < W.shape[1]:
         raise ValueError(f"need at least as many regressor rows as parameters ({W.shape[1]}), got {W.shape[0]}")
@@ -157,6 +158,8 @@ def check_excitation(columns: np.ndarray, names: list[str], what: str, tol: floa
     """Raise InputError when the observation columns (rows, C) are rank-deficient, naming the
     parameters the data cannot separate from the others (the pivot tail of a QR with column
     pivoting on unit-norm columns)."""
+    from scipy import linalg
+
     norms = np.linalg.norm(columns, axis=0)
     zero = [names[i] for i in np.flatnonzero(norms == 0.0)]
     keep = np.flatnonzero(norms > 0.0)
