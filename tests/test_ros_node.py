@@ -329,6 +329,8 @@ def test_effort_topic_reference_velocity_and_thread_worker(ros, workdir):
     qos_depth: 2000
     max_missing_pct: 50.0
     diagnostics_period_s: 0.2
+    filter_cutoff_hz: 100.0         # an effort paired by receipt time jitters by a few ms: an analysis
+    decimation: 10                  # rate of 50 Hz (as the former default) averages that out
     results_file: "{workdir / 'opt' / 'parameters.json'}"
 """)
     proc = NodeProcess(workdir, ["--ros-args", "--params-file", str(params), "-r", f"__ns:={ns}"], "opt")
