@@ -2,12 +2,14 @@
 topic with a reference velocity and a thread worker; the full TX40 replayed from its bag.
 
 A module of their own: each starts its own node, and none shares the CPU with the module-scoped
-node of tests/test_ros_node.py (a replay at 2000 msg/s must arrive whole).
+node of tests/test_ros_node.py (a replay must arrive whole); the publishers are processes of their own, as a user runs them.
 """
 
 from __future__ import annotations
 
 import signal
+import subprocess
+import sys
 import threading
 import time
 import warnings
@@ -15,7 +17,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from ros_harness import NS, RELIABLE, ROOT, NodeProcess, ros  # noqa: F401 - ros: the client fixture
+import publish_unstamped_effort
+from ros_harness import DOMAIN, NS, RELIABLE, ROOT, NodeProcess, _env, ros  # noqa: F401 - ros: the client fixture
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
@@ -31,7 +34,6 @@ from frictionid_ros import replay
 
 pytestmark = [pytest.mark.ros, pytest.mark.filterwarnings("ignore::DeprecationWarning")]
 
-REPLAY_RATE = 2.0  # 2x real time: 2000 msg/s, every message arrives (reliable, depth 2000)
 EPS = 0.01  # smoothing_eps of the node under test [rad/s]
 
 
@@ -69,8 +71,6 @@ def test_effort_topic_reference_velocity_and_thread_worker(ros, workdir):
 """)
     proc = NodeProcess(workdir, ["--ros-args", "--params-file", str(params), "-r", f"__ns:={ns}"], "opt")
     n = ros.node
-    js = n.create_publisher(JointState, f"{ns}/joint_states", RELIABLE)
-    eff = n.create_publisher(Float64MultiArray, f"{ns}/effort", RELIABLE)
     ref = n.create_publisher(JointState, f"{ns}/reference", RELIABLE)
     got = []
     n.create_subscription(Float64MultiArray, f"{ns}/frictionid/friction_torque", got.append, RELIABLE)
@@ -79,28 +79,10 @@ def test_effort_topic_reference_velocity_and_thread_worker(ros, workdir):
         deadline = time.monotonic() + 30
         while not cli.wait_for_service(timeout_sec=0.2):
             assert proc.alive() and time.monotonic() < deadline, proc.stderr()
-        fv, fc = np.array([2.0, 1.0]), np.array([0.5, 0.3])  # joints a, b
-        rate = 500.0
-        t = np.arange(1500) / rate
-        w = 2 * np.pi * np.array([0.8, 1.1])
-        q = 0.3 * np.sin(np.outer(t, w))
-        v = 0.3 * w * np.cos(np.outer(t, w))
-        tau = fv * v + fc * np.sign(v)
-        while js.get_subscription_count() == 0 or eff.get_subscription_count() == 0:
-            assert time.monotonic() < deadline
-            time.sleep(0.02)
-        time.sleep(0.3)
-        m = JointState(name=["b", "a"])  # another order than the node's joints
-        t0, base = time.monotonic(), time.time_ns()
-        for k in range(len(t)):
-            stamp = base + int(t[k] * 1e9)  # the sample time, however late this loop runs
-            m.header.stamp = Time(sec=stamp // NS, nanosec=stamp % NS)
-            m.position = [q[k, 1], q[k, 0]]
-            js.publish(m)
-            eff.publish(Float64MultiArray(data=tau[k].tolist()))
-            delay = t0 + (k + 1) / rate - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
+        fv, fc = publish_unstamped_effort.FV, publish_unstamped_effort.FC  # joints a, b
+        pub = subprocess.run([sys.executable, str(Path(publish_unstamped_effort.__file__)), ns], env=_env(DOMAIN),
+                             capture_output=True, text=True, timeout=60)
+        assert pub.returncode == 0, pub.stderr
         time.sleep(0.5)
         done = threading.Event()
         fut = cli.call_async(Identify.Request())
@@ -111,9 +93,10 @@ def test_effort_topic_reference_velocity_and_thread_worker(ros, workdir):
         joints = {j.joint_name: dict(zip(j.param_names, j.param_values)) for j in res.result.joints}
         assert sorted(joints) == ["a", "b"] and set(joints["a"]) == {"Fv", "Fc", "offset"}
         # The unstamped effort is paired with the joint states by receipt time: a publisher stalled
-        # between its two publishes (this test process also spins the client) shifts the effort by
-        # that stall, which moves the sign step at each reversal and so Fc (measured: up to −55 % in
-        # full runs, 5 % alone); Fv is insensitive to it. The stamped paths are checked to 5 % above.
+        # between its two publishes shifts the effort by that stall, which moves the sign step at
+        # each reversal and so Fc (measured: up to −55 % when this process also published while
+        # spinning the client, 5 % alone); Fv is insensitive to it. The publisher is a process of its
+        # own (tests/publish_unstamped_effort.py); the stamped paths are checked to 5 % elsewhere.
         for i, name in enumerate(["a", "b"]):
             assert joints[name]["Fv"] == pytest.approx(fv[i], rel=0.05), (name, joints)
             assert 0.0 < joints[name]["Fc"] < 1.5 * fc[i], (name, joints)
@@ -157,9 +140,13 @@ def test_full_tx40_robot_from_a_replayed_bag(ros, workdir):
         deadline = time.monotonic() + 60
         while not cli.wait_for_service(timeout_sec=0.2):
             assert proc.alive() and time.monotonic() < deadline, proc.stderr()
-        stream = replay.load_stream(bag, publish_topic=f"{ns}/joint_states")
-        stats = replay.publish_stream(ros.node, stream, rate=REPLAY_RATE, qos=RELIABLE)
-        assert stats["sent"] == len(stream) and stats["subscribers"] >= 1
+        # replayed as a user does, from a process of its own, in real time (1000 msg/s)
+        pub = subprocess.run([sys.executable, "-m", "frictionid_ros.replay", str(bag), "--rate", "1",
+                              "--publish-topic", f"{ns}/joint_states", "--depth", "2000"],
+                             env=_env(DOMAIN), capture_output=True, text=True, timeout=120)
+        assert pub.returncode == 0 and "warning" not in pub.stderr, pub.stderr
+        stats = {"sent": len(replay.load_stream(bag))}
+        assert f"published {stats['sent']} messages" in pub.stdout, pub.stdout
         time.sleep(1.0)
         res = ros.call(Identify, f"{ns}/frictionid/identify", Identify.Request(friction_model="coulomb"), 120)
         assert res.success, res.message
