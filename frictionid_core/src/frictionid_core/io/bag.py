@@ -117,42 +117,34 @@ def _stamp(msg, bag_ns: int) -> int:
 
 
 def _read_joint_states(reader, path: Path, topic: str, *, need: tuple[str, ...]) -> tuple[JointSeries, int]:
-    """The topic's samples (time relative to the first stamp) and that first stamp, ns."""
+    """The topic's samples (time relative to the first stamp) and that first stamp, ns.
+
+    rosbag2 messages sharing one layout are decoded at once (:mod:`frictionid_core.io.cdr`);
+    others (and ROS 1 bags) one by one."""
     conns = [c for c in reader.connections if c.topic == topic]
     n_msgs = sum(c.msgcount for c in conns)
     if n_msgs == 0:
         raise InputError(f"{path}: topic '{topic}' has no messages")
-    stamps = np.empty(n_msgs, dtype=np.int64)
-    joints: list[str] | None = None
-    pos = vel = eff = None
-    order_cache: dict[tuple, np.ndarray] = {}
-    short = {"position": 0, "velocity": 0, "effort": 0}
-    k = 0
-    for conn, bag_ns, raw in reader.messages(connections=conns):
-        msg = reader.deserialize(raw, conn.msgtype)
-        names = tuple(msg.name)
-        if joints is None:
-            if not names:
-                raise InputError(f"{path}: topic '{topic}': first JointState has no joint names")
-            joints = list(names)
-            nj = len(joints)
-            pos, vel, eff = (np.full((n_msgs, nj), np.nan) for _ in range(3))
-        idx = order_cache.get(names)
-        if idx is None:
-            missing = [j for j in joints if j not in names]
-            if missing:
-                raise InputError(
-                    f"{path}: topic '{topic}': message {k} lacks joint(s) {missing} (it has {list(names)})"
-                )
-            idx = order_cache[names] = np.array([names.index(j) for j in joints])
-        stamps[k] = _stamp(msg, bag_ns)
-        for field, out in (("position", pos), ("velocity", vel), ("effort", eff)):
-            arr = np.asarray(getattr(msg, field), dtype=float)
-            if arr.size >= len(names):
-                out[k] = arr[idx]
-            else:
-                short[field] += 1
-        k += 1
+    bag_ns = np.empty(n_msgs, dtype=np.int64)
+    raws: list[bytes] = []
+    msgtypes: list[str] = []
+    for k, (conn, ns, raw) in enumerate(reader.messages(connections=conns)):
+        bag_ns[k] = ns
+        raws.append(raw)
+        msgtypes.append(conn.msgtype)
+    decoded = None
+    if reader.is2 and set(msgtypes) == {JOINT_STATE}:
+        from frictionid_core.io.cdr import decode_joint_states
+
+        decoded = decode_joint_states(raws)
+        if decoded is not None and not all(_agrees(decoded, k, reader.deserialize(raws[k], JOINT_STATE))
+                                           for k in (0, len(raws) - 1)):
+            decoded = None  # a layout rosbags reads otherwise: its reading is the reference
+    if decoded is None:
+        stamps, joints, arrays, short = _deserialize_joint_states(reader, path, topic, raws, msgtypes, bag_ns)
+    else:
+        stamps, joints, arrays, short = _decoded_joint_states(path, topic, decoded, bag_ns)
+    pos, vel, eff = arrays
     for field in need:
         if short[field]:
             hint = ("; record effort in the JointState or give a separate effort topic (--effort-topic)"
@@ -165,6 +157,76 @@ def _read_joint_states(reader, path: Path, topic: str, *, need: tuple[str, ...])
     series = JointSeries(t=(stamps - stamps[0]) * 1e-9, joints=joints, position=pos, effort=eff,
                          velocity=velocity, source=f"{path}:{topic}")
     return series, int(stamps[0])
+
+
+def _agrees(decoded: dict, k: int, msg) -> bool:
+    """True when row ``k`` of ``decoded`` is the deserialised message ``msg``, bit for bit."""
+    st = msg.header.stamp
+    return (decoded["sec"][k] == st.sec and decoded["nanosec"][k] == st.nanosec
+            and decoded["frame_id"] == msg.header.frame_id and decoded["names"] == list(msg.name)
+            and all(np.array_equal(decoded[f][k].view(np.int64), np.asarray(getattr(msg, f), np.float64).view(np.int64))
+                    for f in ("position", "velocity", "effort")))
+
+
+def _no_names(path: Path, topic: str) -> InputError:
+    return InputError(f"{path}: topic '{topic}': first JointState has no joint names")
+
+
+def _decoded_joint_states(path: Path, topic: str, decoded: dict, bag_ns: np.ndarray):
+    """(stamps ns, joints, (position, velocity, effort) (N, J), {field: short messages}) of the
+    messages decoded at once: every message has the same names and array lengths."""
+    joints = list(decoded["names"])
+    if not joints:
+        raise _no_names(path, topic)
+    n_msgs, nj = bag_ns.size, len(joints)
+    stamps = decoded["sec"] * 1_000_000_000 + decoded["nanosec"]
+    stamps = np.where(stamps != 0, stamps, bag_ns)
+    arrays, short = [], {}
+    for field in ("position", "velocity", "effort"):
+        values = decoded[field]
+        if values.shape[1] >= nj:
+            arrays.append(np.ascontiguousarray(values[:, :nj]))
+            short[field] = 0
+        else:
+            arrays.append(np.full((n_msgs, nj), np.nan))
+            short[field] = n_msgs
+    return stamps, joints, arrays, short
+
+
+def _deserialize_joint_states(reader, path: Path, topic: str, raws: list[bytes], msgtypes: list[str],
+                              bag_ns: np.ndarray):
+    """As :func:`_decoded_joint_states`, deserialising message by message (any layout, ROS 1)."""
+    n_msgs = len(raws)
+    stamps = np.empty(n_msgs, dtype=np.int64)
+    joints: list[str] | None = None
+    pos = vel = eff = None
+    order_cache: dict[tuple, np.ndarray] = {}
+    short = {"position": 0, "velocity": 0, "effort": 0}
+    for k, raw in enumerate(raws):
+        msg = reader.deserialize(raw, msgtypes[k])
+        names = tuple(msg.name)
+        if joints is None:
+            if not names:
+                raise _no_names(path, topic)
+            joints = list(names)
+            nj = len(joints)
+            pos, vel, eff = (np.full((n_msgs, nj), np.nan) for _ in range(3))
+        idx = order_cache.get(names)
+        if idx is None:
+            missing = [j for j in joints if j not in names]
+            if missing:
+                raise InputError(
+                    f"{path}: topic '{topic}': message {k} lacks joint(s) {missing} (it has {list(names)})"
+                )
+            idx = order_cache[names] = np.array([names.index(j) for j in joints])
+        stamps[k] = _stamp(msg, int(bag_ns[k]))
+        for field, out in (("position", pos), ("velocity", vel), ("effort", eff)):
+            arr = np.asarray(getattr(msg, field), dtype=float)
+            if arr.size >= len(names):
+                out[k] = arr[idx]
+            else:
+                short[field] += 1
+    return stamps, joints, (pos, vel, eff), short
 
 
 def _read_effort(reader, path: Path, topic: str, msgtype: str, joints: list[str]):
