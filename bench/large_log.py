@@ -120,7 +120,7 @@ def main() -> int:
 
 def line(name: str, r: dict) -> str:
     pre = r["preprocessing"]
-    rows = pre.get("rows")
+    rows = pre.get("fit_rows")
     return (f"{name:<9} wall {r['wall_s']:6.1f} s (identify {r['identify_wall_s']:5.1f} s)  peak RSS {r['peak_rss_gb']:5.2f} GB  "
             f"estimation {r['estimation_relerr_pct']:6.3f} %  validation {r['validation_relerr_pct']:6.3f} %  "
             f"cut-off {pre['cutoff_hz']:.3g} Hz, decimate {pre['decimate']}"

@@ -203,15 +203,15 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
                           dict(sys_.joint_map), warnings, notes)
 
 
-def _dip_needs(model: IdentificationModel, x: np.ndarray) -> tuple[int, float, str]:
-    """(largest decimation, smallest cut-off, why) the friction dip of the fit ``x`` needs: see
-    :func:`frictionid_core.preprocess.dip_needs`, for its speed scale (vs or v0) of each joint and
-    branch at the joint's reversal acceleration; a scale at its lower bound (a dip that
-    vanished) is skipped."""
+def _dip_needs(model: IdentificationModel, x: np.ndarray) -> tuple[int, float, str, dict[str, float]]:
+    """(largest decimation, smallest cut-off, why, {row joint: speed scale}) the friction dip of
+    the fit ``x`` needs: see :func:`frictionid_core.preprocess.dip_needs`, for its speed scale
+    (vs or v0) of each joint and branch at the joint's reversal acceleration (the smaller of a
+    joint's two branches); a scale at its lower bound (a dip that vanished) is skipped."""
     obs = model.obs
-    n_max, fc_min, why = np.iinfo(np.int32).max, 0.0, ""
+    n_max, fc_min, why, scales = np.iinfo(np.int32).max, 0.0, "", {}
     if model.is_linear:
-        return n_max, fc_min, why
+        return n_max, fc_min, why, scales
     lo, _ = model.bounds()
     fs = obs.report["sample_rate_hz"]
     scale = model.friction.law.nonlinear[0]
@@ -223,32 +223,41 @@ def _dip_needs(model: IdentificationModel, x: np.ndarray) -> tuple[int, float, s
         joint = name.split("/", 1)[0] if "/" in name else obs.joints[0]
         a = obs.report.get("reversal_acceleration", {}).get(joint) or 0.0
         n, fc = dip_needs(fs, a, x[i])
+        scales[joint] = min(float(x[i]), scales.get(joint, np.inf))
         if n < n_max or fc > fc_min:
             why = (f"{joint}: its friction dip ({name} {x[i]:.3g}) is crossed at reversals at up to {a:.3g}/s²; "
                    f"it needs an analysis rate ≥ {fs / n:.4g} Hz and a cut-off ≥ {fc:.3g} Hz")
         n_max, fc_min = min(n, n_max), max(fc, fc_min)
-    return n_max, fc_min, why
+    return n_max, fc_min, why, scales
 
 
 def _dip_changes(model: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:
     """The pre-processing changes (among the settings chosen from the data) the dip of ``x``
-    needs, and why; {} when none."""
-    n, fc, why = _dip_needs(model, x)
+    needs, and why; {} when none.
+
+    A decimation chosen from the data goes down to what the dip needs; the rows are then thinned
+    (``thin``, ``dip_scale``: see :func:`frictionid_core.preprocess.thinned_rows`) back to the
+    rule's rate for the cut-off wherever the dip is not crossed fast: the fine rate there only
+    adds rows (and seconds and GBs on long logs)."""
+    n, fc, why, scales = _dip_needs(model, x)
     pre, chosen = model.obs.preprocessing, model.obs.report["from_data"]
     changes = {}
     cutoff = pre.cutoff_hz
     if fc > cutoff * (1 + 1e-9) and "cutoff_hz" in chosen:
         cutoff = changes["cutoff_hz"] = fc
     if "decimate" in chosen:
-        n = min(n, rule_decimation(model.obs.report["sample_rate_hz"], cutoff))
+        rule = rule_decimation(model.obs.report["sample_rate_hz"], cutoff)
+        n = min(n, rule)
         if n < pre.decimate or changes:
             changes["decimate"] = n
+            changes["thin"] = max(1, rule // n)
+            changes["dip_scale"] = scales if changes["thin"] > 1 else None
     return changes, why
 
 
 def _dip_warnings(model: IdentificationModel, x: np.ndarray) -> list[str]:
     """A warning when the settings the user gave are too coarse for the dip of ``x``."""
-    n, fc, why = _dip_needs(model, x)
+    n, fc, why, _ = _dip_needs(model, x)
     pre = model.obs.preprocessing
     if n >= pre.decimate and fc <= pre.cutoff_hz * (1 + 1e-9):
         return []

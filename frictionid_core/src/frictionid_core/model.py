@@ -121,6 +121,8 @@ class IdentificationModel:
                 cols = obs.columns[j]
                 vcol, scol = cols["V" + suffix], cols["S" + suffix]
                 mask = np.sign(v) * {"pos": v > 0, "neg": v < 0, "": np.ones_like(v, bool)}[tag]
+                if obs.weight is not None:  # thinned rows: the dip column weighted like the others
+                    mask = mask * obs.weight
                 dip_id = None
                 nl = [base + off + k for k, n in enumerate(self.friction.branch_names) if n in law.nonlinear]
                 if nl:

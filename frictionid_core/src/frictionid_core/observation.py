@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.preprocess import Prepared, Preprocessing, decimate, decimation_indices
+from frictionid_core.preprocess import Prepared, Preprocessing, decimate, decimation_indices, thinned_rows
 
 VELOCITY_COLUMNS = ("V", "S", "V_pos", "S_pos", "V_neg", "S_neg", "one")
 
@@ -49,6 +49,9 @@ class Observation:
             motors (rows = referred motor torques u = C⁻ᵀ·τ, ``joints`` = its motor names) the
             drive's C (J, J), which :meth:`joint_torques` maps back with.
         data_joints: the data joints behind the rows, in row order (default: ``joints``).
+        weight: (Nd,) the weight of each instant when the pre-processing thins the rows
+            (:func:`~frictionid_core.preprocess.thinned_rows`): ``y``, ``rigid`` and ``columns``
+            hold weighted rows, a dip term multiplies its column by it; None: every weight 1.
     """
 
     joints: list[str]
@@ -65,6 +68,7 @@ class Observation:
     sampled: Observation | None = None
     coupling: np.ndarray | None = None
     data_joints: list[str] | None = None
+    weight: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.used is None:
@@ -109,29 +113,45 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
     sample them at the same instants without the anti-alias filter (``sampled``).
 
     ``rigid_full`` rows are joint-major over the full-rate prepared samples; ``settings``
-    are resolved.
+    are resolved. With ``settings.thin`` > 1 the fit keeps the rows of
+    :func:`~frictionid_core.preprocess.thinned_rows` (weighted) and ``sampled`` one in ``thin``.
     """
     n, nj = prepared.qd.shape
     r = rigid_full.shape[1]
     kept = decimation_indices(n, settings.decimate)
+    select, weight, fine = thinned_rows(prepared.qd[kept], prepared.qdd[kept], 1.0 / prepared.dt, settings, joints)
+    metric_rows = decimation_indices(n, settings.decimate * settings.thin)  # instants of kept, one in thin
+    # the coarse row of each kept analysis row that is not fine
+    coarse_of = metric_rows.size - 1 - (kept.size - 1 - select[~fine]) // settings.thin
     parts: dict[str, list] = {k: [] for k in ("y", "velocity", "rigid", "columns")}
     raw: dict[str, list] = {k: [] for k in parts}
     for j in range(nj):
         full = np.column_stack([
             prepared.tau[:, j], prepared.qd[:, j], rigid_full[j * n : (j + 1) * n],
             velocity_columns(prepared.qd[:, j])])
-        for out, rows in ((parts, decimate(full, settings.decimate)), (raw, full[kept])):
+        fit = decimate(full, settings.decimate)
+        if settings.thin > 1:
+            fit = fit[select]
+            fit[~fine] = decimate(full, settings.decimate * settings.thin)[coarse_of]
+            velocity = fit[:, 1].copy()  # the velocity itself is not weighted
+            fit *= weight[:, None]
+            fit[:, 1] = velocity
+        for out, rows in ((parts, fit), (raw, full[metric_rows])):
             out["y"].append(rows[:, 0])
             out["velocity"].append(rows[:, 1])
             out["rigid"].append(rows[:, 2 : 2 + r])
             out["columns"].append(dict(zip(VELOCITY_COLUMNS, rows[:, 2 + r :].T)))
+        del full, fit
 
-    def observation(p: dict) -> Observation:
+    def observation(p: dict, t: np.ndarray) -> Observation:
         return Observation(list(joints), np.concatenate(p["y"]), np.vstack(p["rigid"]), list(rigid_names),
-                           np.column_stack(p["velocity"]), p["columns"], prepared.t[kept], settings)
+                           np.column_stack(p["velocity"]), p["columns"], t, settings)
 
-    obs = observation(parts)
-    obs.sampled = observation(raw) if settings.decimate > 1 else None  # without decimation: the same rows
+    obs = observation(parts, prepared.t[kept[select]])
+    if settings.thin > 1:
+        obs.weight = weight
+    # without decimation or thinning: the same rows
+    obs.sampled = observation(raw, prepared.t[metric_rows]) if settings.decimate > 1 or settings.thin > 1 else None
     return obs
 
 

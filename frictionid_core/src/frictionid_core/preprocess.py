@@ -53,7 +53,9 @@ MAX_TRIM_SHARE = 0.1  # … at most this share of the record each
 MIN_SPEED_SIGMAS = 10.0  # slow rows: |q̇| < max(this × σ_q̇, …
 MIN_SPEED_SHARE = 5e-4  # … this × the joint's top speed)
 DIP_FACTOR = 6.0  # friction dips: anti-alias band ≥ this × a/(π·vs), cut-off ≥ a/(π·vs) / this
+DIP_WINDOW = 5.0  # a dip acts below this × vs (e^-5 of its height at δ = 1)
 _GRID = 20001  # frequency points of the noise integrals
+_FILTER_COLUMNS = 16  # columns per block of the anti-alias filter
 
 FILTERS = ("butterworth", "none")  # zero-phase Butterworth on position | no position filter
 METRIC_EFFORTS = ("recorded", "filtered")  # metrics against the recorded effort | the decimated filtered one
@@ -78,6 +80,12 @@ class Preprocessing:
             filter; the cut-off then only sets decimation and trims).
         metric: fit metrics against the ``recorded`` effort at the analysis instants, or the
             ``filtered`` (decimated) effort the fit uses (the EMPS benchmark's metric).
+        thin: keep every analysis row only where a friction dip of ``dip_scale`` is crossed
+            faster than the rate ``decimate × thin`` follows (:func:`thinned_rows`), one row in
+            ``thin`` elsewhere, weighted so the cost stays an integral over time; metrics on
+            one row in ``thin``. 1: every row.
+        dip_scale: {row joint: speed scale vs (rad/s or m/s)} of the dips ``thin`` follows (set
+            by the dip refit of an identification).
     """
 
     cutoff_hz: float | None = None
@@ -89,6 +97,8 @@ class Preprocessing:
     velocity: str = "position"
     filter: str = "butterworth"
     metric: str = "recorded"
+    thin: int = 1
+    dip_scale: dict[str, float] | None = None
 
     def __post_init__(self) -> None:
         for name, value, choices in (("velocity", self.velocity, VELOCITY_SOURCES),
@@ -97,12 +107,12 @@ class Preprocessing:
         speeds = self.min_speed.values() if isinstance(self.min_speed, dict) else [self.min_speed]
         # (name, value, lowest allowed, allowed itself)
         limits = [("cutoff_hz", self.cutoff_hz, 0, False), ("order", self.order, 1, True),
-                  ("decimate", self.decimate, 1, True), ("trim_start_s", self.trim_start_s, 0, True),
+                  ("decimate", self.decimate, 1, True), ("thin", self.thin, 1, True), ("trim_start_s", self.trim_start_s, 0, True),
                   ("trim_end_s", self.trim_end_s, 0, True), *(("min_speed", v, 0, True) for v in speeds)]
         bad = [f"{name} {value}" for name, value, low, inclusive in limits
                if value is not None and (value < low or (value == low and not inclusive))]
         if bad:
-            raise FrictionIdError(f"pre-processing: invalid {', '.join(bad)} (cut-off > 0, order and decimate ≥ 1, "
+            raise FrictionIdError(f"pre-processing: invalid {', '.join(bad)} (cut-off > 0, order, decimate and thin ≥ 1, "
                                   "trims and min speed ≥ 0)")
 
     @property
@@ -198,7 +208,21 @@ def decimate(x: np.ndarray, n: int) -> np.ndarray:
     if n == 1:
         return x
     sos = signal.cheby1(8, 0.05, 0.8 / n, output="sos")
-    return filtfilt(sos, 8, x, f"the anti-alias filter of decimation by {n}")[decimation_indices(x.shape[0], n)]
+    what = f"the anti-alias filter of decimation by {n}"
+    kept = decimation_indices(x.shape[0], n)
+    if x.ndim == 1:
+        return filtfilt(sos, 8, x, what)[kept]
+    # column by column (each is filtered alone), in blocks to bound the filter's work arrays;
+    # all-zero columns (a robot regressor's block of a joint a body does not load) stay zero
+    flat = x.reshape(x.shape[0], -1)
+    out = np.zeros((kept.size, flat.shape[1]))
+    live = np.flatnonzero(np.any(flat, axis=0))
+    if live.size == 0:
+        live = np.arange(min(1, flat.shape[1]))
+    for c0 in range(0, live.size, _FILTER_COLUMNS):
+        cols = live[c0 : c0 + _FILTER_COLUMNS]
+        out[:, cols] = filtfilt(sos, 8, flat[:, cols], what)[kept]
+    return out.reshape((kept.size,) + x.shape[1:])
 
 
 def decimation_indices(length: int, n: int) -> np.ndarray:
@@ -301,7 +325,7 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
     else:
         min_speed = {j: float(min_speed) for j in joints}
     settings = Preprocessing(cutoff, req.order, dec, trims["trim_start_s"], trims["trim_end_s"], min_speed,
-                             req.velocity, req.filter, req.metric)
+                             req.velocity, req.filter, req.metric, req.thin, req.dip_scale)
     finite = bandwidth[np.isfinite(bandwidth)]
     report = {
         "sample_rate_hz": fs,
@@ -376,6 +400,35 @@ def dip_needs(fs: float, reversal_acceleration: float, speed_scale: float) -> tu
         return np.iinfo(np.int32).max, 0.0
     f = reversal_acceleration / (np.pi * speed_scale)
     return max(1, int(np.floor(0.4 * fs / (DIP_FACTOR * f)))), min(f / DIP_FACTOR, MAX_CUTOFF_SHARE * fs)
+
+
+def thinned_rows(qd: np.ndarray, qdd: np.ndarray, fs: float, settings: Preprocessing, joints: list[str]
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The analysis rows ``settings.thin`` keeps, from the velocity and acceleration (Nd, J) of
+    the row joints ``joints`` at the analysis instants (sample rate ``fs`` before decimation):
+    (indices (M,), weights (M,), fine (M,) bool).
+
+    Fine rows (decimated by ``decimate``) are kept where a joint's |q̇| is below DIP_WINDOW ×
+    its ``dip_scale`` vs while |q̈| crosses the dip faster than the coarse decimation
+    ``decimate × thin`` follows (the :func:`dip_needs` rule at that instant), and ``thin`` rows
+    on either side; elsewhere the rows of the coarse decimation (every ``thin``-th analysis
+    instant, aligned to the last as :func:`decimation_indices`), which low-passes the noise
+    that ``thin`` fine rows would average. A row's weight is √(analysis rows up to the next
+    kept one), so the weighted cost sums over time as if every fine row were kept."""
+    nd = qd.shape[0]
+    if settings.thin <= 1:
+        return np.arange(nd), np.ones(nd), np.ones(nd, dtype=bool)
+    coarse = settings.decimate * settings.thin
+    dense = np.zeros(nd, dtype=bool)
+    for j, joint in enumerate(joints):
+        vs = (settings.dip_scale or {}).get(joint)
+        if vs:
+            # dip_needs(fs, |q̈|, vs)[0] < coarse  ⇔  |q̈|/(π·vs) > 0.4·fs/(DIP_FACTOR·coarse)
+            fast = np.abs(qdd[:, j]) > np.pi * vs * 0.4 * fs / (DIP_FACTOR * coarse)
+            dense |= fast & (np.abs(qd[:, j]) < DIP_WINDOW * vs)
+    dense = np.convolve(dense.astype(float), np.ones(2 * settings.thin + 1), mode="same") > 0  # ± thin rows
+    index = np.flatnonzero(dense | ((nd - 1 - np.arange(nd)) % settings.thin == 0))
+    return index, np.sqrt(np.diff(index, append=nd).astype(float)), dense[index]
 
 
 def rule_decimation(fs: float, cutoff_hz: float) -> int:

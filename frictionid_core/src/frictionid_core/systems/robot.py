@@ -24,8 +24,10 @@ from frictionid_core.systems.system import RobotInfo, System
 # rates follow makes identify() refit at the rates the dip needs.
 ROBOT_PREPROCESSING = Preprocessing()
 
-# Rows of the excitation test: one in this many samples.
+# Rows of the excitation test: one in this many samples, more on long logs (at most about
+# _CHECK_SAMPLES samples: the pivoted QR of every tenth sample of a 5 kHz minute takes seconds).
 _CHECK_STRIDE = 10
+_CHECK_SAMPLES = 5000
 
 
 def robot_system(robot, name: str, joint_map: dict[str, str] | None = None, base=None,
@@ -62,7 +64,7 @@ def _check_rank(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list
     """Raise when the rigid + Coulomb/viscous columns of the data are rank-deficient (``qd``:
     each row block's friction velocity, ``joints``: the blocks' names)."""
     nj, n = len(joints), qd.shape[0]
-    sel = np.arange(0, n, _CHECK_STRIDE)
+    sel = np.arange(0, n, max(_CHECK_STRIDE, n // _CHECK_SAMPLES))
     rigid = np.concatenate([rows[j * n + sel] for j in range(nj)], axis=0)
     fric = np.zeros((rigid.shape[0], 2 * nj))
     for j in range(nj):

@@ -21,6 +21,10 @@ if TYPE_CHECKING:
     from frictionid_core.drive import Drive
 
 
+# Samples per chunk of the standard regressor (a few tens of MB).
+_REGRESSOR_CHUNK = 8192
+
+
 @dataclass(frozen=True)
 class RobotInfo:
     """The robot behind a robot system: its model and base parameters (of ``rows``, the
@@ -40,8 +44,14 @@ class RobotInfo:
         n = q.shape[0]
         qm, qdm, qddm = (np.empty((n, self.model.nv)) for _ in range(3))
         qm[:, order], qdm[:, order], qddm[:, order] = q, qd, qdd
-        Y = self.base.reduce((self.rows or self.model).regressor(qm, qdm, qddm))  # (N, nv, r)
-        return np.concatenate([Y[:, m, :] for m in order], axis=0)
+        out = np.empty((len(order) * n, self.base.rank))
+        # in chunks of samples: the standard regressor (N, nv, P) of a long log would take GBs
+        for k0 in range(0, n, _REGRESSOR_CHUNK):
+            k1 = min(n, k0 + _REGRESSOR_CHUNK)
+            Y = self.base.reduce((self.rows or self.model).regressor(qm[k0:k1], qdm[k0:k1], qddm[k0:k1]))
+            for b, m in enumerate(order):
+                out[b * n + k0 : b * n + k1] = Y[:, m, :]
+        return out
 
 
 @dataclass(frozen=True)
@@ -170,9 +180,11 @@ def observe(series: JointSeries, system: System, settings: Preprocessing | None 
         if system.motor_rows:
             o.coupling, o.data_joints = drive.C, joints
         o.report = report
-        exclude_rows(o, slow)
+        # the sampled rows are instants of the fit's (all of them, or one in ``thin``)
+        exclude_rows(o, slow if o is obs else slow[np.searchsorted(obs.t, o.t)])
     report["min_speed_rows"] = dict(zip(row_names, map(float, min_speed)))
     report["slow_rows_excluded"] = dict(zip(row_names, map(int, slow.sum(axis=0))))
+    report["fit_rows"] = int(obs.y.size)  # every joint's rows (thinned: see Preprocessing.thin)
     return obs
 
 
