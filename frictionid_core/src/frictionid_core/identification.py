@@ -183,8 +183,8 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
         extra["optimizer"] = res.to_dict()
         extra["varpro"] = varpro
         extra["warm_start"] = warm_start
-        std = _jacobian_std(model, x)
-        cond = float(np.linalg.cond(model.design(x[None])[0]))
+        std, design = _jacobian_std(model, x)
+        cond = float(np.linalg.cond(design))
     metrics = model_metrics(model, x)
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
@@ -363,19 +363,29 @@ def _varpro_problem(model: IdentificationModel):
                    residuals=residuals, batch_residuals=batch_residuals)
 
 
-def _jacobian_std(model: IdentificationModel, x: np.ndarray) -> dict[str, float]:
-    """σ of each estimate from the residual Jacobian at x: std(e)·sqrt(diag((JᵀJ)⁻¹)).
+def _jacobian_std(model: IdentificationModel, x: np.ndarray) -> tuple[dict[str, float], np.ndarray]:
+    """σ of each estimate from the residual Jacobian at x: std(e)·sqrt(diag((JᵀJ)⁻¹)), and the
+    design matrix at x (R, L).
 
-    Central differences over the parameters that are not fixed (σ 0 for those), all perturbed
-    predictions in one batched call. NaN where J is rank-deficient (a parameter without
+    The prediction is linear in the linear parameters: their columns of J are the design
+    matrix's; central differences for the free nonlinear ones (all perturbed predictions in one
+    batched call); σ 0 for fixed parameters. NaN where J is rank-deficient (a parameter without
     influence, e.g. a dip that vanished).
     """
     free = model.free_index
-    h = 1e-6 * np.maximum(np.abs(x[free]), 1e-3)
-    steps = np.zeros((free.size, model.k))
-    steps[np.arange(free.size), free] = h
-    pred = model.predict(np.vstack([x + steps, x - steps]))
-    J = (pred[: free.size] - pred[free.size :]).T / (2.0 * h)
+    X = model.design(x[None])[0] if not model.is_linear else model.design()
+    position = {int(i): k for k, i in enumerate(model.linear_index)}
+    J = np.empty((X.shape[0], free.size))
+    linear = np.array([k for k, i in enumerate(free) if int(i) in position], dtype=int)
+    J[:, linear] = X[:, [position[int(free[k])] for k in linear]]
+    nonlinear = np.setdiff1d(np.arange(free.size), linear)
+    if nonlinear.size:
+        index = free[nonlinear]
+        h = 1e-6 * np.maximum(np.abs(x[index]), 1e-3)
+        steps = np.zeros((index.size, model.k))
+        steps[np.arange(index.size), index] = h
+        pred = model.predict(np.vstack([x + steps, x - steps]))
+        J[:, nonlinear] = (pred[: index.size] - pred[index.size :]).T / (2.0 * h)
     e = model.residuals(x)
     try:
         cov = np.linalg.inv(J.T @ J)
@@ -384,7 +394,7 @@ def _jacobian_std(model: IdentificationModel, x: np.ndarray) -> dict[str, float]
         sd = np.full(free.size, np.nan)
     std = dict.fromkeys(model.names, 0.0)
     std.update((model.names[i], float(v)) for i, v in zip(free, sd))
-    return std
+    return std, X
 
 
 def model_from_result(series: Sources, result: dict, *, system: str | None = None,

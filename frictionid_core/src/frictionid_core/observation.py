@@ -108,12 +108,13 @@ def velocity_columns(qd: np.ndarray) -> np.ndarray:
 
 
 def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndarray,
-                      rigid_names: list[str], settings: Preprocessing) -> Observation:
+                      rigid_names: list[str], settings: Preprocessing, stride: int = 1) -> Observation:
     """Decimate torque, rigid columns (J·N, R) and velocity columns in one pass per joint, and
     sample them at the same instants without the anti-alias filter (``sampled``).
 
-    ``rigid_full`` rows are joint-major over the full-rate prepared samples; ``settings``
-    are resolved. With ``settings.thin`` > 1 the fit keeps the rows of
+    ``rigid_full`` rows are joint-major over the full-rate prepared samples (every
+    ``stride``-th, aligned to the last: see :func:`~frictionid_core.preprocess.column_stride`);
+    ``settings`` are resolved. With ``settings.thin`` > 1 the fit keeps the rows of
     :func:`~frictionid_core.preprocess.thinned_rows` (weighted) and ``sampled`` one in ``thin``.
     """
     n, nj = prepared.qd.shape
@@ -123,25 +124,33 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
     metric_rows = decimation_indices(n, settings.decimate * settings.thin)  # instants of kept, one in thin
     # the coarse row of each kept analysis row that is not fine
     coarse_of = metric_rows.size - 1 - (kept.size - 1 - select[~fine]) // settings.thin
+    ns = rigid_full.shape[0] // nj  # rigid rows per joint: every stride-th sample, the last one kept
+    metric_rigid = ns - 1 - (n - 1 - metric_rows) // stride
     parts: dict[str, list] = {k: [] for k in ("y", "velocity", "rigid", "columns")}
     raw: dict[str, list] = {k: [] for k in parts}
+
+    def decimated(small: np.ndarray, rigid: np.ndarray, factor: int) -> np.ndarray:
+        """[τ, q̇, rigid columns, velocity columns] decimated by ``factor``."""
+        a, b = decimate(small, factor), decimate(rigid, factor, stride)
+        return np.column_stack([a[:, :2], b, a[:, 2:]])
+
     for j in range(nj):
-        full = np.column_stack([
-            prepared.tau[:, j], prepared.qd[:, j], rigid_full[j * n : (j + 1) * n],
-            velocity_columns(prepared.qd[:, j])])
-        fit = decimate(full, settings.decimate)
+        small = np.column_stack([prepared.tau[:, j], prepared.qd[:, j], velocity_columns(prepared.qd[:, j])])
+        rigid = rigid_full[j * ns : (j + 1) * ns]
+        fit = decimated(small, rigid, settings.decimate)
         if settings.thin > 1:
             fit = fit[select]
-            fit[~fine] = decimate(full, settings.decimate * settings.thin)[coarse_of]
+            fit[~fine] = decimated(small, rigid, settings.decimate * settings.thin)[coarse_of]
             velocity = fit[:, 1].copy()  # the velocity itself is not weighted
             fit *= weight[:, None]
             fit[:, 1] = velocity
-        for out, rows in ((parts, fit), (raw, full[metric_rows])):
+        at = np.column_stack([small[metric_rows, :2], rigid[metric_rigid], small[metric_rows, 2:]])
+        for out, rows in ((parts, fit), (raw, at)):
             out["y"].append(rows[:, 0])
             out["velocity"].append(rows[:, 1])
             out["rigid"].append(rows[:, 2 : 2 + r])
             out["columns"].append(dict(zip(VELOCITY_COLUMNS, rows[:, 2 + r :].T)))
-        del full, fit
+        del small, fit
 
     def observation(p: dict, t: np.ndarray) -> Observation:
         return Observation(list(joints), np.concatenate(p["y"]), np.vstack(p["rigid"]), list(rigid_names),

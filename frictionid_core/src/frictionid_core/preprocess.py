@@ -54,6 +54,7 @@ MIN_SPEED_SIGMAS = 10.0  # slow rows: |q̇| < max(this × σ_q̇, …
 MIN_SPEED_SHARE = 5e-4  # … this × the joint's top speed)
 DIP_FACTOR = 6.0  # friction dips: anti-alias band ≥ this × a/(π·vs), cut-off ≥ a/(π·vs) / this
 DIP_WINDOW = 5.0  # a dip acts below this × vs (e^-5 of its height at δ = 1)
+SMOOTH_RATE_PER_CUTOFF = 40.0  # smooth columns (robot regressor) computed at ≥ this × the cut-off
 _GRID = 20001  # frequency points of the noise integrals
 _FILTER_COLUMNS = 16  # columns per block of the anti-alias filter
 
@@ -199,17 +200,21 @@ def central_difference(y: np.ndarray, dt: float) -> np.ndarray:
     return np.gradient(y, dt, axis=0, edge_order=1)
 
 
-def decimate(x: np.ndarray, n: int) -> np.ndarray:
+def decimate(x: np.ndarray, n: int, stride: int = 1) -> np.ndarray:
     """MATLAB-style decimation of each column of x (N, …) by n.
 
     Chebyshev type I low-pass (order 8, 0.05 dB ripple, cut-off 0.8/n of Nyquist) applied
     forward–backward, then every n-th sample kept, aligned to the last sample.
+
+    ``stride`` (a divisor of n): x holds every ``stride``-th sample only (aligned to the last,
+    :func:`decimation_indices`); the filter keeps the same band in Hz (cut-off 0.8·stride/n of
+    x's Nyquist) and the rows are the same instants.
     """
     if n == 1:
         return x
-    sos = signal.cheby1(8, 0.05, 0.8 / n, output="sos")
+    sos = signal.cheby1(8, 0.05, 0.8 * stride / n, output="sos")
     what = f"the anti-alias filter of decimation by {n}"
-    kept = decimation_indices(x.shape[0], n)
+    kept = decimation_indices(x.shape[0], n // stride)
     if x.ndim == 1:
         return filtfilt(sos, 8, x, what)[kept]
     # column by column (each is filtered alone), in blocks to bound the filter's work arrays;
@@ -429,6 +434,27 @@ def thinned_rows(qd: np.ndarray, qdd: np.ndarray, fs: float, settings: Preproces
     dense = np.convolve(dense.astype(float), np.ones(2 * settings.thin + 1), mode="same") > 0  # ± thin rows
     index = np.flatnonzero(dense | ((nd - 1 - np.arange(nd)) % settings.thin == 0))
     return index, np.sqrt(np.diff(index, append=nd).astype(float)), dense[index]
+
+
+def column_stride(fs: float, settings: Preprocessing) -> int:
+    """The largest divisor k of the decimation with fs/k ≥ SMOOTH_RATE_PER_CUTOFF × the cut-off
+    (1 without a position filter): a column that is a smooth function of the filtered q, q̇,
+    q̈ (a robot regressor's) is computed on every k-th sample only and anti-aliased at that
+    rate (:func:`decimate` with ``stride``), its band kept; above 20 × the cut-off the
+    order-4 forward–backward Butterworth has attenuated q by (1/20)⁸ ≈ 4e-11."""
+    if settings.filter == "none":
+        return 1
+    n = settings.decimate
+    return max(k for k in range(1, n + 1) if n % k == 0 and (k == 1 or fs / k >= SMOOTH_RATE_PER_CUTOFF * settings.cutoff_hz))
+
+
+def subsample(prepared: Prepared, stride: int) -> Prepared:
+    """Every ``stride``-th sample of ``prepared``, aligned to the last (:func:`decimation_indices`)."""
+    if stride == 1:
+        return prepared
+    k = decimation_indices(prepared.t.size, stride)
+    return Prepared(prepared.t[k], prepared.q[k], prepared.qd[k], prepared.qdd[k], prepared.tau[k],
+                    prepared.dt * stride)
 
 
 def rule_decimation(fs: float, cutoff_hz: float) -> int:

@@ -14,7 +14,7 @@ import numpy as np
 
 from frictionid_core.errors import InputError
 from frictionid_core.observation import Observation, build_observation
-from frictionid_core.preprocess import Prepared, Preprocessing, preprocess
+from frictionid_core.preprocess import Prepared, Preprocessing, column_stride, preprocess, subsample
 from frictionid_core.timeseries import JointSeries
 
 if TYPE_CHECKING:
@@ -163,7 +163,10 @@ def observe(series: JointSeries, system: System, settings: Preprocessing | None 
     joints = list(series.joints)
     system.check_joints(joints, series.source)
     prepared, resolved, report, notes = preprocess(series, settings or system.preprocessing)
-    rigid = system.columns(prepared, system.model_joints(joints))
+    # a robot regressor is smooth in the filtered signals: computed at a fraction of the rate
+    stride = column_stride(1.0 / prepared.dt, resolved) if system.robot is not None else 1
+    rigid = system.columns(subsample(prepared, stride), system.model_joints(joints))
+    report["rigid_column_stride"] = stride
     rows, row_names = prepared, joints
     min_speed = np.array([resolved.min_speed[j] for j in joints])
     if system.motor_rows:
@@ -171,7 +174,7 @@ def observe(series: JointSeries, system: System, settings: Preprocessing | None 
                        tau=drive.referred_motor_torque(prepared.tau))
         row_names = drive.motor_names()
         min_speed = np.array([min_speed[drive.C[m] != 0.0].max() for m in range(len(joints))])
-    obs = build_observation(rows, row_names, rigid, system.parameter_names(joints), resolved)
+    obs = build_observation(rows, row_names, rigid, system.parameter_names(joints), resolved, stride)
     obs.report, obs.notes = report, notes
     slow = np.abs(obs.velocity) < min_speed
     for o in (obs, obs.sampled):
