@@ -14,7 +14,7 @@ def test_thinned_rows_keep_fast_crossings_and_weigh_the_rest():
     """One joint at 1 kHz analysis rate: a fast reversal (10 rad/s² through v = 0 at row 500),
     a slow one (0.05 rad/s² at row 1500) and a plateau. vs 0.05, decimate 1, thin 10: the coarse
     rate (100 Hz) follows a dip only below 0.4·1000/(6·10)·π·0.05 = 1.05 rad/s², so the fast
-    crossing keeps every row within 5·vs (±25 ms) plus 10 rows each side; the rest one in ten."""
+    crossing keeps every row within DIP_WINDOW·vs plus 10 rows each side; the rest one in ten."""
     nd, fs = 2000, 1000.0
     t = np.arange(nd) / fs
     qd = np.where(t < 1.0, 10.0 * (t - 0.5), 0.05 * (t - 1.5))[:, None]

@@ -53,7 +53,7 @@ MAX_TRIM_SHARE = 0.1  # … at most this share of the record each
 MIN_SPEED_SIGMAS = 10.0  # slow rows: |q̇| < max(this × σ_q̇, …
 MIN_SPEED_SHARE = 5e-4  # … this × the joint's top speed)
 DIP_FACTOR = 6.0  # friction dips: anti-alias band ≥ this × a/(π·vs), cut-off ≥ a/(π·vs) / this
-DIP_WINDOW = 5.0  # a dip acts below this × vs (e^-5 of its height at δ = 1)
+DIP_WINDOW = 3.0  # a dip acts below this × vs (e^-3 of its height at δ = 1, e^-9 at δ = 2)
 SMOOTH_RATE_PER_CUTOFF = 40.0  # smooth columns (robot regressor) computed at ≥ this × the cut-off
 _GRID = 20001  # frequency points of the noise integrals
 _FILTER_COLUMNS = 16  # columns per block of the anti-alias filter
