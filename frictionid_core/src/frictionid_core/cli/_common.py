@@ -168,7 +168,10 @@ def preprocessing_line(p: dict) -> str:
         band = f", motion bandwidth {fmt(p['bandwidth_hz'], 3)} Hz" if p.get("bandwidth_hz") is not None else ""
         parts.append(f"Butterworth order {p.get('order')} at {fmt(p.get('cutoff_hz'), 4)} Hz{mark('cutoff_hz')}{band}")
     rate = f" → {fmt(p['analysis_rate_hz'], 4)} Hz" if p.get("analysis_rate_hz") else ""
-    parts += [f"decimation {p.get('decimate')}{rate}{mark('decimate')}",
+    thin = p.get("thin") or 1
+    thinned = (f" ({p.get('fit_rows')} rows: every one where a dip is crossed fast, 1 in {thin} elsewhere)"
+               if thin > 1 else "")
+    parts += [f"decimation {p.get('decimate')}{rate}{mark('decimate')}{thinned}",
               f"trims {fmt(p.get('trim_start_s'), 3)} + {fmt(p.get('trim_end_s'), 3)} s{mark('trim_start_s', 'trim_end_s')}",
               f"min speed {speed}{mark('min_speed')}", f"velocity from {p.get('velocity', 'position')}"]
     if p.get("overridden"):
