@@ -158,6 +158,46 @@ def check_consistency(robot, base, beta_hat: np.ndarray, prior: np.ndarray | Non
                              dict(zip(names, map(float, pi))))
 
 
+def standard_record(robot, names: list[str], pi: np.ndarray) -> dict:
+    """Per link {mass (kg), com (m, joint frame), inertia about the com (kg·m², joint frame axes:
+    ixx ixy ixz iyy iyz izz), rotor, rotor_inertia (kg·m²)} of standard parameters ``pi``."""
+    nb = robot.model.model.njoints - 1
+    out = {}
+    for k in range(nb):
+        m, h, I = body_matrices(pi[10 * k : 10 * k + 10])
+        c = h / m if m > 0 else np.zeros(3)
+        Ic = I - m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+        rotor = names[10 * nb + k] if 10 * nb + k < len(names) else None
+        out[robot.model.joints[k]] = {
+            "mass": m, "com": c.tolist(),
+            "inertia": {"ixx": Ic[0, 0], "ixy": Ic[0, 1], "ixz": Ic[0, 2], "iyy": Ic[1, 1], "iyz": Ic[1, 2],
+                        "izz": Ic[2, 2]},
+            "rotor": rotor.rsplit(".", 1)[0] if rotor else None,
+            "rotor_inertia": float(pi[10 * nb + k]) if rotor else 0.0,
+        }
+    return out
+
+
+def standard_from_record(robot, record: dict) -> np.ndarray:
+    """Standard parameters π (P,) of a :func:`standard_record` (FrictionIdError when a link lacks)."""
+    pi = []
+    rot = []
+    for j in robot.model.joints[: robot.model.model.njoints - 1]:
+        try:
+            link = record[j]
+            m, c = float(link["mass"]), np.asarray(link["com"], dtype=float)
+            t = link["inertia"]
+            Ic = np.array([[t["ixx"], t["ixy"], t["ixz"]], [t["ixy"], t["iyy"], t["iyz"]],
+                           [t["ixz"], t["iyz"], t["izz"]]], dtype=float)
+            rot.append(float(link.get("rotor_inertia", 0.0)))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise FrictionIdError(f"standard parameters of link '{j}': missing or malformed {exc}") from None
+        I = Ic + m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+        h = m * c
+        pi.append([m, *h, I[0, 0], I[0, 1], I[1, 1], I[0, 2], I[1, 2], I[2, 2]])
+    return np.concatenate([np.ravel(pi), rot])
+
+
 def report_for_result(result: dict, system, prior: str = "model") -> dict:
     """Consistency report of an identification result (``Identification.to_dict()``) of a robot
     system; ``system``: its System (:func:`frictionid_core.systems.result_system`)."""
@@ -170,6 +210,8 @@ def report_for_result(result: dict, system, prior: str = "model") -> dict:
     except KeyError as exc:
         raise FrictionIdError(f"result lacks base parameter {exc}") from None
     pri = None if prior == "model" else generic_prior(info.model)
+    if prior == "model" and result.get("standard_parameters"):  # a consistent fit's own witness
+        pri, prior = standard_from_record(info, result["standard_parameters"]), "result"
     rep = check_consistency(info.model, info.base, beta, pri)
     return dict(rep.to_dict(), system=system.name, prior=prior)
 
