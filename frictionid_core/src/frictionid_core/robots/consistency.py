@@ -178,24 +178,27 @@ def standard_record(robot, names: list[str], pi: np.ndarray) -> dict:
     return out
 
 
+def link_parameters(link: dict) -> np.ndarray:
+    """[m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz] (inertia about the link origin) of a
+    :func:`standard_record` entry (mass, com, inertia about the com)."""
+    m, c = float(link["mass"]), np.asarray(link["com"], dtype=float)
+    t = link["inertia"]
+    Ic = np.array([[t["ixx"], t["ixy"], t["ixz"]], [t["ixy"], t["iyy"], t["iyz"]], [t["ixz"], t["iyz"], t["izz"]]],
+                  dtype=float)
+    I = Ic + m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+    return np.array([m, *(m * c), I[0, 0], I[0, 1], I[1, 1], I[0, 2], I[1, 2], I[2, 2]])
+
+
 def standard_from_record(robot, record: dict) -> np.ndarray:
     """Standard parameters π (P,) of a :func:`standard_record` (FrictionIdError when a link lacks)."""
-    pi = []
-    rot = []
+    pi, rot = [], []
     for j in robot.model.joints[: robot.model.model.njoints - 1]:
         try:
-            link = record[j]
-            m, c = float(link["mass"]), np.asarray(link["com"], dtype=float)
-            t = link["inertia"]
-            Ic = np.array([[t["ixx"], t["ixy"], t["ixz"]], [t["ixy"], t["iyy"], t["iyz"]],
-                           [t["ixz"], t["iyz"], t["izz"]]], dtype=float)
-            rot.append(float(link.get("rotor_inertia", 0.0)))
+            pi.append(link_parameters(record[j]))
+            rot.append(float(record[j].get("rotor_inertia", 0.0)))
         except (KeyError, TypeError, ValueError) as exc:
             raise FrictionIdError(f"standard parameters of link '{j}': missing or malformed {exc}") from None
-        I = Ic + m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
-        h = m * c
-        pi.append([m, *h, I[0, 0], I[0, 1], I[1, 1], I[0, 2], I[1, 2], I[2, 2]])
-    return np.concatenate([np.ravel(pi), rot])
+    return np.concatenate(pi + [np.array(rot)])
 
 
 def report_for_result(result: dict, system, prior: str = "model") -> dict:
