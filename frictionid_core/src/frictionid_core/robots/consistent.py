@@ -8,12 +8,13 @@ columns of the fit are the base regressor W_b, and W_b·A·π is the standard pr
 program reuses the unconstrained fit's observation rows exactly:
 
     minimise  ‖y − X(θ)·c‖² / (2σ̂²) + W·Σ_k d(J_k, J_k⁰)        c = (A·π, friction levels)
-    subject to J_k(π) ⪰ ε·1 (4×4 pseudo-inertia, Wensing et al. 2017), Ia ≥ 0, Fv ≥ 0, Fc ≥ 0
+    subject to J_k(π) ⪰ ε·max(1, m_k)·1 (4×4 pseudo-inertia, Wensing et al. 2017), Ia ≥ 0, Fv ≥ 0, Fc ≥ 0
                [Fs ≥ 0, Fs ≥ Fc with ``stribeck_order``]
 
 X(θ): the design at the nonlinear friction shapes θ (vs, δ, v0) of the unconstrained solution;
 σ̂²: its residual variance per row. d(J, J⁰) = −log det(J⁰⁻¹J) + tr(J⁰⁻¹J) − 4 is the log-det
-(Bregman) divergence to the prior's pseudo-inertia (Lee, Wensing & Park 2020), convex in J.
+(Bregman) divergence to the prior's pseudo-inertia (Lee, Wensing & Park 2020), convex in J;
+without a prior W = :data:`TIE_BREAK` (a tie-break in the base map's null space).
 Solved by cvxpy with Clarabel (after a QR of X, so the program has L rows, not R).
 """
 
@@ -30,6 +31,11 @@ from frictionid_core.robots.consistency import _E, pseudo_inertia
 # Smallest eigenvalue of each pseudo-inertia (kg·m²): strictly inside the cone, so the witness
 # passes the consistency check (λ_min > 1e-9·max(1, m)) after the solver's round-off.
 MARGIN = 2e-6
+# Without a prior the data leave the base map's null space free (a link may take tonnes and
+# another a negative share): this weight of the log-det divergence to the model picks, among the
+# (near-)optimal solutions, the one nearest the model; against the data term (‖e‖²/2σ̂² over
+# thousands of rows) it moves the fit by a negligible amount.
+TIE_BREAK = 1e-2
 SOLVER = "CLARABEL"
 FRICTION_NONNEGATIVE = ("Fv", "Fc", "Fs")
 
@@ -99,17 +105,20 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
     Js = []
     for k in range(nb):
         J = cp.Variable((4, 4), symmetric=True)
-        cons += [J == sum(z[10 * k + i] * _E[i] for i in range(10)), J >> margin * np.eye(4)]
+        # λ_min ≥ ε·max(1, m): the consistency check's own test (relative for heavy links)
+        cons += [J == sum(z[10 * k + i] * _E[i] for i in range(10)), J >> margin * np.eye(4),
+                 J - margin * J[3, 3] * np.eye(4) >> 0]
         Js.append(J)
     if nrot:
         cons.append(z[10 * nb : P] >= 0)
     used_prior = []
-    if prior_weight > 0:
+    weight = prior_weight if prior_weight > 0 else TIE_BREAK
+    if weight > 0:
         for k, J in enumerate(Js):
             J0 = pseudo_inertia(pi0[10 * k : 10 * k + 10])
             if np.linalg.eigvalsh(J0)[0] <= margin:
                 continue  # no density-realisable prior body (a massless link): no pull
-            objective = objective + prior_weight * (-cp.log_det(J) + cp.trace(np.linalg.inv(J0) @ J))
+            objective = objective + weight * (-cp.log_det(J) + cp.trace(np.linalg.inv(J0) @ J))
             used_prior.append(k)
     by_kind: dict[tuple[str, str], int] = {}
     for pos in range(r, L):
@@ -159,6 +168,7 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
         "sdp_wall_s": wall,
         "prior": "none" if prior_weight == 0 else ("model" if prior is None else "given"),
         "prior_weight": float(prior_weight),
+        "tie_break_weight": 0.0 if prior_weight > 0 else TIE_BREAK,
         "prior_links": [robot.model.joints[k] for k in used_prior],
         "stribeck_order": bool(stribeck_order),
         "margin": margin,
