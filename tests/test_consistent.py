@@ -182,3 +182,26 @@ def test_ur5_consistent_and_export(tmp_path, capsys):
     _check_export(cons, tmp_path, capsys)
     pi = standard_from_record(get_system(system).robot, cons["standard_parameters"])
     assert np.all(np.isfinite(pi))
+
+
+def test_node_parameters_consistent_and_prior_weight(tx40_fits, tmp_path):
+    """The node's ``consistent``/``prior_weight`` parameters: refused on a system without bodies,
+    turned into identify() keywords, and the answer's text carries the consistency verdict."""
+    from frictionid_ros.config import PARAMETERS, make_config
+    from frictionid_ros.request import Job, consistency_kwargs, consistency_text, summary
+
+    values = {k: v[0] for k, v in PARAMETERS.items()}
+    values["results_file"] = str(tmp_path / "p.json")
+    with pytest.raises(FrictionIdError, match="parameter 'consistent' needs a robot system.*'emps'"):
+        make_config(dict(values, consistent=True))
+    with pytest.raises(FrictionIdError, match="'prior_weight' must be >= 0"):
+        make_config(dict(values, prior_weight=-1.0))
+    assert consistency_kwargs(make_config(values)) == {}
+    cfg = make_config(dict(values, system="tx40", consistent=True))
+    assert consistency_kwargs(cfg) == {"consistent": True}
+    cfg = make_config(dict(values, system="tx40", consistent=True, prior_weight=10.0))
+    assert consistency_kwargs(cfg) == {"consistent": True, "prior": "urdf", "prior_weight": 10.0}
+    free, cons = tx40_fits
+    assert consistency_text(free) == ""
+    text = summary(Job(list(cons["joints"]), cfg.solve), cons, 1000, 1.0)
+    assert "; consistency: FEASIBLE (SDP " in text and "prior none" in text

@@ -382,6 +382,7 @@ class FrictionIdNode(LifecycleNode):
         busy, running = service.busy, service.running
         ident = {"busy": busy, "last_success": service.last_ok, "last_status": service.last_status,
                  "active_joints": ",".join(sorted(self.active.results.per_joint)),
+                 "consistency": service.last_consistency,
                  "feedforward_on": self._ff_on, "last_cancel_ms": f"{service.last_cancel_ms:.1f}",
                  "running_s": f"{time.monotonic() - running.t_start:.1f}" if running is not None else "",
                  **self.inputs.feedforward_values()}
