@@ -62,6 +62,8 @@ def test_consistent_needs_a_robot_system():
         identify(series, system="emps", consistent=True)
     with pytest.raises(FrictionIdError, match="add --consistent"):
         identify(series, system="emps", prior="urdf")
+    with pytest.raises(FrictionIdError, match="--stribeck-order applies to the consistent fit only"):
+        identify(series, system="emps", stribeck_order=True)
 
 
 @pytest.fixture(scope="module")

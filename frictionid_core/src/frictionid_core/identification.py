@@ -164,8 +164,9 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
                               f"system '{sys_.name}' has none")
     if prior not in (None, "none", "urdf"):
         raise FrictionIdError(f"prior '{prior}': expected 'urdf' (the robot model's own inertials) or none")
-    if prior == "urdf" and not consistent:
-        raise FrictionIdError("a prior (--prior urdf) applies to the consistent fit only: add --consistent")
+    if (prior == "urdf" or stribeck_order) and not consistent:
+        raise FrictionIdError(f"{'a prior (--prior urdf)' if prior == 'urdf' else '--stribeck-order'} applies to the "
+                              "consistent fit only: add --consistent")
     sources = as_sources(series, window)
     model = build_model(sources, sys_, friction, asymmetric, settings, bounds, fixed=fixed)
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
