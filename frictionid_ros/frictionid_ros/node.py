@@ -276,7 +276,8 @@ class FrictionIdNode(LifecycleNode):
             return SetParametersResult(successful=False, reason=str(exc))
         self.cfg = replace(
             self.cfg, solve=cfg.solve, window_seconds=cfg.window_seconds, min_samples=cfg.min_samples,
-            max_missing_pct=cfg.max_missing_pct, smoothing_eps=cfg.smoothing_eps)
+            max_missing_pct=cfg.max_missing_pct, smoothing_eps=cfg.smoothing_eps, consistent=cfg.consistent,
+            prior_weight=cfg.prior_weight)
         inputs = getattr(self, "inputs", None)
         if inputs is not None and inputs.ff is not None:
             inputs.ff.eps = cfg.smoothing_eps
