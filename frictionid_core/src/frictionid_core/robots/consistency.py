@@ -102,9 +102,10 @@ def generic_prior(robot) -> np.ndarray:
 
 
 def check_consistency(robot, base, beta_hat: np.ndarray, prior: np.ndarray | None = None,
-                      margin: float = 1e-6) -> ConsistencyReport:
+                      margin: float = 1e-6, prior_label: str = "given prior") -> ConsistencyReport:
     """Search standard parameters consistent with the identified base parameters ``beta_hat``
-    (module doc). ``prior``: standard parameters to stay close to (default: the model's own)."""
+    (module doc). ``prior``: standard parameters to stay close to (default: the model's own),
+    named ``prior_label`` in the report's method."""
     from scipy.linalg import null_space
     from scipy.optimize import minimize
 
@@ -119,7 +120,7 @@ def check_consistency(robot, base, beta_hat: np.ndarray, prior: np.ndarray | Non
     D = np.maximum(np.abs(pi0), floor)
     AD = A * D
     pi = pi0 + D * (np.linalg.pinv(AD) @ (beta_hat - A @ pi0))
-    method = "least-squares projection of the " + ("model's parameters" if prior is None else "given prior")
+    method = "least-squares projection of the " + ("model's parameters" if prior is None else prior_label)
 
     def margins(x: np.ndarray) -> np.ndarray:
         eig = [np.linalg.eigvalsh(pseudo_inertia(x[10 * k : 10 * k + 10]))[0] for k in range(nb)]
@@ -212,9 +213,10 @@ def report_for_result(result: dict, system, prior: str = "model") -> dict:
         beta = np.array([result["params"][n] for n in system.rigid_names])
     except KeyError as exc:
         raise FrictionIdError(f"result lacks base parameter {exc}") from None
-    pri = None if prior == "model" else generic_prior(info.model)
+    pri, label = (None, "") if prior == "model" else (generic_prior(info.model), "generic bodies")
     if prior == "model" and result.get("standard_parameters"):  # a consistent fit's own witness
         pri, prior = standard_from_record(info, result["standard_parameters"]), "result"
-    rep = check_consistency(info.model, info.base, beta, pri)
+        label = "result's own standard parameters (identify --consistent)"
+    rep = check_consistency(info.model, info.base, beta, pri, prior_label=label)
     return dict(rep.to_dict(), system=system.name, prior=prior)
 
