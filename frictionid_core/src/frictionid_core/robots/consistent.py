@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.robots.consistency import _E, pseudo_inertia
+from frictionid_core.robots.consistency import _E, body_report, pseudo_inertia
 
 # Smallest eigenvalue of each pseudo-inertia (kg·m²): strictly inside the cone, so the witness
 # passes the consistency check (λ_min > 1e-9·max(1, m)) after the solver's round-off.
@@ -128,7 +128,7 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
         if i in model.fixed_values:
             cons.append(z[P + pos - r] == model.fixed_values[i])
             continue
-        lo, hi = model._lin_lo[pos], model._lin_hi[pos]
+        lo, hi = model.linear_box[0][pos], model.linear_box[1][pos]
         if np.isfinite(lo):
             cons.append(z[P + pos - r] >= lo)
         if np.isfinite(hi):
@@ -157,8 +157,9 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
     rss = float(np.sum((y - X @ c) ** 2))
     links = {}
     for k in range(nb):
-        lam = float(np.linalg.eigvalsh(pseudo_inertia(pi[10 * k : 10 * k + 10]))[0])
-        links[robot.model.joints[k]] = {"pseudo_inertia_min_eig": lam, "consistent": bool(lam > 0)}
+        body = body_report(pi[10 * k : 10 * k + 10])  # the consistency check's own verdict
+        links[robot.model.joints[k]] = {"pseudo_inertia_min_eig": body["pseudo_inertia_min_eig"],
+                                        "consistent": body["consistent"]}
     rotor_ok = bool(np.all(pi[10 * nb :] >= -1e-12))
     record = {
         "feasible": bool(all(v["consistent"] for v in links.values()) and rotor_ok),
@@ -174,7 +175,7 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
         "margin": margin,
         "sigma2": s2,
         "cost_increase_pct": 100.0 * (rss - rss_unc) / max(rss_unc, np.finfo(float).tiny),
-        "constraints": ["pseudo-inertia J_k ⪰ ε·1 per link (ε = margin)", "rotor inertia Ia ≥ 0",
+        "constraints": ["pseudo-inertia J_k ⪰ ε·max(1, m_k)·1 per link (ε = margin)", "rotor inertia Ia ≥ 0",
                         "Fv ≥ 0, Fc ≥ 0, Fs ≥ 0" + (", Fs ≥ Fc" if stribeck_order else "")],
     }
     return ConsistentFit(x, pi, names, record)
