@@ -23,7 +23,10 @@ from ros_harness import DOMAIN, NS, RELIABLE, ROOT, NodeProcess, _env, ros  # no
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
     from builtin_interfaces.msg import Time
+    from diagnostic_msgs.msg import DiagnosticArray
     from frictionid_interfaces.srv import Identify
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
@@ -120,8 +123,9 @@ def test_effort_topic_reference_velocity_and_thread_worker(ros, workdir):
 def test_full_tx40_robot_from_a_replayed_bag(ros, workdir):
     """The six-joint TX40 (Pinocchio base parameters + per-joint Coulomb friction): the node fed
     the bundled excitation bag agrees with the offline identification of the same samples, the
-    base parameters come as shared parameters, and the feed-forward of every joint is the core
-    model with that joint's friction."""
+    base parameters come as shared parameters, the feed-forward of every joint is the core
+    model with that joint's friction, and with ``consistent`` set the answer and /diagnostics
+    carry the consistency verdict."""
     bag = ROOT / "bags" / "tx40_excitation"
     ns = "/robot"
     params = workdir / "robot.yaml"
@@ -183,6 +187,27 @@ def test_full_tx40_robot_from_a_replayed_bag(ros, workdir):
         want = [coulomb.torque([p["Fv"], p["Fc"]], [v[k]], eps=EPS)[0] for k, p in enumerate(friction.values())]
         assert list(state.name) == list(friction)
         assert np.allclose(state.effort, want, rtol=1e-12, atol=1e-12), (list(state.effort), want)
+        # consistent parameters on request of the node's parameter (no interface change): in the
+        # answer's text and in /diagnostics
+        diags = []
+        ros.node.create_subscription(DiagnosticArray, "/diagnostics", diags.append, 10)
+        on = ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=True)
+        res = ros.call(SetParameters, f"{ns}/frictionid/set_parameters",
+                       SetParameters.Request(parameters=[Parameter(name="consistent", value=on)]))
+        assert res.results[0].successful, res.results[0].reason
+        res = ros.call(Identify, f"{ns}/frictionid/identify", Identify.Request(friction_model="coulomb", dry_run=True),
+                       120)
+        assert res.success and "; consistency: FEASIBLE (SDP " in res.message, res.message
+        deadline = time.monotonic() + 10
+
+        def consistency() -> str:
+            values = [{kv.key: kv.value for kv in st.values} for d in list(diags) for st in d.status
+                      if st.name.endswith("identification")]
+            return values[-1].get("consistency", "") if values else ""
+
+        while not consistency().startswith("FEASIBLE"):
+            assert time.monotonic() < deadline and proc.alive(), (consistency(), proc.stderr())
+            time.sleep(0.2)
         assert proc.stop(signal.SIGTERM) == 0 and "Traceback" not in proc.stderr(), proc.stderr()
     finally:
         if proc.alive():

@@ -41,6 +41,10 @@ PARAMETERS: dict[str, tuple[object, str, bool]] = {
     "asymmetric": (False, "default: separate parameters for v > 0 and v < 0", False),
     "solver": ("ls", f"default solver: {' | '.join(SOLVERS)}", False),
     "seed": (0, "default RNG seed of stochastic solvers", False),
+    "consistent": (False, "robot systems (tx40, urdf:PATH): every identification estimates physically consistent "
+                          "parameters (frictionid identify --consistent)", False),
+    "prior_weight": (0.0, "with consistent: weight of the log-det pull toward the URDF inertials "
+                          "(identify --prior urdf --prior-weight); 0 = no prior", False),
     "input_executor": ("events", "executor of the input callbacks: events (rclpy EventsExecutor, lighter) | "
                                  "single_threaded (SingleThreadedExecutor: latency measured from middleware receipt)",
                        True),
@@ -92,6 +96,8 @@ class Config:
     joints: tuple[str, ...]
     system: str
     solve: SolveOptions  # the defaults of ~/identify: friction_model, asymmetric, solver, seed
+    consistent: bool  # physically consistent parameters (robot systems)
+    prior_weight: float  # with consistent: weight of the URDF prior; 0 = none
     input_executor: str
     identification_worker: str
     buffer_seconds: float
@@ -156,6 +162,13 @@ def check_system(name: str) -> str:
     return name
 
 
+def _robot_system(name: str) -> bool:
+    """True when the (checked) system ``name`` has body parameters (tx40, urdf:PATH)."""
+    from frictionid_core.systems import get_system
+
+    return get_system(name).robot is not None
+
+
 def _drive(path_or_name: str) -> Drive | None:
     """The drive of parameter ``drive_file`` (a YAML file or a bundled name), None when empty."""
     if not path_or_name:
@@ -197,12 +210,19 @@ def make_config(values: dict) -> Config:
         raise FrictionIdError(f"buffer_seconds * max_rate_hz = {cap:.0f} samples is too large (max 5e7)")
     if v["velocity_source"] == "reference" and not v["reference_topic"]:
         raise FrictionIdError("velocity_source 'reference' needs a reference_topic")
+    if not float(v["prior_weight"]) >= 0.0:
+        raise FrictionIdError(f"parameter 'prior_weight' must be >= 0, got {v['prior_weight']}")
+    system = check_system(str(v["system"]))
+    if bool(v["consistent"]) and not _robot_system(system):
+        raise FrictionIdError(f"parameter 'consistent' needs a robot system (tx40, urdf:PATH); system is '{system}'")
     results_file = Path(os.path.expanduser(str(v["results_file"]))).absolute()
     return Config(
         joints=joints,
-        system=check_system(str(v["system"])),
+        system=system,
         solve=solve_options("parameter", friction_model=str(v["friction_model"]), asymmetric=bool(v["asymmetric"]),
                             solver=str(v["solver"]), seed=int(v["seed"])),
+        consistent=bool(v["consistent"]),
+        prior_weight=float(v["prior_weight"]),
         input_executor=_choice("input_executor", v["input_executor"], EXECUTORS, "executor"),
         identification_worker=_choice("identification_worker", v["identification_worker"], WORKERS, "worker"),
         buffer_seconds=float(v["buffer_seconds"]),

@@ -276,7 +276,8 @@ class FrictionIdNode(LifecycleNode):
             return SetParametersResult(successful=False, reason=str(exc))
         self.cfg = replace(
             self.cfg, solve=cfg.solve, window_seconds=cfg.window_seconds, min_samples=cfg.min_samples,
-            max_missing_pct=cfg.max_missing_pct, smoothing_eps=cfg.smoothing_eps)
+            max_missing_pct=cfg.max_missing_pct, smoothing_eps=cfg.smoothing_eps, consistent=cfg.consistent,
+            prior_weight=cfg.prior_weight)
         inputs = getattr(self, "inputs", None)
         if inputs is not None and inputs.ff is not None:
             inputs.ff.eps = cfg.smoothing_eps
@@ -382,6 +383,7 @@ class FrictionIdNode(LifecycleNode):
         busy, running = service.busy, service.running
         ident = {"busy": busy, "last_success": service.last_ok, "last_status": service.last_status,
                  "active_joints": ",".join(sorted(self.active.results.per_joint)),
+                 "consistency": service.last_consistency,
                  "feedforward_on": self._ff_on, "last_cancel_ms": f"{service.last_cancel_ms:.1f}",
                  "running_s": f"{time.monotonic() - running.t_start:.1f}" if running is not None else "",
                  **self.inputs.feedforward_values()}

@@ -90,9 +90,30 @@ def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
     return Job(joints, options, ws, start, end, bool(req.dry_run))
 
 
+def consistency_kwargs(cfg: Config) -> dict:
+    """Keywords of :func:`frictionid_core.identification.identify` for the node's ``consistent`` and
+    ``prior_weight`` parameters ({} when not consistent)."""
+    if not cfg.consistent:
+        return {}
+    if cfg.prior_weight > 0.0:
+        return dict(consistent=True, prior="urdf", prior_weight=cfg.prior_weight)
+    return dict(consistent=True)
+
+
+def consistency_text(result: dict) -> str:
+    """``FEASIBLE (…)`` of a consistent identification (its ``consistency`` block), else ""."""
+    c = result.get("consistency")
+    if not c:
+        return ""
+    return (f"{'FEASIBLE' if c['feasible'] else 'NOT FEASIBLE'} (SDP {c['sdp_wall_s']:.2f} s, prior {c['prior']}"
+            f"{' W=%g' % c['prior_weight'] if c['prior'] != 'none' else ''}, cost +{c['cost_increase_pct']:.3g} %)")
+
+
 def summary(job: Job, result: dict, samples: int, seconds: float) -> str:
-    """One line on an identification: model, solver, window, duration [s] and parameters."""
+    """One line on an identification: model, solver, window, duration [s], consistency and parameters."""
     d = result
+    consistency = consistency_text(d)
     return (f"identified {d['system']}/{d['friction']}{'-asym' if d['asymmetric'] else ''} with {d['solver']} "
-            f"on {samples} samples of {job.joints} in {seconds:.2f} s: "
+            f"on {samples} samples of {job.joints} in {seconds:.2f} s"
+            + (f"; consistency: {consistency}" if consistency else "") + ": "
             + ", ".join(f"{k}={v:.6g}" for k, v in d["params"].items()))

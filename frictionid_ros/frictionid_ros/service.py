@@ -11,7 +11,7 @@ from frictionid_core.errors import FrictionIdError
 
 from frictionid_ros.config import preprocessing_override
 from frictionid_ros.inputs import Inputs
-from frictionid_ros.request import Job, parse_request, summary
+from frictionid_ros.request import Job, consistency_kwargs, consistency_text, parse_request, summary
 from frictionid_ros.store import ActiveParameters, Results, split_identification
 from frictionid_ros.window import Selection, window_series
 from frictionid_ros.worker import Cancelled, JobControl, WorkerProcess, checked_result, run_identification
@@ -57,6 +57,7 @@ class IdentifyService:
         self._busy = threading.Lock()
         self._running: JobControl | None = None
         self.last_ok, self.last_status = True, "no identification yet"
+        self.last_consistency = ""  # consistency_text of the last successful identification
         self.last_cancel_ms = float("nan")
 
     @property
@@ -132,6 +133,7 @@ class IdentifyService:
         n = len(sel.series)
         identified = Results(split_identification(d, stamp), d, sel.start_ns, sel.end_ns, n, stamp)
         text = summary(job, d, n, time.monotonic() - control.t_start)
+        self.last_consistency = consistency_text(d)
         text += " (dry run: active parameters unchanged)" if job.dry_run else self._active.activate(identified)
         if sel.notes:
             text += "; notes: " + "; ".join(sel.notes)
@@ -145,6 +147,7 @@ class IdentifyService:
                             self._topics.get("effort", ""))
         kwargs = job.identify_kwargs(cfg.system, self._pre)
         kwargs["drive"] = cfg.drive  # read-only: the one of start-up
+        kwargs.update(consistency_kwargs(cfg))
         reply = (self._worker.run(sel.series, kwargs, control) if self._worker is not None
                  else run_identification(sel.series, kwargs, control.report))
         return checked_result(reply, self._log.error), sel

@@ -8,7 +8,8 @@ The results file is JSON: the last identification exactly as ``Identification.to
 * ``window_start_ns``, ``window_end_ns``, ``window_samples``, ``stamp_ns``: the data window
   of the last identification and when it ran [ns since the epoch].
 
-A plain ``frictionid identify --json`` file (no ``per_joint``) is accepted by :func:`read_results`.
+A plain ``frictionid identify --json`` file (no ``per_joint``), or its YAML from ``frictionid export --yaml``,
+is accepted by :func:`read_results`.
 Files are written atomically (temporary file + ``os.replace``), never over a file the node did
 not write; requests name files inside the node's results folder only (:func:`request_path`).
 :class:`ActiveParameters` holds the node's active parameters and saves them.
@@ -27,7 +28,7 @@ from pathlib import Path
 from frictionid_core.drive import friction_rows
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import get_model
-from frictionid_core.jsonfile import write_json
+from frictionid_core.jsonfile import YAML_SUFFIXES, read_json, write_json
 
 FORMAT = "frictionid_ros/1"
 
@@ -174,10 +175,14 @@ def request_path(folder: Path, name: str) -> Path:
 
 
 def read_results(path: Path) -> Results:
-    """Read a results file (this module's format, or ``frictionid identify --json`` output)."""
+    """Read a results file (this module's format, ``frictionid identify --json`` output, or the
+    YAML of ``frictionid export --yaml``)."""
     path = Path(path).expanduser().absolute()
     try:
-        data = json.loads(path.read_text())
+        if path.suffix.lower() in YAML_SUFFIXES:  # 'frictionid export --yaml'
+            data = read_json(path, "parameters")
+        else:
+            data = json.loads(path.read_text())
     except FileNotFoundError:
         raise FrictionIdError(f"{path}: no such parameters file") from None
     except (OSError, ValueError) as exc:

@@ -28,6 +28,7 @@ import numpy as np
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.jsonfile import write_json
 from frictionid_core.metrics import fit_metrics
+from frictionid_core.page import MAX_PLOT_POINTS, PAGE_STYLE, friction_axes, html_table, png_bytes
 from frictionid_core.timeseries import JointSeries
 
 # (effort, velocity) units by system; every other system is rotary.
@@ -36,8 +37,6 @@ ROTARY_UNITS = ("N·m", "rad/s")
 # Result keys shown as settings (beside system, friction, solver, source and joints).
 SETTING_KEYS = ("joint_map", "preprocessing", "drive", "layout", "window", "fixed", "bounds", "varpro")
 # At most this many points per plotted trace (an evenly strided subset; metrics use every row).
-MAX_PLOT_POINTS = 10_000
-VELOCITY_BINS = 60
 
 
 @dataclass
@@ -102,26 +101,6 @@ def trace_metrics(traces: list[JointTrace]) -> tuple[dict, dict]:
     return overall, per_joint
 
 
-# ---------------------------------------------------------------------------- figures
-def friction_axes(ax, velocity: np.ndarray, measured: np.ndarray, friction, params: np.ndarray, units: tuple,
-                  measured_label: str) -> None:
-    """Friction vs velocity on ``ax``: the measured scatter, its velocity-binned means (equal-count
-    bins) and the identified ``friction`` law (a FrictionModel) with ``params``."""
-    step = max(1, velocity.size // MAX_PLOT_POINTS)
-    ax.plot(velocity[::step], measured[::step], ".", ms=1.5, alpha=0.3, color="0.6", label=measured_label)
-    edges = np.quantile(velocity, np.linspace(0.0, 1.0, VELOCITY_BINS + 1))
-    idx = np.clip(np.digitize(velocity, edges) - 1, 0, VELOCITY_BINS - 1)
-    count = np.bincount(idx, minlength=VELOCITY_BINS)
-    filled = count > 0
-    centres = np.bincount(idx, velocity, VELOCITY_BINS)[filled] / count[filled]
-    means = np.bincount(idx, measured, VELOCITY_BINS)[filled] / count[filled]
-    ax.plot(centres, means, "o", ms=4, color="C0", label="measured, binned by velocity")
-    vv = np.linspace(velocity.min(), velocity.max(), 800)
-    ax.plot(vv, friction.torque(params, vv), "C3", lw=1.8, label=f"identified {friction.label}")
-    ax.set(xlabel=f"velocity ({units[1]})", ylabel=f"friction ({units[0]})")
-    ax.legend(fontsize=8)
-
-
 def joint_figure(trace: JointTrace, friction, units: tuple, title: str) -> bytes:
     """PNG: recorded vs predicted effort, residual over time, residual histogram, friction vs velocity."""
     import matplotlib
@@ -129,7 +108,6 @@ def joint_figure(trace: JointTrace, friction, units: tuple, title: str) -> bytes
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from frictionid_core.report import png_bytes
 
     step = max(1, trace.t.size // MAX_PLOT_POINTS)
     t, residual = trace.t[::step], (trace.recorded - trace.predicted)
@@ -204,7 +182,6 @@ def _slug(name: str) -> str:
 
 
 def _html(rep: dict) -> str:
-    from frictionid_core.report import PAGE_STYLE, html_table
     from frictionid_core.robots.compare import flatten
 
     esc = lambda v: html.escape(str(v))  # noqa: E731

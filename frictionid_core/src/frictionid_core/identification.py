@@ -110,7 +110,8 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
              varpro: bool | None = None, warm_start: bool = True, preprocessing: Preprocessing | None = None,
              bounds: dict[str, tuple[float, float]] | None = None, fixed: dict[str, float] | None = None,
              window: tuple[float | None, float | None] | None = None, drive: Drive | None = None,
-             progress=None,
+             progress=None, consistent: bool = False, prior: str | None = None, prior_weight: float = 1.0,
+             stribeck_order: bool = False,
              **solver_options) -> Identification:
     """Identify the parameters of ``system`` with ``friction`` from ``series``.
 
@@ -144,6 +145,13 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
         window: (start_s, end_s) of every source, s from its first sample (None: all of it).
         progress: ``progress(generation, evaluations, best_cost)`` during an optimiser run (see
             :class:`frictionid_core.optim.Problem`); not called by ``ls``.
+        consistent: robot systems: the final linear parameters are physically consistent
+            standard parameters (:mod:`frictionid_core.robots.consistent`) at the nonlinear shapes
+            of the unconstrained solution; σ stay those of the unconstrained fit; the result
+            gains ``standard_parameters`` and ``consistency``.
+        prior: with ``consistent``: ``"urdf"`` pulls each link's pseudo-inertia toward the robot
+            model's own (URDF/table) with the log-det divergence weighted by ``prior_weight``.
+        stribeck_order: with ``consistent``: also Fs ≥ Fc (off by default: see the docs).
         **solver_options: budgets (pop, generations, calls) and method options.
     """
     t0 = time.perf_counter()
@@ -151,6 +159,14 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
     settings = preprocessing or sys_.preprocessing
     if varpro is None:
         varpro = sys_.robot is not None
+    if consistent and sys_.robot is None:
+        raise FrictionIdError(f"--consistent needs a robot system (tx40, urdf:PATH) with body parameters; "
+                              f"system '{sys_.name}' has none")
+    if prior not in (None, "none", "urdf"):
+        raise FrictionIdError(f"prior '{prior}': expected 'urdf' (the robot model's own inertials) or none")
+    if (prior == "urdf" or stribeck_order) and not consistent:
+        raise FrictionIdError(f"{'a prior (--prior urdf)' if prior == 'urdf' else '--stribeck-order'} applies to the "
+                              "consistent fit only: add --consistent")
     sources = as_sources(series, window)
     model = build_model(sources, sys_, friction, asymmetric, settings, bounds, fixed=fixed)
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
@@ -185,6 +201,8 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
         extra["warm_start"] = warm_start
         std, design = _jacobian_std(model, x)
         cond = float(np.linalg.cond(design))
+    if consistent:
+        x = _consistent(model, x, sys_, extra, prior == "urdf", prior_weight, stribeck_order)
     metrics = model_metrics(model, x)
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
@@ -201,6 +219,24 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
     return Identification(sys_.name, friction, asymmetric, solver, extra.pop("source"), list(sources[0].joints),
                           dict(zip(model.names, map(float, x))), std, metrics, time.perf_counter() - t0, extra,
                           dict(sys_.joint_map), warnings, notes)
+
+
+def _consistent(model: IdentificationModel, x: np.ndarray, sys_: System, extra: dict, use_prior: bool,
+                prior_weight: float, stribeck_order: bool) -> np.ndarray:
+    """The consistent parameters (see :func:`identify`); fills ``extra`` with the standard
+    parameters and the ``consistency`` block (with the unconstrained fit's metrics)."""
+    from frictionid_core.robots.consistency import standard_record
+    from frictionid_core.robots.consistent import consistent_fit
+
+    unconstrained = model_metrics(model, x)
+    fit = consistent_fit(model, x, sys_.robot, prior_weight=prior_weight if use_prior else 0.0,
+                         stribeck_order=stribeck_order)
+    fit.record["unconstrained"] = {"params": dict(zip(model.names, map(float, x))),
+                                   "relerr_pct": unconstrained.get("relerr_pct"), "rmse": unconstrained.get("rmse")}
+    fit.record["prior"] = "urdf" if use_prior else "none"
+    extra["consistency"] = fit.record
+    extra["standard_parameters"] = standard_record(sys_.robot, fit.names, fit.standard)
+    return fit.x
 
 
 def _dip_needs(model: IdentificationModel, x: np.ndarray) -> tuple[int, float, str, dict[str, float]]:

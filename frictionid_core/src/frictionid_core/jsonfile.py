@@ -1,4 +1,4 @@
-"""JSON files of results: one atomic writer and one reader with clear errors."""
+"""Result files: one atomic writer (JSON, or any text) and one reader (JSON, or YAML by suffix) with clear errors."""
 
 from __future__ import annotations
 
@@ -21,20 +21,28 @@ def _plain(obj):
 
 
 def write_json(path: str | Path, data, *, durable: bool = False) -> Path:
-    """Write ``data`` as indented JSON to ``path`` atomically: a temporary file beside it, then
-    ``os.replace``, so a reader never sees half a file and a crash never loses the old one.
+    """Write ``data`` as indented JSON to ``path`` atomically (:func:`write_text`).
+
+    NaN/inf are written as the JSON extensions ``NaN``/``Infinity`` that Python's reader
+    accepts. Returns the absolute path.
+    """
+    text = json.dumps(data, indent=2, allow_nan=True, default=_plain, ensure_ascii=False) + "\n"
+    return write_text(path, text, durable=durable)
+
+
+def write_text(path: str | Path, text: str, *, durable: bool = False) -> Path:
+    """Write ``text`` to ``path`` atomically: a temporary file beside it, then ``os.replace``, so
+    a reader never sees half a file and a crash never loses the old one.
 
     ``durable``: also fsync the file and its folder (files a restart must find, such as the
-    node's active parameters). Folders are created as needed. NaN/inf are written as the JSON
-    extensions ``NaN``/``Infinity`` that Python's reader accepts. Returns the absolute path.
+    node's active parameters). Folders are created as needed. Returns the absolute path.
     """
     path = Path(path).expanduser().absolute()
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(data, f, indent=2, allow_nan=True, default=_plain, ensure_ascii=False)
-            f.write("\n")
+            f.write(text)
             if durable:
                 f.flush()
                 os.fsync(f.fileno())
@@ -57,9 +65,17 @@ def write_json(path: str | Path, data, *, durable: bool = False) -> Path:
     return path
 
 
+YAML_SUFFIXES = (".yaml", ".yml")
+
+
 def read_json(path: str | Path, what: str = "JSON") -> dict:
-    """The JSON object in ``path``; FrictionIdError naming the file and ``what`` it should hold."""
+    """The JSON object in ``path`` (or the YAML mapping of a ``.yaml``/``.yml`` file, such as
+    ``frictionid export --yaml``); FrictionIdError naming the file and ``what`` it should hold."""
     path = Path(path).expanduser()
+    if path.suffix.lower() in YAML_SUFFIXES:
+        from frictionid_core.yamlfile import read_yaml
+
+        return read_yaml(path, what)
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:

@@ -229,6 +229,12 @@ class IdentificationModel:
         """Indices of the nonlinear parameters not fixed (what variable projection searches)."""
         return np.array([i for i in self.nonlinear_index if i not in self.fixed_values], dtype=int)
 
+    @property
+    def linear_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) (L,) of the linear terms (``linear_index`` order) that the closed-form
+        solves enforce: fixed values (lower = upper) and the user's bounds; ±inf elsewhere."""
+        return self._lin_lo, self._lin_hi
+
     def embed(self, values: np.ndarray, index: np.ndarray) -> np.ndarray:
         """Full parameter rows (P, k) holding ``values`` (P, m) at ``index`` (m,), the fixed values,
         and zeros elsewhere."""

@@ -2,15 +2,13 @@
 
 ``frictionid report emps --out DIR [--study STUDY_DIR]`` writes ``DIR/report.html`` (figures
 embedded, self-contained), the PNG files and ``DIR/report.json``. The report of one result on any
-system and source is :mod:`frictionid_core.fit_report`; both use :func:`png_bytes`,
-:func:`html_table` and :data:`PAGE_STYLE`.
+system and source is :mod:`frictionid_core.fit_report`; both draw with :mod:`frictionid_core.page`.
 """
 
 from __future__ import annotations
 
 import base64
 import html
-import io
 import time
 from pathlib import Path
 
@@ -19,6 +17,7 @@ import numpy as np
 from frictionid_core.friction import all_models
 from frictionid_core.jsonfile import write_json
 from frictionid_core.metrics import improvement_pct
+from frictionid_core.page import PAGE_STYLE, friction_axes, html_table, png_bytes
 
 
 def model_table(series) -> list[dict]:
@@ -38,13 +37,6 @@ def model_table(series) -> list[dict]:
     return rows
 
 
-def png_bytes(fig) -> bytes:
-    """A matplotlib figure as PNG bytes."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    return buf.getvalue()
-
-
 def figures(series, best_row: dict, sim_val, study_runs: list[dict] | None) -> dict[str, bytes]:
     """PNG figures: friction curve, OSA prediction/error, simulated position error, convergence."""
     import matplotlib
@@ -52,7 +44,6 @@ def figures(series, best_row: dict, sim_val, study_runs: list[dict] | None) -> d
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from frictionid_core.fit_report import friction_axes
     from frictionid_core.identification import build_model
 
     out = {}
@@ -167,18 +158,6 @@ def build_report(estimation: Path, validation: Path, out_dir: Path, study_dir: P
     write_json(out_dir / "report.json", report)
     (out_dir / "report.html").write_text(_html(report, figs))
     return report
-
-
-PAGE_STYLE = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}"
-              "table{border-collapse:collapse;margin:1em 0;font-size:0.9em}td,th{border:1px solid #bbb;padding:3px 8px;"
-              "text-align:right}th{background:#eee}img{max-width:100%}")
-
-
-def html_table(head: list[str], rows: list[list]) -> str:
-    """An HTML table; floats with 6 significant digits."""
-    fmt = lambda v: f"{v:.6g}" if isinstance(v, float) else html.escape(str(v))  # noqa: E731
-    return ("<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr>"
-            + "".join("<tr>" + "".join(f"<td>{fmt(v)}</td>" for v in r) + "</tr>" for r in rows) + "</table>")
 
 
 def _html(rep: dict, figs: dict[str, bytes]) -> str:

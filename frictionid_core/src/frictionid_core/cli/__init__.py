@@ -34,6 +34,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "excite": ("excite", "optimise a Fourier excitation trajectory within the joint limits"),
     "synth": ("synth", "synthesise a JointState bag from a trajectory (Pinocchio + friction + noise)"),
     "consistency": ("consistency", "physical consistency of identified robot base parameters"),
+    "export": ("export", "write a robot result as a URDF, a MuJoCo model and a parameters file (YAML)"),
     "compare": ("compare", "compare fits side by side, or a fit with the ground truth of synthetic data"),
 }
 PLUGIN_GROUP = "frictionid.commands"

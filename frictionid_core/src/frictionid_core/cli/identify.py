@@ -1,5 +1,6 @@
 """``frictionid identify SOURCE [SOURCE ...] [--system S] [--friction F] [--solver X] [--start S] [--end S]
-[--fix NAME=VALUE]... [--bounds NAME=LO:HI]... [--layout FILE] [--json OUT]``."""
+[--fix NAME=VALUE]... [--bounds NAME=LO:HI]... [--layout FILE] [--consistent [--prior urdf --prior-weight W]]
+[--json OUT]``."""
 
 from __future__ import annotations
 
@@ -51,6 +52,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--varpro", action=argparse.BooleanOptionalAction, default=None,
                    help="variable projection: search only vs/delta/v0, solve the linear parameters in closed form "
                         "(default: on for tx40 and urdf:PATH, off otherwise)")
+    p.add_argument("--consistent", action="store_true",
+                   help="tx40, urdf:PATH: physically consistent standard parameters (pseudo-inertia ⪰ 0 per link, "
+                        "rotor inertia, Fv, Fc ≥ 0; cvxpy + Clarabel); the result adds standard_parameters and "
+                        "consistency")
+    p.add_argument("--prior", choices=("urdf",),
+                   help="with --consistent: pull each link toward the robot's own URDF inertials (log-det divergence)")
+    p.add_argument("--prior-weight", type=float, default=1.0, metavar="W",
+                   help="weight of the --prior divergence against the data term ‖e‖²/2σ̂² (default 1)")
+    p.add_argument("--stribeck-order", action="store_true",
+                   help="with --consistent and an Fs parameter: also impose Fs ≥ Fc (off by default: see the docs)")
     p.add_argument("--warm-start", action=argparse.BooleanOptionalAction, default=True,
                    help="global solvers evaluate the closed-form start (never worse than the nested linear model) "
                         "first; --no-warm-start: purely random initial population, the thesis protocol (default on)")
@@ -103,9 +114,16 @@ def run(args) -> int:
                           asymmetric=args.asymmetric, solver=args.solver, seed=args.seed, varpro=args.varpro,
                           warm_start=args.warm_start, bounds=parse_bounds(args.bounds),
                           preprocessing=_preprocessing(args), fixed=parse_fixed(args.fix), window=window_of(args),
-                          drive=drive_option(args), **opts).to_dict()
+                          drive=drive_option(args), consistent=args.consistent, prior=args.prior,
+                          prior_weight=args.prior_weight, stribeck_order=args.stribeck_order, **opts).to_dict()
         result["layout"] = None if args.layout is None else str(args.layout)
     print_table(result)
+    if "consistency" in result:
+        c = result["consistency"]
+        print(f"consistent parameters: {'FEASIBLE' if c['feasible'] else 'NOT FEASIBLE'} ({c['solver']}, "
+              f"{c['sdp_wall_s']:.2f} s, prior {c['prior']} weight {c['prior_weight']:g}); cost "
+              f"+{c['cost_increase_pct']:.3g} % over the unconstrained fit (relerr "
+              f"{c['unconstrained']['relerr_pct']:.4g} %)")
     warn(result.get("warnings", []))
     save_json(args.json, result)
     return 0

@@ -102,9 +102,10 @@ def generic_prior(robot) -> np.ndarray:
 
 
 def check_consistency(robot, base, beta_hat: np.ndarray, prior: np.ndarray | None = None,
-                      margin: float = 1e-6) -> ConsistencyReport:
+                      margin: float = 1e-6, prior_label: str = "given prior") -> ConsistencyReport:
     """Search standard parameters consistent with the identified base parameters ``beta_hat``
-    (module doc). ``prior``: standard parameters to stay close to (default: the model's own)."""
+    (module doc). ``prior``: standard parameters to stay close to (default: the model's own),
+    named ``prior_label`` in the report's method."""
     from scipy.linalg import null_space
     from scipy.optimize import minimize
 
@@ -119,7 +120,7 @@ def check_consistency(robot, base, beta_hat: np.ndarray, prior: np.ndarray | Non
     D = np.maximum(np.abs(pi0), floor)
     AD = A * D
     pi = pi0 + D * (np.linalg.pinv(AD) @ (beta_hat - A @ pi0))
-    method = "least-squares projection of the " + ("model's parameters" if prior is None else "given prior")
+    method = "least-squares projection of the " + ("model's parameters" if prior is None else prior_label)
 
     def margins(x: np.ndarray) -> np.ndarray:
         eig = [np.linalg.eigvalsh(pseudo_inertia(x[10 * k : 10 * k + 10]))[0] for k in range(nb)]
@@ -158,6 +159,49 @@ def check_consistency(robot, base, beta_hat: np.ndarray, prior: np.ndarray | Non
                              dict(zip(names, map(float, pi))))
 
 
+def standard_record(robot, names: list[str], pi: np.ndarray) -> dict:
+    """Per link {mass (kg), com (m, joint frame), inertia about the com (kg·m², joint frame axes:
+    ixx ixy ixz iyy iyz izz), rotor, rotor_inertia (kg·m²)} of standard parameters ``pi``."""
+    nb = robot.model.model.njoints - 1
+    out = {}
+    for k in range(nb):
+        m, h, I = body_matrices(pi[10 * k : 10 * k + 10])
+        c = h / m if m > 0 else np.zeros(3)
+        Ic = I - m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+        rotor = names[10 * nb + k] if 10 * nb + k < len(names) else None
+        out[robot.model.joints[k]] = {
+            "mass": m, "com": c.tolist(),
+            "inertia": {"ixx": Ic[0, 0], "ixy": Ic[0, 1], "ixz": Ic[0, 2], "iyy": Ic[1, 1], "iyz": Ic[1, 2],
+                        "izz": Ic[2, 2]},
+            "rotor": rotor.rsplit(".", 1)[0] if rotor else None,
+            "rotor_inertia": float(pi[10 * nb + k]) if rotor else 0.0,
+        }
+    return out
+
+
+def link_parameters(link: dict) -> np.ndarray:
+    """[m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz] (inertia about the link origin) of a
+    :func:`standard_record` entry (mass, com, inertia about the com)."""
+    m, c = float(link["mass"]), np.asarray(link["com"], dtype=float)
+    t = link["inertia"]
+    Ic = np.array([[t["ixx"], t["ixy"], t["ixz"]], [t["ixy"], t["iyy"], t["iyz"]], [t["ixz"], t["iyz"], t["izz"]]],
+                  dtype=float)
+    I = Ic + m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+    return np.array([m, *(m * c), I[0, 0], I[0, 1], I[1, 1], I[0, 2], I[1, 2], I[2, 2]])
+
+
+def standard_from_record(robot, record: dict) -> np.ndarray:
+    """Standard parameters π (P,) of a :func:`standard_record` (FrictionIdError when a link lacks)."""
+    pi, rot = [], []
+    for j in robot.model.joints[: robot.model.model.njoints - 1]:
+        try:
+            pi.append(link_parameters(record[j]))
+            rot.append(float(record[j].get("rotor_inertia", 0.0)))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise FrictionIdError(f"standard parameters of link '{j}': missing or malformed {exc}") from None
+    return np.concatenate(pi + [np.array(rot)])
+
+
 def report_for_result(result: dict, system, prior: str = "model") -> dict:
     """Consistency report of an identification result (``Identification.to_dict()``) of a robot
     system; ``system``: its System (:func:`frictionid_core.systems.result_system`)."""
@@ -169,7 +213,10 @@ def report_for_result(result: dict, system, prior: str = "model") -> dict:
         beta = np.array([result["params"][n] for n in system.rigid_names])
     except KeyError as exc:
         raise FrictionIdError(f"result lacks base parameter {exc}") from None
-    pri = None if prior == "model" else generic_prior(info.model)
-    rep = check_consistency(info.model, info.base, beta, pri)
+    pri, label = (None, "") if prior == "model" else (generic_prior(info.model), "generic bodies")
+    if prior == "model" and result.get("standard_parameters"):  # a consistent fit's own witness
+        pri, prior = standard_from_record(info, result["standard_parameters"]), "result"
+        label = "result's own standard parameters (identify --consistent)"
+    rep = check_consistency(info.model, info.base, beta, pri, prior_label=label)
     return dict(rep.to_dict(), system=system.name, prior=prior)
 

@@ -1,0 +1,94 @@
+"""Consistent parameters on the real Stäubli TX40 through the command line (issue 16 acceptance; not a test).
+
+    .venv/bin/python bench/tx40_consistent.py [DATA_DIR]     # default ../shared/data/tx40_real
+
+As bench/tx40_real.py (same layout, bundled drive ``tx40``, identify 0–6.3 s, validate 6.3–9 s):
+each fit unconstrained, ``--consistent``, and ``--consistent --prior urdf`` at a few weights; for
+each: validation relerr, ``frictionid consistency`` verdict, SDP wall time and the whole
+command's wall time. Writes bench/results/tx40_consistent.{json,txt}.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from tx40_real import DEFAULT_DATA, LAYOUT, RESULTS, SPLIT_S, frictionid
+
+VARIANTS = {"unconstrained": [], "consistent": ["--consistent"],
+            "consistent + prior W=1": ["--consistent", "--prior", "urdf", "--prior-weight", "1"],
+            "consistent + prior W=100": ["--consistent", "--prior", "urdf", "--prior-weight", "100"]}
+FITS = {"coulomb ls": ("coulomb", "ls"), "stribeck hybrid": ("stribeck", "hybrid")}
+
+
+def consistency(path: Path) -> str:
+    out = subprocess.run([sys.executable, "-m", "frictionid_core.cli", "consistency", str(path)],
+                         capture_output=True, text=True)
+    return "FEASIBLE" if out.returncode == 0 else ("NOT FOUND FEASIBLE" if out.returncode == 3 else out.stderr)
+
+
+def main() -> int:
+    data = Path(sys.argv[1]) if len(sys.argv) > 1 else DEFAULT_DATA
+    source = data / "pos_read_data.csv"
+    if not source.is_file():
+        raise SystemExit(f"{source}: not found (give the folder of FIGAROH's TX40 log)")
+    tmp = Path(tempfile.mkdtemp(prefix="tx40_consistent_"))
+    layout = tmp / "layout.yaml"
+    layout.write_text(LAYOUT)
+    runs = {}
+    for fit_name, (friction, solver) in FITS.items():
+        for var, flags in VARIANTS.items():
+            name = f"{fit_name} · {var}"
+            fit, val = tmp / f"{len(runs)}.json", tmp / f"{len(runs)}_val.json"
+            wall = frictionid("identify", str(source), "--layout", str(layout), "--drive", "tx40", "--system", "tx40",
+                              "--friction", friction, "--solver", solver, "--end", str(SPLIT_S), *flags,
+                              "--json", str(fit))
+            frictionid("validate", str(source), "--layout", str(layout), "--params", str(fit), "--start",
+                       str(SPLIT_S), "--json", str(val))
+            r, v = json.loads(fit.read_text()), json.loads(val.read_text())
+            c = r.get("consistency") or {}
+            runs[name] = {"command": "identify --drive tx40 --friction {} --solver {} {}".format(friction, solver,
+                                                                                                " ".join(flags)),
+                          "wall_s": wall, "estimation_relerr_pct": r["metrics"]["relerr_pct"],
+                          "validation_relerr_pct": v["metrics"]["relerr_pct"], "consistency_check": consistency(fit),
+                          "sdp_wall_s": c.get("sdp_wall_s"), "cost_increase_pct": c.get("cost_increase_pct"),
+                          "masses": {j: s["mass"] for j, s in (r.get("standard_parameters") or {}).items()}}
+    out = {"data": str(data), "split_s": SPLIT_S, "runs": runs, "acceptance": acceptance(runs)}
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    (RESULTS / "tx40_consistent.json").write_text(json.dumps(out, indent=2) + "\n")
+    text = summary(out)
+    (RESULTS / "tx40_consistent.txt").write_text(text + "\n")
+    print(text)
+    return 0 if all(c["pass"] for c in out["acceptance"]) else 1
+
+
+def acceptance(runs: dict) -> list[dict]:
+    checks = []
+    for fit_name in FITS:
+        base = runs[f"{fit_name} · unconstrained"]
+        for var in list(VARIANTS)[1:]:
+            r = runs[f"{fit_name} · {var}"]
+            d = r["validation_relerr_pct"] - base["validation_relerr_pct"]
+            checks += [(f"{fit_name} · {var}: FEASIBLE", 1.0, r["consistency_check"] == "FEASIBLE"),
+                       (f"{fit_name} · {var}: validation within +0.5 points (Δ)", d, d <= 0.5),
+                       (f"{fit_name} · {var}: SDP ≤ 5 s", r["sdp_wall_s"], r["sdp_wall_s"] <= 5.0)]
+    return [{"criterion": n, "value": float(v), "pass": bool(ok)} for n, v, ok in checks]
+
+
+def summary(out: dict) -> str:
+    lines = [f"real TX40 ({out['data']}): identify 0–{SPLIT_S} s, validate {SPLIT_S} s–end; CLI + layout + drive tx40"]
+    for name, r in out["runs"].items():
+        sdp = "" if r["sdp_wall_s"] is None else f"  SDP {r['sdp_wall_s']:5.2f} s"
+        lines.append(f"{name:<42} wall {r['wall_s']:6.1f} s  estimation {r['estimation_relerr_pct']:6.2f} %  "
+                     f"validation {r['validation_relerr_pct']:6.2f} %  {r['consistency_check']}{sdp}  masses "
+                     + " ".join(f"{m:.3g}" for m in r["masses"].values()))
+    for c in out["acceptance"]:
+        lines.append(f"{'PASS' if c['pass'] else 'FAIL'}  {c['criterion']}: {c['value']:.4g}")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,48 @@
+"""``frictionid export RESULT.json [--urdf OUT.urdf] [--mujoco OUT.xml] [--yaml OUT.yaml] [--force]``:
+a robot result's identified parameters as a URDF, a MuJoCo model and a parameters file."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from frictionid_core.errors import FrictionIdError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("result", type=Path, help="result of 'frictionid identify --system tx40|urdf:PATH' "
+                                             "(best with --consistent)")
+    p.add_argument("--urdf", type=Path, metavar="OUT.urdf", help="the robot's URDF with the identified inertials "
+                                                                 "and <dynamics damping=Fv friction=Fc>")
+    p.add_argument("--mujoco", type=Path, metavar="OUT.xml", help="MuJoCo MJCF: inertials, joint damping = Fv, "
+                                                                  "frictionloss = Fc, armature = rotor inertia")
+    p.add_argument("--yaml", type=Path, metavar="OUT.yaml", help="parameters file for the node and 'validate'")
+    p.add_argument("--force", action="store_true", help="export even when the result is not physically consistent")
+
+
+def run(args) -> int:
+    from frictionid_core.jsonfile import read_json, write_text
+    from frictionid_core.robots.export import export_data, mujoco_text, urdf_text, yaml_text
+    from frictionid_core.systems import result_system
+
+    if not (args.urdf or args.mujoco or args.yaml):
+        raise FrictionIdError("nothing to export: give --urdf, --mujoco and/or --yaml")
+    result = read_json(args.result, "an identification result")
+    try:
+        system = result_system(result)
+    except KeyError as exc:
+        raise FrictionIdError(f"{args.result}: not an identification result (no {exc})") from None
+    data = export_data(result, system, args.force)
+    if not data.feasible:
+        print("frictionid: warning: exporting an inconsistent result (--force): " + "; ".join(data.problems))
+    urdf = urdf_text(data) if (args.urdf or args.mujoco) else None
+    outputs = []
+    if args.urdf:
+        outputs.append(write_text(args.urdf, urdf))
+    if args.mujoco:
+        outputs.append(write_text(args.mujoco, mujoco_text(data, urdf)))
+    if args.yaml:
+        outputs.append(write_text(args.yaml, yaml_text(data)))
+    for path in outputs:
+        print(f"wrote {path}")
+    return 0

@@ -1,0 +1,256 @@
+"""Export a robot identification result: URDF, MuJoCo MJCF and a YAML parameters file.
+
+The standard parameters exported are the result's own (``identify --consistent``) or, for an
+unconstrained result, the consistent witness :func:`~frictionid_core.robots.consistency.report_for_result`
+finds; a result with no consistent witness is refused unless forced (the error names the link).
+
+* URDF: a ``urdf:PATH`` robot's own file with each moving joint's child link given the
+  identified inertial (mass, centre of mass, inertia about it, in the link = joint frame) and
+  the inertials of links fixed to it removed (Pinocchio merges them into the same body); the
+  built-in TX40 gets a URDF written from its Pinocchio model. Every moving joint gets
+  ``<dynamics damping="Fv" friction="Fc"/>``.
+* MJCF: MuJoCo's compilation of that URDF (visual and collision geometry left out) with joint
+  ``damping`` = Fv (N·m·s/rad), ``frictionloss`` = Fc (N·m), ``armature`` = rotor inertia (kg·m²).
+* YAML: the result itself (what ``frictionid validate`` and the node read), plus ``export``.
+
+With friction on the motors (a coupled drive) each joint gets the friction of its own motor
+(the motor with that joint's ratio); asymmetric friction exports the mean of the two branches;
+Stribeck exports its Coulomb level Fc (MuJoCo has no Stribeck term).
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+import numpy as np
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.robots.consistency import report_for_result, standard_record
+
+# MuJoCo joint attribute ← friction parameter
+MUJOCO_FRICTION = {"damping": "Fv", "frictionloss": "Fc"}
+
+
+@dataclass
+class ExportData:
+    """What the exporters write.
+
+    Attributes:
+        robot: the RobotModel.
+        links: per moving joint :func:`standard_record` entry (mass, com, inertia, rotor_inertia).
+        friction: {joint: {"Fv", "Fc"}} (N·m·s/rad, N·m).
+        feasible: the consistency verdict; ``problems`` the failing links/parameters.
+        source: ``urdf:PATH`` file of the robot, or None (built-in model).
+    """
+
+    robot: object
+    links: dict
+    friction: dict
+    feasible: bool
+    problems: list[str]
+    source: str | None
+    result: dict
+
+
+def export_data(result: dict, system, force: bool = False) -> ExportData:
+    """Standard parameters and friction of ``result`` (an identification of the robot ``system``);
+    FrictionIdError for an inconsistent result unless ``force``."""
+    if system.robot is None:
+        raise FrictionIdError(f"system '{system.name}' is not a robot system (tx40, urdf:PATH): nothing to export")
+    info = system.robot
+    rep = report_for_result(result, system)
+    names = (info.rows or info.model).parameter_names()
+    pi = np.array([rep["standard_parameters"][n] for n in info.model.parameter_names()])
+    links = standard_record(info, names, pi)
+    problems = [f"link '{j}' (mass {b['mass']:.4g} kg, pseudo-inertia λmin {b['pseudo_inertia_min_eig']:.3g})"
+                for j, b in rep["bodies"].items() if not b["consistent"]]
+    problems += [f"rotor of '{j}' (Ia {r['Ia']:.4g} kg·m²)" for j, r in rep["rotors"].items() if not r["consistent"]]
+    friction = _joint_friction(result, info)
+    for j, f in friction.items():
+        problems += [f"joint '{j}' {k} {v:.4g} < 0" for k, v in f.items() if v < 0]
+    if problems and not force:
+        raise FrictionIdError("refused to export an inconsistent result: " + "; ".join(problems)
+                              + " (identify with --consistent, or export anyway with --force)")
+    source = system.name.split(":", 1)[1] if system.name.startswith("urdf:") else None
+    return ExportData(info.model, links, friction, not problems, problems, source, result)
+
+
+def _joint_friction(result: dict, info) -> dict:
+    """{joint: {Fv, Fc}} of a result: per joint, or per motor mapped to each motor's own joint."""
+    from frictionid_core.drive import friction_rows
+
+    params = result["params"]
+    rows = friction_rows(result)
+    owner = dict(zip(info.rows.motors, info.model.joints)) if info.rows is not None else {}
+    out = {}
+    for row in rows:
+        joint = owner.get(row, row)
+        prefix = f"{row}/" if len(rows) > 1 else ""
+        vals = {}
+        for k in ("Fv", "Fc"):
+            v = [params[prefix + k + s] for s in ("", "_pos", "_neg") if prefix + k + s in params]
+            vals[k] = float(np.mean(v)) if v else 0.0
+        out[joint] = vals
+    return out
+
+
+# ------------------------------------------------------------------------------------------ URDF
+def _fmt(x) -> str:
+    return " ".join(repr(float(v)) for v in np.atleast_1d(x))
+
+
+def _inertial(link: dict) -> ET.Element:
+    el = ET.Element("inertial")
+    ET.SubElement(el, "origin", xyz=_fmt(link["com"]), rpy="0 0 0")
+    ET.SubElement(el, "mass", value=_fmt(link["mass"]))
+    ET.SubElement(el, "inertia", **{k: _fmt(v) for k, v in link["inertia"].items()})
+    return el
+
+
+def _set_dynamics(joint: ET.Element, friction: dict) -> None:
+    for old in joint.findall("dynamics"):
+        joint.remove(old)
+    ET.SubElement(joint, "dynamics", damping=_fmt(max(friction["Fv"], 0.0)), friction=_fmt(max(friction["Fc"], 0.0)))
+
+
+def urdf_text(data: ExportData) -> str:
+    """The URDF of :mod:`this module's doc <frictionid_core.robots.export>`."""
+    root = _urdf_from_file(data) if data.source else _urdf_from_model(data)
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
+
+
+def _urdf_from_file(data: ExportData) -> ET.Element:
+    try:
+        root = ET.parse(data.source).getroot()
+    except (OSError, ET.ParseError) as exc:
+        raise FrictionIdError(f"{data.source}: cannot read the robot's URDF ({exc})") from None
+    joints = {j.get("name"): j for j in root.findall("joint")}
+    links = {lk.get("name"): lk for lk in root.findall("link")}
+    children: dict[str, list[ET.Element]] = {}
+    for j in joints.values():
+        children.setdefault(j.find("parent").get("link"), []).append(j)
+    for name, link in data.links.items():
+        joint = joints.get(name)
+        if joint is None:
+            raise FrictionIdError(f"{data.source}: no joint '{name}' in the URDF")
+        child = links[joint.find("child").get("link")]
+        for el in child.findall("inertial"):
+            child.remove(el)
+        child.insert(0, _inertial(link))
+        _set_dynamics(joint, data.friction.get(name, {"Fv": 0.0, "Fc": 0.0}))
+        stack = list(children.get(child.get("name"), []))
+        while stack:  # links fixed to this body: Pinocchio merges them into it, the export holds the sum
+            j = stack.pop()
+            if j.get("type") != "fixed":
+                continue
+            fixed = links[j.find("child").get("link")]
+            for el in fixed.findall("inertial"):
+                fixed.remove(el)
+            stack += children.get(fixed.get("name"), [])
+    return root
+
+
+def _link_name(joint: str) -> str:
+    return joint.replace("joint", "link") if "joint" in joint else f"{joint}_link"
+
+
+def _urdf_from_model(data: ExportData) -> ET.Element:
+    """A URDF of a fixed-base Pinocchio model of revolute/prismatic joints along x, y or z."""
+    import pinocchio as pin
+
+    robot = data.robot
+    m = robot.model
+    root = ET.Element("robot", name=robot.name)
+    ET.SubElement(root, "link", name="base_link")
+    axes = {"X": "1 0 0", "Y": "0 1 0", "Z": "0 0 1"}
+    for i in range(1, m.njoints):
+        name = m.names[i]
+        short = m.joints[i].shortname()  # JointModelRZ, JointModelPX, …
+        kind, axis = short[-2], short[-1]
+        if kind not in "RP" or axis not in axes:
+            raise FrictionIdError(f"joint '{name}' ({short}): only revolute/prismatic joints along x, y or z export "
+                                  "to a URDF from a built-in model")
+        link = ET.SubElement(root, "link", name=_link_name(name))
+        link.append(_inertial(data.links[name]))
+        k = i - 1
+        j = ET.SubElement(root, "joint", name=name, type="revolute" if kind == "R" else "prismatic")
+        M = m.jointPlacements[i]
+        ET.SubElement(j, "origin", xyz=_fmt(M.translation), rpy=_fmt(pin.rpy.matrixToRpy(M.rotation)))
+        ET.SubElement(j, "parent", link="base_link" if m.parents[i] == 0 else _link_name(m.names[m.parents[i]]))
+        ET.SubElement(j, "child", link=_link_name(name))
+        ET.SubElement(j, "axis", xyz=axes[axis])
+        ET.SubElement(j, "limit", lower=_fmt(robot.lower[k]), upper=_fmt(robot.upper[k]),
+                      effort=_fmt(m.effortLimit[k]), velocity=_fmt(robot.velocity_limit[k]))
+        _set_dynamics(j, data.friction.get(name, {"Fv": 0.0, "Fc": 0.0}))
+    return root
+
+
+# ----------------------------------------------------------------------------------------- MuJoCo
+def mujoco_text(data: ExportData, urdf: str | None = None) -> str:
+    """MJCF of the URDF (:func:`urdf_text`) compiled by MuJoCo, joint damping/frictionloss/armature set."""
+    import mujoco
+
+    root = ET.fromstring(urdf or urdf_text(data))
+    for link in root.findall("link"):
+        for tag in ("visual", "collision"):
+            for el in link.findall(tag):
+                link.remove(el)
+    for el in root.findall("transmission") + root.findall("gazebo"):
+        root.remove(el)
+    mj = root.find("mujoco")
+    mj = ET.SubElement(root, "mujoco") if mj is None else mj
+    ET.SubElement(mj, "compiler", fusestatic="false", discardvisual="true")
+    try:
+        spec = mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"))
+        for j in spec.joints:
+            if j.name not in data.links:
+                continue
+            f = data.friction.get(j.name, {"Fv": 0.0, "Fc": 0.0})
+            j.damping = [max(f["Fv"], 0.0), 0.0, 0.0]  # MuJoCo 4: linear damping, then polynomial terms
+            j.frictionloss = max(f["Fc"], 0.0)
+            j.armature = max(float(data.links[j.name]["rotor_inertia"]), 0.0)
+        spec.compile()
+        text = _exact_values(spec.to_xml(), data)
+        mujoco.MjModel.from_xml_string(text)  # what we write compiles
+        return text
+    except Exception as exc:  # mujoco raises ValueError with its compiler's message
+        raise FrictionIdError(f"MuJoCo could not compile the exported model: {' '.join(str(exc).split())}") from None
+
+
+def _exact_values(xml: str, data: ExportData) -> str:
+    """MJCF ``xml`` with each identified body's inertial (pos, mass, fullinertia) and joint
+    damping/frictionloss/armature written at full precision (MuJoCo's writer keeps 6 digits)."""
+    root = ET.fromstring(xml)
+    for body in root.iter("body"):
+        joint = body.find("joint")
+        if joint is None or joint.get("name") not in data.links:
+            continue
+        name = joint.get("name")
+        link, f = data.links[name], data.friction.get(name, {"Fv": 0.0, "Fc": 0.0})
+        t = link["inertia"]
+        joint.set("damping", _fmt(max(f["Fv"], 0.0)))
+        joint.set("frictionloss", _fmt(max(f["Fc"], 0.0)))
+        joint.set("armature", _fmt(max(float(link["rotor_inertia"]), 0.0)))
+        old = body.find("inertial")
+        if old is not None:
+            body.remove(old)
+        body.insert(0, ET.Element("inertial", pos=_fmt(link["com"]), mass=_fmt(link["mass"]),
+                                  fullinertia=_fmt([t[k] for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")])))
+    ET.indent(root)
+    return ET.tostring(root, encoding="unicode") + "\n"
+
+
+# ------------------------------------------------------------------------------------------- YAML
+def yaml_text(data: ExportData) -> str:
+    """The result as YAML (readable by ``frictionid validate`` and the node) with an ``export`` note."""
+    import json
+
+    import yaml
+
+    plain = json.loads(json.dumps(data.result, default=float))
+    plain["export"] = {"feasible": data.feasible, "problems": data.problems,
+                       "joint_friction": data.friction,
+                       "rotor_inertia": {j: v["rotor_inertia"] for j, v in data.links.items()}}
+    return yaml.safe_dump(plain, sort_keys=False, allow_unicode=True)
