@@ -120,10 +120,14 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
     n, nj = prepared.qd.shape
     r = rigid_full.shape[1]
     kept = decimation_indices(n, settings.decimate)
-    select, weight, fine = thinned_rows(prepared.qd[kept], prepared.qdd[kept], 1.0 / prepared.dt, settings, joints)
+    select, weight, level = thinned_rows(prepared.qd[kept], prepared.qdd[kept], 1.0 / prepared.dt, settings, joints)
     metric_rows = decimation_indices(n, settings.decimate * settings.thin)  # instants of kept, one in thin
-    # the coarse row of each kept analysis row that is not fine
-    coarse_of = metric_rows.size - 1 - (kept.size - 1 - select[~fine]) // settings.thin
+    # {decimation: (its kept rows, their rows in that decimation)}, the instants aligned to the last
+    sources = {}
+    for L in np.unique(level):
+        at = level == L
+        step = L // settings.decimate
+        sources[int(L)] = (at, decimation_indices(n, L).size - 1 - (kept.size - 1 - select[at]) // step)
     ns = rigid_full.shape[0] // nj  # rigid rows per joint: every stride-th sample, the last one kept
     metric_rigid = ns - 1 - (n - 1 - metric_rows) // stride
     parts: dict[str, list] = {k: [] for k in ("y", "velocity", "rigid", "columns")}
@@ -137,13 +141,15 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
     for j in range(nj):
         small = np.column_stack([prepared.tau[:, j], prepared.qd[:, j], velocity_columns(prepared.qd[:, j])])
         rigid = rigid_full[j * ns : (j + 1) * ns]
-        fit = decimated(small, rigid, settings.decimate)
         if settings.thin > 1:
-            fit = fit[select]
-            fit[~fine] = decimated(small, rigid, settings.decimate * settings.thin)[coarse_of]
+            fit = np.empty((select.size, small.shape[1] + r))
+            for L, (at, rows) in sources.items():
+                fit[at] = decimated(small, rigid, L)[rows]
             velocity = fit[:, 1].copy()  # the velocity itself is not weighted
             fit *= weight[:, None]
             fit[:, 1] = velocity
+        else:
+            fit = decimated(small, rigid, settings.decimate)
         at = np.column_stack([small[metric_rows, :2], rigid[metric_rigid], small[metric_rows, 2:]])
         for out, rows in ((parts, fit), (raw, at)):
             out["y"].append(rows[:, 0])

@@ -169,7 +169,7 @@ def preprocessing_line(p: dict) -> str:
         parts.append(f"Butterworth order {p.get('order')} at {fmt(p.get('cutoff_hz'), 4)} Hz{mark('cutoff_hz')}{band}")
     rate = f" → {fmt(p['analysis_rate_hz'], 4)} Hz" if p.get("analysis_rate_hz") else ""
     thin = p.get("thin") or 1
-    thinned = (f" ({p.get('fit_rows')} rows: every one where a dip is crossed fast, 1 in {thin} elsewhere)"
+    thinned = (f" ({p.get('fit_rows')} rows: at the rate each dip crossing needs, 1 in {thin} elsewhere)"
                if thin > 1 else "")
     parts += [f"decimation {p.get('decimate')}{rate}{mark('decimate')}{thinned}",
               f"trims {fmt(p.get('trim_start_s'), 3)} + {fmt(p.get('trim_end_s'), 3)} s{mark('trim_start_s', 'trim_end_s')}",
