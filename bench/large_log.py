@@ -36,8 +36,9 @@ LOGS = {"estimation": (1, 10.0, 45.0, 15.0, 11), "validation": (2, 8.0, 20.0, 0.
 RUNS = {"coulomb": ("coulomb", "ls"), "stribeck": ("stribeck", "hybrid")}
 
 
-def run(*args: str) -> tuple[float, float, str]:
-    """Run ``frictionid ARGS`` in a subprocess: (wall s, peak RSS GB, stdout); exits on failure."""
+def run(*args: str) -> tuple[float, float, str, float]:
+    """Run ``frictionid ARGS`` in a subprocess: (wall s, peak RSS GB, stdout, CPU s user + system);
+    exits on failure."""
     cmd = [sys.executable, "-m", "frictionid_core.cli", *args]
     t0 = time.perf_counter()
     with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
@@ -49,7 +50,7 @@ def run(*args: str) -> tuple[float, float, str]:
         stdout, stderr = out.read(), err.read()
     if proc.returncode != 0:
         raise SystemExit(f"frictionid {' '.join(args)} failed ({proc.returncode}):\n{stderr}")
-    return wall, usage.ru_maxrss / 1024**2, stdout  # ru_maxrss: KiB on Linux
+    return wall, usage.ru_maxrss / 1024**2, stdout, usage.ru_utime + usage.ru_stime  # ru_maxrss: KiB on Linux
 
 
 def make_logs(folder: Path) -> dict:
@@ -62,9 +63,9 @@ def make_logs(folder: Path) -> dict:
             continue
         if bag.exists():
             shutil.rmtree(bag)
-        t_ex, _, _ = run("excite", "--system", "tx40", "--seed", str(seed), "--period", str(period),
+        t_ex, *_ = run("excite", "--system", "tx40", "--seed", str(seed), "--period", str(period),
                          "--duration", str(duration), "--dwell", str(dwell), "--evals", "300", "--out", str(traj))
-        t_syn, _, _ = run("synth", str(traj), "--system", "tx40", "--friction", "stribeck", "--seed", str(noise_seed),
+        t_syn, *_ = run("synth", str(traj), "--system", "tx40", "--friction", "stribeck", "--seed", str(noise_seed),
                           "--rate", str(RATE), "--out", str(bag), "--truth", str(truth))
         made[name] = {"excite_s": t_ex, "synth_s": t_syn}
     return made
@@ -94,13 +95,14 @@ def main() -> int:
     for name in args.runs.split(","):
         friction, solver = RUNS[name]
         fit, check = folder / f"{name}.json", folder / f"{name}_val.json"
-        wall, rss, _ = run("identify", str(est), "--system", "tx40", "--friction", friction, "--solver", solver,
+        wall, rss, _, cpu = run("identify", str(est), "--system", "tx40", "--friction", friction, "--solver", solver,
                            "--json", str(fit))
         run("validate", str(val), "--params", str(fit), "--json", str(check))
         r, v = read_json(fit), read_json(check)
         pre = r["preprocessing"]
         rec = {"command": f"frictionid identify estimation --system tx40 --friction {friction} --solver {solver}",
-               "wall_s": wall, "identify_wall_s": r["wall_s"], "peak_rss_gb": rss,
+               "wall_s": wall, "cpu_s": cpu, "identify_wall_s": r["wall_s"], "peak_rss_gb": rss,
+               "load_average": os.getloadavg(),
                "estimation_relerr_pct": r["metrics"]["relerr_pct"], "validation_relerr_pct": v["metrics"]["relerr_pct"],
                "preprocessing": pre, "warnings": r.get("warnings", []), "params": r["params"],
                "pass": wall <= WALL_TARGET_S and rss <= RSS_TARGET_GB}
@@ -121,7 +123,8 @@ def main() -> int:
 def line(name: str, r: dict) -> str:
     pre = r["preprocessing"]
     rows = pre.get("fit_rows")
-    return (f"{name:<9} wall {r['wall_s']:6.1f} s (identify {r['identify_wall_s']:5.1f} s)  peak RSS {r['peak_rss_gb']:5.2f} GB  "
+    return (f"{name:<9} wall {r['wall_s']:6.1f} s (identify {r['identify_wall_s']:5.1f} s, CPU {r['cpu_s']:5.1f} s, "
+            f"load {r['load_average'][0]:.1f})  peak RSS {r['peak_rss_gb']:5.2f} GB  "
             f"estimation {r['estimation_relerr_pct']:6.3f} %  validation {r['validation_relerr_pct']:6.3f} %  "
             f"cut-off {pre['cutoff_hz']:.3g} Hz, decimate {pre['decimate']}"
             + (f", rows {rows}" if rows is not None else "") + f"  {'PASS' if r['pass'] else 'FAIL'}")
