@@ -121,7 +121,7 @@ class SimArm:
         self.params = np.array(friction, dtype=float).reshape(nv, len(self.law.names))
         self.eps = float(eps)
         if q0 is not None:
-            self.data.qpos[:] = robot.configuration(np.asarray(q0, dtype=float)) if robot.model.nq == nv else q0
+            self.data.qpos[:] = np.asarray(q0, dtype=float)  # MuJoCo hinges and slides: one coordinate each
         mujoco.mj_forward(self.model, self.data)
         self.drift, self.drift_s, self._drift_t0 = 0.0, 60.0, None
         self.tau = np.zeros(nv)
