@@ -17,7 +17,7 @@ from frictionid_core.friction import smooth_sign
 
 PEAK_SPEED = 0.25  # peak joint speed of the default task [rad/s | m/s]
 FREQUENCIES = (0.20, 0.17, 0.23, 0.19, 0.25, 0.21)  # reversal frequencies of the default task [Hz]
-BANDWIDTH_HZ = 4.0  # PD bandwidth [Hz]
+BANDWIDTH_HZ = 8.0  # PD bandwidth [Hz]
 DAMPING = 0.9  # PD damping ratio
 
 

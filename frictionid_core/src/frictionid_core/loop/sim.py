@@ -165,9 +165,11 @@ class SimArm:
         """Apply the joint torque ``tau`` (J,) for one step (friction semi-implicit, module docstring)."""
         d = self.data
         v0 = np.array(d.qvel)
-        p = self.current_params()
-        f0 = self.friction(v0, p)
-        c = (self.friction(v0 + _SLOPE_H, p) - self.friction(v0 - _SLOPE_H, p)) / (2.0 * _SLOPE_H)
+        n = len(v0)
+        p = np.tile(self.current_params(), (3, 1))  # one law call: f(v0), f(v0 + h), f(v0 − h)
+        f = self.law.torque(p, np.concatenate([v0, v0 + _SLOPE_H, v0 - _SLOPE_H]), self.eps)
+        f = f[np.arange(3 * n), np.arange(3 * n)]
+        f0, c = f[:n], (f[n:2 * n] - f[2 * n:]) / (2.0 * _SLOPE_H)
         np.maximum(c, 0.0, out=c)
         self.tau[:] = tau
         self.model.dof_damping[:] = c
