@@ -4,8 +4,8 @@ ros2_control robot (:class:`frictionid_core.loop.sim.SimArm`).
     frictionid_sim --ros-args -p robot:=tx40
 
 Publishes ``joint_states`` (sensor_msgs/JointState, sensor-data QoS) every step at ``rate_hz``:
-position, velocity, effort = the torque applied during the step [N·m | N], stamp = wall clock at
-publication. Takes ``/effort_controller/commands`` (std_msgs/Float64MultiArray, joint order of
+position, velocity, effort = the torque applied during the step [N·m | N], stamp = the simulated
+clock (wall clock at its start + simulated time: regular 1 ms steps, as a robot's clock). Takes ``/effort_controller/commands`` (std_msgs/Float64MultiArray, joint order of
 ``joint_states``), held until the next one; the arm stands still until the first command.
 Parameter ``drift_start`` (set to true at runtime) starts the Coulomb drift: +``drift_fraction``
 of Fc and Fs over ``drift_s`` seconds. Steps run in a thread of their own at absolute times.
@@ -78,21 +78,27 @@ class SimNode(Node):
         self.commands += 1
 
     def _loop(self) -> None:
+        """Step at absolute times; stamp = the simulated clock (wall clock at the first step + sim
+        time), regular like a robot's; a step later than CATCH_UP_S shifts that clock instead of
+        racing (the data then shows a gap of that length)."""
         msg = JointState(name=list(self.robot.joints))
         sim, period = self.sim, self.period
         nxt = time.monotonic()
+        origin = 0  # wall clock of sim time 0 [ns]
         while not self._stop.is_set():
             nxt += period
             delay = nxt - time.monotonic()
             if delay > 0.0:
                 time.sleep(delay)
             elif delay < -CATCH_UP_S:
-                nxt = time.monotonic()
+                nxt -= delay
+                origin -= int(delay * 1e9)
             cmd = self.command
-            if cmd is not None:
+            if cmd is None:  # standing still: the clock follows the wall clock
+                origin = time.time_ns() - round(sim.t * 1e9)
+            else:
                 sim.step(cmd)
-            now = time.time_ns()
-            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
+            msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(origin + round(sim.t * 1e9), 1_000_000_000)
             msg.position = sim.data.qpos.tolist()
             msg.velocity = sim.data.qvel.tolist()
             msg.effort = sim.tau.tolist()
