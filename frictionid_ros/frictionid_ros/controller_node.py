@@ -12,8 +12,8 @@ the friction sign from this desired velocity) and the effort command
 of the joint state it answers) while parameter ``feedforward_enabled`` is true.
 
 Recorded for ``frictionid loop`` and written to ``record_file`` (.npz) at exit: per joint state
-its stamp [ns], q_d − q [rad | m], whether and what feed-forward went out; per feed-forward
-message its latency = receipt − stamp of the joint state it answers [ns].
+its stamp and its receipt − stamp [ns], q_d − q [rad | m], whether and what feed-forward went
+out; per feed-forward message its latency = receipt − stamp of the joint state it answers [ns].
 """
 
 from __future__ import annotations
@@ -65,6 +65,7 @@ class ControllerNode(Node):
         self.ff_used = np.zeros((CAPACITY, nj))
         self.ff_on = np.zeros(CAPACITY, dtype=bool)
         self.lat = np.zeros(CAPACITY, dtype=np.int64)
+        self.state_lat = np.zeros(CAPACITY, dtype=np.int64)
         self._ref = JointState(name=self.joints)
         self._cmd = Float64MultiArray()
         self._pub_ref = self.input_node.create_publisher(JointState, p["reference_topic"], SENSOR)
@@ -82,6 +83,7 @@ class ControllerNode(Node):
         return SetParametersResult(successful=True)
 
     def _on_state(self, msg: JointState) -> None:
+        now = time.time_ns()
         stamp = msg.header.stamp.sec * NS + msg.header.stamp.nanosec
         if self._order is None:
             self._order = [list(msg.name).index(j) for j in self.joints]
@@ -99,7 +101,7 @@ class ControllerNode(Node):
         self._cmd.data = tau.tolist()
         self._pub_cmd.publish(self._cmd)
         k = self.n % CAPACITY
-        self.stamp[k], self.err[k], self.ff_on[k] = stamp, q_d - q, on
+        self.stamp[k], self.err[k], self.ff_on[k], self.state_lat[k] = stamp, q_d - q, on, now - stamp
         self.ff_used[k] = self.ff if on else 0.0
         self.n += 1
 
@@ -117,7 +119,8 @@ class ControllerNode(Node):
             return
         n, m = min(self.n, CAPACITY), min(self.n_lat, CAPACITY)
         np.savez(self.record_file, joints=np.array(self.joints), stamp_ns=self.stamp[:n], error=self.err[:n],
-                 feedforward=self.ff_used[:n], feedforward_on=self.ff_on[:n], latency_ns=self.lat[:m])
+                 feedforward=self.ff_used[:n], feedforward_on=self.ff_on[:n], latency_ns=self.lat[:m],
+                 state_latency_ns=self.state_lat[:n])
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -82,6 +82,10 @@ def handler(args) -> int:
     print(f"bad parameters rejected: {result['gate']['bad_parameters_rejected']}")
     lat = result.get("feedforward_latency_ms", {})
     print("feed-forward latency [ms]: " + ", ".join(f"{k} {v:.3f}" for k, v in lat.items()))
+    import numpy as np
+
+    hop = np.percentile(record["state_latency_ns"], [50, 99]) * 1e-6
+    print(f"  of which joint_states stamp → controller receipt [ms]: p50 {hop[0]:.3f}, p99 {hop[1]:.3f}")
     print(f"wrote {args.json} in {time.monotonic() - t0:.0f} s")
     return 0
 

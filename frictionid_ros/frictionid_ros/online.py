@@ -3,8 +3,9 @@
 Every ``online_period_s`` the node calls :meth:`Online.tick`: the last ``online_window_s`` of
 buffered data is split in time, the older (1 − ``online_holdout``) share is identified (in the
 worker, with the node's friction model, solver and ``known_rigid_body``) and the newest share is
-held back; :func:`frictionid_core.loop.gate.review` then decides whether the candidate replaces
-the active parameters (it must predict the held-back slice better). ``~/load`` goes through the
+held back; :func:`frictionid_core.loop.gate.review`, run in the worker too (its predictions
+would otherwise take the GIL from the 1 kHz inputs), decides whether the candidate replaces the
+active parameters (it must predict the held-back slice better). ``~/load`` goes through the
 same gate while online re-identification is on (:meth:`Online.offer`). Every decision is kept
 for ``/diagnostics`` (:meth:`Online.status`) and logged.
 """
@@ -54,11 +55,12 @@ class Online:
             try:
                 sel = self._service.window(self._job(cfg.online_window_s))
                 fit, held = split(sel.series, cfg.online_holdout)
+                review_args = {"current": self._active.results.last, "holdout": held, "max_abs": cfg.gate_max_abs}
                 result, _ = self._service.run_job(self._job(cfg.online_window_s), JobControl(),
-                                                  Selection(fit, sel.start_ns, sel.end_ns, sel.notes))
+                                                  Selection(fit, sel.start_ns, sel.end_ns, sel.notes), review_args)
             except (FrictionIdError, Cancelled) as exc:
                 return self._skip(str(exc))
-            decision = review(self._active.results.last, result, held, cfg.gate_max_abs)
+            decision = Decision(**result.pop("review"))
             if decision.accepted:
                 stamp = time.time_ns()
                 self._active.activate(Results(split_identification(result, stamp), result, sel.start_ns,

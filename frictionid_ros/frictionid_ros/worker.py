@@ -111,13 +111,25 @@ def _recv(stream):
 def run_identification(series, kwargs: dict, progress=None) -> tuple:
     """One identification → ("ok", result dict) | ("error" | "cancelled" | "crash", message).
 
+    ``kwargs["review"]`` = {current, holdout, max_abs}: the result is also judged by the safety
+    gate (:func:`frictionid_core.loop.gate.review`); the decision's fields are in ``result["review"]``.
+
     ``progress``: the optimiser's hook (see :func:`frictionid_core.identification.identify`); it
     cancels the run by raising :class:`Cancelled`."""
     from frictionid_core.errors import FrictionIdError
     from frictionid_core.identification import identify
 
+    kwargs = dict(kwargs)
+    gate = kwargs.pop("review", None)
     try:
-        return ("ok", identify(series, progress=progress, **kwargs).to_dict())
+        result = identify(series, progress=progress, **kwargs).to_dict()
+        if gate is not None:  # judged here too: the prediction of the held-back slice is CPU work
+            from dataclasses import asdict
+
+            from frictionid_core.loop.gate import review
+
+            result["review"] = asdict(review(gate["current"], result, gate["holdout"], gate["max_abs"]))
+        return ("ok", result)
     except Cancelled as exc:
         return ("cancelled", str(exc))
     except FrictionIdError as exc:
