@@ -116,3 +116,38 @@ def test_short_loop_error_falls_with_feedforward(tx40):
     assert np.all(on < off / 3.0), (off, on)
     assert median_ratio(result) < 0.2
     assert np.all(off > 1e-3)  # friction really hurts without it (> 1 mrad)
+
+
+def test_feedforward_clamp_and_ramp():
+    """The node's feed-forward: clamped to ±feedforward_max; new parameters blend in over
+    feedforward_ramp_s (half-way after half of it), then hold."""
+    import time
+
+    from frictionid_ros.feedforward import FeedForward
+    from frictionid_ros.store import JointParams
+
+    def params(fc: float) -> dict:
+        return {"a": JointParams("a", "friction-only", "coulomb", False, "ls", {"Fv": 0.0, "Fc": fc})}
+
+    ff = FeedForward(["a"], 0.0, limit=5.0, ramp_s=0.4)
+    ff.set_params(params(2.0))  # the first set: at once
+    assert ff.torque(np.array([1.0]))[0] == 2.0
+    ff.set_params(params(4.0))
+    t0 = time.monotonic()
+    first = ff.torque(np.array([1.0]))[0]
+    assert 2.0 <= first <= 2.0 + 2.0 * (time.monotonic() - t0 + 0.01) / 0.4
+    time.sleep(0.2)
+    mid = ff.torque(np.array([1.0]))[0]
+    assert 2.9 < mid < 3.5, mid  # 0.2 s of 0.4 s (+ scheduling)
+    time.sleep(0.25)
+    assert ff.torque(np.array([1.0]))[0] == 4.0
+    ff.set_params(params(40.0))
+    time.sleep(0.45)
+    assert ff.torque(np.array([-1.0]))[0] == -5.0  # clamped
+
+
+def test_online_split_holds_back_the_newest_share():
+    from frictionid_ros.online import split
+
+    fit, held = split(_joint(4.0, 3), 0.25)
+    assert len(fit.t) == 3000 and len(held.t) == 1000 and held.t[0] > fit.t[-1]
