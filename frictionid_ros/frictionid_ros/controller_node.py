@@ -27,22 +27,20 @@ import numpy as np
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)
     from rcl_interfaces.msg import SetParametersResult
-    from rclpy.node import Node
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
-from frictionid_ros.loop_common import SENSOR, input_node, run_node
+from frictionid_ros.loop_common import SENSOR, LoopNode, run_node
 
 NS = 1_000_000_000
 CAPACITY = 900_000  # recorded steps (15 min at 1 kHz)
 
 
-class ControllerNode(Node):
+class ControllerNode(LoopNode):
     """See the module docstring."""
 
     def __init__(self):
         super().__init__("frictionid_loop_controller")
-        self.input_node = input_node(self)
         from frictionid_core.loop.control import Controller, default_trajectory
         from frictionid_core.loop.sim import load_robot
 

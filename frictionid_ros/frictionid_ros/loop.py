@@ -210,6 +210,18 @@ class Client:
         finally:
             self.node.destroy_client(cli)
 
+    def wait_service(self, srv_type, name: str, procs: Processes, timeout: float = 60.0) -> None:
+        """Wait until service ``name`` is offered; FrictionIdError as soon as a loop process dies."""
+        cli = self.node.create_client(srv_type, name)
+        deadline = time.monotonic() + timeout
+        try:
+            while not cli.wait_for_service(timeout_sec=0.2):
+                procs.check()
+                if time.monotonic() > deadline:
+                    raise FrictionIdError(f"service {name} did not appear within {timeout:g} s")
+        finally:
+            self.node.destroy_client(cli)
+
     def set_parameter(self, node: str, name: str, value) -> None:
         from rcl_interfaces.srv import SetParameters
         from rclpy.parameter import Parameter
@@ -274,8 +286,11 @@ def run(args) -> tuple[dict, dict, dict]:
         procs.start("sim", "frictionid_ros.sim_node", "--ros-args", "-p", f"robot:={args.robot}",
                     "-p", f"drift_s:={args.drift_s}", "-p", f"drift_fraction:={args.drift_fraction}")
         client = Client(domain)
-        for name in ("frictionid_loop_controller", "frictionid_sim"):  # up and answering
-            client.set_parameter(name, "feedforward_enabled" if name.endswith("controller") else "drift_start", False)
+        from rcl_interfaces.srv import SetParameters
+
+        for name, srv_type in (("/frictionid/identify", Identify), ("/frictionid_loop_controller/set_parameters",
+                               SetParameters), ("/frictionid_sim/set_parameters", SetParameters)):
+            client.wait_service(srv_type, name, procs)
         deadline = time.monotonic() + 60.0
         while float(client.buffer.get("rate_hz", 0.0)) < 500.0:
             procs.check()

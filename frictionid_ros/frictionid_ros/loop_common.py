@@ -6,64 +6,49 @@ its parameter services are spun by a SingleThreadedExecutor in the main thread."
 
 from __future__ import annotations
 
-import gc
 import sys
-import threading
 import warnings
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, pulled in by rosidl on some versions
     import rclpy
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
-    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+    from rclpy.qos import qos_profile_sensor_data
 
-from frictionid_core.errors import FrictionIdError
-
-from frictionid_ros.runner import GIL_SWITCH_INTERVAL, make_input_executor, spin
+from frictionid_ros.runner import GIL_SWITCH_INTERVAL, make_input_executor, serve
 
 SENSOR = qos_profile_sensor_data  # joint_states, reference, commands: best effort, newest only matters
-RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
 
 
-def input_node(node: Node) -> Node:
-    """The hidden helper node of ``node`` for its 1 kHz topics (no parameter services)."""
-    return Node(f"_{node.get_name()}_input", context=node.context, use_global_arguments=False,
-                start_parameter_services=False)
+class LoopNode(Node):
+    """A node of the loop with a hidden helper node :attr:`input_node` (no parameter services)
+    for its 1 kHz topics; :meth:`close` runs before the executors stop."""
+
+    def __init__(self, name: str):
+        super().__init__(name)
+        self.input_node = Node(f"_{name}_input", context=self.context, use_global_arguments=False,
+                               start_parameter_services=False)
+
+    def close(self) -> None:
+        """Stop what the node runs by itself (subclasses)."""
+
+    def destroy_node(self) -> None:
+        self.input_node.destroy_node()
+        super().destroy_node()
 
 
 def run_node(node_class, argv: list[str] | None = None) -> int:
-    """Run ``node_class()`` (with its ``input_node``) until SIGINT/SIGTERM, then ``node.close()``;
-    exit code 0, or 2 with one line for a bad parameter."""
-    argv = list(sys.argv if argv is None else argv)
-    rclpy.init(args=argv)
+    """Run the :class:`LoopNode` ``node_class()`` until SIGINT/SIGTERM (:func:`.runner.serve`):
+    its input node in rclpy's EventsExecutor, itself in a SingleThreadedExecutor."""
+    rclpy.init(args=list(sys.argv if argv is None else argv))
     sys.setswitchinterval(GIL_SWITCH_INTERVAL)
-    node, executors, thread = None, [], None
-    try:
-        node = node_class()
-        gc.freeze()  # start-up objects are never scanned again: no 100 ms collections at 1 kHz
+
+    def executors(node):
         fast = make_input_executor("events", node.get_logger())
         fast.add_node(node.input_node)
         main = SingleThreadedExecutor()
         main.add_node(node)
-        executors = [fast, main]
-        thread = threading.Thread(target=spin, args=(fast, node), name="loop-input", daemon=True)
-        thread.start()
-        spin(main, node)
-    except FrictionIdError as exc:
-        print(f"{node_class.__name__}: error: {exc}", file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.close()
-        for ex in executors:
-            ex.shutdown(timeout_sec=1.0)
-        if thread is not None:
-            thread.join(timeout=2.0)
-        if node is not None:
-            node.input_node.destroy_node()
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+        return fast, main
+
+    return serve(node_class, executors, node_class.__name__)

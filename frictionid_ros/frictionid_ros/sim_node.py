@@ -23,23 +23,21 @@ import numpy as np
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)
     from rcl_interfaces.msg import SetParametersResult
-    from rclpy.node import Node
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
 from frictionid_core.errors import FrictionIdError
 
-from frictionid_ros.loop_common import SENSOR, input_node, run_node
+from frictionid_ros.loop_common import SENSOR, LoopNode, run_node
 
 CATCH_UP_S = 0.05  # a step later than this restarts the schedule instead of racing to catch up [s]
 
 
-class SimNode(Node):
+class SimNode(LoopNode):
     """See the module docstring."""
 
     def __init__(self):
         super().__init__("frictionid_sim")
-        self.input_node = input_node(self)
         from frictionid_core.loop.control import default_trajectory
         from frictionid_core.loop.sim import SimArm, hidden_friction, load_robot
 
