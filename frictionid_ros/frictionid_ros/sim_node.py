@@ -76,8 +76,8 @@ class SimNode(LoopNode):
         self.commands += 1
 
     def _loop(self) -> None:
-        """Step at absolute times; stamp = the simulated clock (wall clock at the first step + sim
-        time), regular like a robot's; a step later than CATCH_UP_S shifts that clock instead of
+        """Step at absolute times; stamp = the simulated clock (wall clock of the first step's
+        scheduled time + sim time: a message never leaves before its stamp), regular like a robot's; a step later than CATCH_UP_S shifts that clock instead of
         racing (the data then shows a gap of that length)."""
         msg = JointState(name=list(self.robot.joints))
         sim, period = self.sim, self.period
@@ -92,8 +92,8 @@ class SimNode(LoopNode):
                 nxt -= delay
                 origin -= int(delay * 1e9)
             cmd = self.command
-            if cmd is None:  # standing still: the clock follows the wall clock
-                origin = time.time_ns() - round(sim.t * 1e9)
+            if cmd is None:  # standing still: the clock follows the wall clock of the scheduled ticks
+                origin = time.time_ns() - round((time.monotonic() - nxt) * 1e9) - round(sim.t * 1e9)
             else:
                 sim.step(cmd)
             msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(origin + round(sim.t * 1e9), 1_000_000_000)
