@@ -57,11 +57,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--online-period-s", type=float, default=3.0, help="online re-identification period [s]")
     p.add_argument("--online-window-s", type=float, default=8.0, help="online re-identification window [s]")
     p.add_argument("--no-drift", action="store_true", help="only the off and on phases (and the gate)")
+    p.add_argument("--realtime", type=int, default=0, metavar="PRIO",
+                   help="run the three processes SCHED_FIFO at this priority (1..99; needs the right to: root "
+                        "or rtprio), as ros2_control runs its control loop; the identification worker goes back to "
+                        "normal scheduling. 0 (default): normal scheduling")
     p.add_argument("--keep", action="store_true", help="keep the work folder (logs, record, parameters)")
 
 
 def handler(args) -> int:
     """Run ``loop``; FrictionIdError propagates to the CLI (one line, exit code 2)."""
+    if not 0 <= args.realtime <= 99:
+        raise FrictionIdError(f"--realtime must lie in 0..99, got {args.realtime}")
     for name in ("phase_s", "drift_s", "after_s", "online_period_s", "online_window_s"):
         if not getattr(args, name) > 0:
             raise FrictionIdError(f"--{name.replace('_', '-')} must be > 0")
@@ -131,12 +137,13 @@ def _die_with_parent() -> None:
 class Processes:
     """The loop's processes, output in ``work``; stopped by SIGINT (their records are written then)."""
 
-    def __init__(self, work: Path, domain: int):
+    def __init__(self, work: Path, domain: int, realtime: int = 0):
         self.work, self.env, self.procs = work, ros_env(domain), {}
+        self.prefix = ["chrt", "--fifo", str(realtime)] if realtime > 0 else []
 
     def start(self, name: str, module: str, *args: str) -> None:
         with open(self.work / f"{name}.out", "w") as out, open(self.work / f"{name}.err", "w") as err:
-            self.procs[name] = subprocess.Popen([sys.executable, "-m", module, *args], env=self.env, stdout=out,
+            self.procs[name] = subprocess.Popen([*self.prefix, sys.executable, "-m", module, *args], env=self.env, stdout=out,
                                                 stderr=err, cwd=self.work, preexec_fn=_die_with_parent)
 
     def check(self) -> None:
@@ -275,7 +282,7 @@ def run(args) -> tuple[dict, dict, dict]:
     (work / "results").mkdir()
     domain = random.randint(1, 200)
     record_file = work / "record.npz"
-    procs = Processes(work, domain)
+    procs = Processes(work, domain, args.realtime)
     client = None
     phases: dict[str, tuple[int, int]] = {}
     try:

@@ -16,7 +16,7 @@ import math
 import time
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.loop.gate import Decision, review
+from frictionid_core.loop.gate import Decision, screen
 
 from frictionid_ros.request import Job
 from frictionid_ros.store import Results, read_results, split_identification
@@ -75,10 +75,15 @@ class Online:
             loaded = read_results(path)
             if not loaded.last or "params" not in loaded.last:
                 raise FrictionIdError(f"{path}: no complete identification result to judge")
-            held = self._service.window(self._job(cfg.online_window_s * cfg.online_holdout)).series
-        except FrictionIdError as exc:
+            decision = screen(loaded.last, cfg.gate_max_abs)
+            if decision is None:  # the predictions run in the worker (they would take the GIL here)
+                job = self._job(cfg.online_window_s * cfg.online_holdout)
+                sel = self._service.window(job)
+                gate = {"current": self._active.results.last, "holdout": sel.series, "max_abs": cfg.gate_max_abs}
+                decision = Decision(**self._service.run_job(job, JobControl(), sel, gate, loaded.last)[0]["review"])
+        except (FrictionIdError, Cancelled) as exc:
             return False, f"not loaded: {exc}"
-        decision = self._record(review(self._active.results.last, loaded.last, held, cfg.gate_max_abs), f"load {path}")
+        decision = self._record(decision, f"load {path}")
         if not decision.accepted:
             return False, f"{path}: safety gate: {decision.reason}; active parameters unchanged"
         self._active.activate(Results(loaded.per_joint, loaded.last, stamp_ns=time.time_ns()))

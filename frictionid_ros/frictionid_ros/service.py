@@ -162,15 +162,15 @@ class IdentifyService:
         return window_series(job, self._settings(), inputs.ring, self._topics["joint_states"], inputs.effort_ring,
                              self._topics.get("effort", ""))
 
-    def run_job(self, job: Job, control: JobControl, sel: Selection | None = None,
-                review: dict | None = None) -> tuple[dict, Selection]:
+    def run_job(self, job: Job, control: JobControl, sel: Selection | None = None, review: dict | None = None,
+                candidate: dict | None = None) -> tuple[dict, Selection]:
         """Identify the job's window (or ``sel``'s series): (the core's result dict, the window);
-        ``review``: judge the result by the safety gate as well (:func:`.worker.run_identification`)."""
+        ``review``: judge the result by the safety gate as well, ``candidate``: judge this one
+        instead of identifying (:func:`.worker.run_identification`: in the worker)."""
         cfg = self._settings()
         sel = sel or self.window(job)
         kwargs = job.identify_kwargs(cfg.system, self._pre)
-        if review is not None:
-            kwargs["review"] = review
+        kwargs.update({k: v for k, v in (("review", review), ("candidate", candidate)) if v is not None})
         kwargs["drive"] = cfg.drive  # read-only: the one of start-up
         if cfg.known_rigid_body:
             from frictionid_core.systems import get_system

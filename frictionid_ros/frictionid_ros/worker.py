@@ -113,6 +113,7 @@ def run_identification(series, kwargs: dict, progress=None) -> tuple:
 
     ``kwargs["review"]`` = {current, holdout, max_abs}: the result is also judged by the safety
     gate (:func:`frictionid_core.loop.gate.review`); the decision's fields are in ``result["review"]``.
+    ``kwargs["candidate"]``: judge this result (an ``Identification.to_dict()``) instead of identifying.
 
     ``progress``: the optimiser's hook (see :func:`frictionid_core.identification.identify`); it
     cancels the run by raising :class:`Cancelled`."""
@@ -120,9 +121,9 @@ def run_identification(series, kwargs: dict, progress=None) -> tuple:
     from frictionid_core.identification import identify
 
     kwargs = dict(kwargs)
-    gate = kwargs.pop("review", None)
+    gate, candidate = kwargs.pop("review", None), kwargs.pop("candidate", None)
     try:
-        result = identify(series, progress=progress, **kwargs).to_dict()
+        result = dict(candidate) if candidate is not None else identify(series, progress=progress, **kwargs).to_dict()
         if gate is not None:  # judged here too: the prediction of the held-back slice is CPU work
             from dataclasses import asdict
 
@@ -241,8 +242,14 @@ class _Child:
 
 
 def _lower_priority() -> None:
-    """The niceness of the environment (FRICTIONID_WORKER_NICE), set before any thread starts:
-    every thread of the child inherits it."""
+    """Normal scheduling (a node run real-time passes its policy on) and the niceness of the
+    environment (FRICTIONID_WORKER_NICE), set before any thread starts: every thread of the child
+    inherits them."""
+    try:
+        if os.sched_getscheduler(0) != os.SCHED_OTHER:
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    except (OSError, AttributeError):
+        pass
     try:
         os.nice(int(os.environ.get("FRICTIONID_WORKER_NICE", "0")))
     except (OSError, ValueError):

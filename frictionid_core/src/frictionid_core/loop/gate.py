@@ -35,9 +35,9 @@ def _rmse(result: dict, holdout) -> float:
         raise FrictionIdError(f"cannot predict the held-back slice: {exc}") from None
 
 
-def review(current: dict | None, candidate: dict, holdout, max_abs: float = 1e3) -> Decision:
-    """Accept ``candidate`` over ``current`` (None: no active set) on the held-back JointSeries
-    ``holdout``? ``max_abs``: largest parameter magnitude accepted (SI units)."""
+def screen(candidate: dict, max_abs: float = 1e3) -> Decision | None:
+    """The rejection of a candidate with a non-finite parameter or one over ``max_abs`` in
+    magnitude (no prediction needed), else None."""
     params = candidate.get("params") or {}
     bad = sorted(k for k, v in params.items() if not math.isfinite(float(v)))
     if bad:
@@ -45,6 +45,15 @@ def review(current: dict | None, candidate: dict, holdout, max_abs: float = 1e3)
     huge = sorted(k for k, v in params.items() if abs(float(v)) > max_abs)
     if huge:
         return Decision(False, f"rejected: parameter(s) {huge} over gate_max_abs = {max_abs:g}")
+    return None
+
+
+def review(current: dict | None, candidate: dict, holdout, max_abs: float = 1e3) -> Decision:
+    """Accept ``candidate`` over ``current`` (None: no active set) on the held-back JointSeries
+    ``holdout``? ``max_abs``: largest parameter magnitude accepted (SI units)."""
+    refused = screen(candidate, max_abs)
+    if refused is not None:
+        return refused
     try:
         cand = _rmse(candidate, holdout)
     except FrictionIdError as exc:
