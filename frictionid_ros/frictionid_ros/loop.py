@@ -36,6 +36,7 @@ offered to the safety gate (~/load). Writes the figures as JSON (--json) and one
 tracking error per phase (--plots)."""
 
 NS = 1_000_000_000
+AUTO_PRIORITY = 10  # SCHED_FIFO priority of --realtime auto
 
 
 def register(subparsers):
@@ -57,17 +58,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--online-period-s", type=float, default=3.0, help="online re-identification period [s]")
     p.add_argument("--online-window-s", type=float, default=8.0, help="online re-identification window [s]")
     p.add_argument("--no-drift", action="store_true", help="only the off and on phases (and the gate)")
-    p.add_argument("--realtime", type=int, default=0, metavar="PRIO",
-                   help="run the three processes SCHED_FIFO at this priority (1..99; needs the right to: root "
-                        "or rtprio), as ros2_control runs its control loop; the identification worker goes back to "
-                        "normal scheduling. 0 (default): normal scheduling")
+    p.add_argument("--realtime", default="auto", metavar="PRIO|auto|off",
+                   help="run the three processes SCHED_FIFO at priority PRIO (1..99), as ros2_control runs its "
+                        "control loop (the identification worker goes back to normal scheduling); auto "
+                        f"(default): {AUTO_PRIORITY} if this user may (root, or an rtprio limit), else off")
     p.add_argument("--keep", action="store_true", help="keep the work folder (logs, record, parameters)")
 
 
 def handler(args) -> int:
     """Run ``loop``; FrictionIdError propagates to the CLI (one line, exit code 2)."""
-    if not 0 <= args.realtime <= 99:
-        raise FrictionIdError(f"--realtime must lie in 0..99, got {args.realtime}")
+    args.realtime = realtime_priority(args.realtime)
+    print("scheduling: " + (f"SCHED_FIFO {args.realtime}" if args.realtime else
+                            "normal (no real-time priority: expect latency tails of several ms on a busy machine)"))
     for name in ("phase_s", "drift_s", "after_s", "online_period_s", "online_window_s"):
         if not getattr(args, name) > 0:
             raise FrictionIdError(f"--{name.replace('_', '-')} must be > 0")
@@ -94,6 +96,26 @@ def handler(args) -> int:
     print(f"  of which joint_states stamp → controller receipt [ms]: p50 {hop[0]:.3f}, p99 {hop[1]:.3f}")
     print(f"wrote {args.json} in {time.monotonic() - t0:.0f} s")
     return 0
+
+
+def realtime_priority(value: str) -> int:
+    """The SCHED_FIFO priority of ``--realtime`` (0: off); ``auto``: AUTO_PRIORITY if allowed."""
+    if value == "auto":
+        try:
+            allowed = subprocess.run(["chrt", "--fifo", str(AUTO_PRIORITY), "true"], capture_output=True,
+                                     timeout=10).returncode == 0
+        except (OSError, subprocess.TimeoutExpired):
+            allowed = False
+        return AUTO_PRIORITY if allowed else 0
+    if value == "off":
+        return 0
+    try:
+        prio = int(value)
+    except ValueError:
+        prio = -1
+    if not 0 <= prio <= 99:
+        raise FrictionIdError(f"--realtime must be auto, off or a priority 0..99, got {value!r}")
+    return prio
 
 
 def ros_env(domain: int) -> dict:
