@@ -358,8 +358,10 @@ def run(args) -> tuple[dict, dict, dict]:
         raise FrictionIdError(f"the controller wrote no record (see {work}/controller.err)")
     with np.load(record_file) as z:
         record = {k: z[k] for k in z.files}
-    result = summarize(record, phases, after_s=args.after_s)
+    figures = summarize(record, phases, after_s=args.after_s)
+    result = {k: figures[k] for k in ("rms_tracking_error", "drift") if k in figures}
     result["gate"] = {"bad_parameters_rejected": bool(rejected)}
+    result.update({k: v for k, v in figures.items() if k not in result})
     if not args.keep:
         import shutil
 
