@@ -151,3 +151,16 @@ def test_online_split_holds_back_the_newest_share():
 
     fit, held = split(_joint(4.0, 3), 0.25)
     assert len(fit.t) == 3000 and len(held.t) == 1000 and held.t[0] > fit.t[-1]
+
+
+def test_loop_command_registers_in_the_core_cli():
+    """The ``frictionid.commands`` entry point target adds ``loop`` with its defaults (no ROS start)."""
+    import argparse
+
+    from frictionid_ros.loop import register
+
+    sub = argparse.ArgumentParser(prog="frictionid").add_subparsers(dest="command")
+    handler = register(sub)
+    args = sub.choices["loop"].parse_args(["--json", "x.json"])
+    assert callable(handler) and args.robot == "tx40" and args.realtime == "auto" and args.drift_s == 60.0
+    assert args.velocity_source == "reference" and args.drift_fraction == 0.3

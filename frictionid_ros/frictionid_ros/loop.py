@@ -57,6 +57,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--after-s", type=float, default=20.0, help="observed after the drift [s]")
     p.add_argument("--online-period-s", type=float, default=3.0, help="online re-identification period [s]")
     p.add_argument("--online-window-s", type=float, default=8.0, help="online re-identification window [s]")
+    p.add_argument("--velocity-source", choices=("reference", "measured"), default="reference",
+                   help="the node's feed-forward velocity: the controller's desired velocity (default) or the "
+                        "measured one (its sign chatters near zero speed)")
     p.add_argument("--no-drift", action="store_true", help="only the off and on phases (and the gate)")
     p.add_argument("--realtime", default="auto", metavar="PRIO|auto|off",
                    help="run the three processes SCHED_FIFO at priority PRIO (1..99), as ros2_control runs its "
@@ -135,7 +138,7 @@ def node_parameters(robot: str, joints: list[str], work: Path, args) -> Path:
     """The frictionid node's parameters file of the loop."""
     system = robot if robot.startswith("urdf:") else "tx40"
     values = {"system": system, "joints": joints, "friction_model": "coulomb", "solver": "ls",
-              "velocity_source": "reference", "smoothing_eps": 0.02, "known_rigid_body": True,
+              "velocity_source": args.velocity_source, "smoothing_eps": 0.02, "known_rigid_body": True,
               "online_period_s": float(args.online_period_s), "online_window_s": float(args.online_window_s),
               "online_holdout": 0.25, "gate_max_abs": 1000.0, "feedforward_max": 100.0, "feedforward_ramp_s": 0.5,
               "results_file": str(work / "results" / "parameters.json"), "max_missing_pct": 20.0,
