@@ -125,5 +125,5 @@ class FeedForward:
     def _friction(self, groups, v: np.ndarray, out: np.ndarray) -> np.ndarray:
         """Each owner's friction at its velocity v[owner] into ``out``."""
         for model, idx, params in groups:
-            out[idx] = np.diagonal(model.torque(params, v[idx], self.eps))
+            out[idx] = model.torque_each(params, v[idx], self.eps)
         return out

@@ -82,8 +82,7 @@ class Controller:
 def friction_feedforward(model, params: np.ndarray, v: np.ndarray, eps: float) -> np.ndarray:
     """Friction feed-forward (J,) of per-joint parameters ``params`` (J, k) of ``model`` at the
     desired velocities v (J,), sign smoothed by tanh(v/eps) (:func:`smooth_sign`)."""
-    idx = np.arange(len(v))
-    return model.torque(params, np.asarray(v, dtype=float), eps)[idx, idx]
+    return model.torque_each(params, np.asarray(v, dtype=float), eps)
 
 
 def run_loop(sim, controller: Controller, seconds: float, feedforward=None) -> np.ndarray:

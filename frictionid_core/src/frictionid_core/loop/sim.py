@@ -126,7 +126,6 @@ class SimArm:
         self.drift, self.drift_s, self._drift_t0 = 0.0, 60.0, None
         self.tau = np.zeros(nv)
         self.tau_friction = np.zeros(nv)
-        self._idx = np.arange(nv)
 
     @property
     def t(self) -> float:
@@ -159,7 +158,7 @@ class SimArm:
     def friction(self, v: np.ndarray, params: np.ndarray | None = None) -> np.ndarray:
         """Hidden friction f(v) (J,) [N·m | N] of the core's Stribeck law, joint k at v[k]."""
         p = self.current_params() if params is None else params
-        return self.law.torque(p, np.asarray(v, dtype=float), self.eps)[self._idx, self._idx]
+        return self.law.torque_each(p, np.asarray(v, dtype=float), self.eps)
 
     def step(self, tau: np.ndarray) -> None:
         """Apply the joint torque ``tau`` (J,) for one step (friction semi-implicit, module docstring)."""
@@ -167,8 +166,7 @@ class SimArm:
         v0 = np.array(d.qvel)
         n = len(v0)
         p = np.tile(self.current_params(), (3, 1))  # one law call: f(v0), f(v0 + h), f(v0 − h)
-        f = self.law.torque(p, np.concatenate([v0, v0 + _SLOPE_H, v0 - _SLOPE_H]), self.eps)
-        f = f[np.arange(3 * n), np.arange(3 * n)]
+        f = self.law.torque_each(p, np.concatenate([v0, v0 + _SLOPE_H, v0 - _SLOPE_H]), self.eps)
         f0, c = f[:n], (f[n:2 * n] - f[2 * n:]) / (2.0 * _SLOPE_H)
         np.maximum(c, 0.0, out=c)
         self.tau[:] = tau
