@@ -6,7 +6,7 @@ PIP    := $(PY) -m pip
 STAMP  := $(VENV)/.frictionid-setup
 IFACE_STAMP := $(VENV)/.frictionid-interfaces
 
-.PHONY: setup demo test test-core bags bench-optim clean
+.PHONY: setup demo demo-loop test test-core bags bench-optim clean
 
 setup: $(STAMP) $(IFACE_STAMP)
 
@@ -28,6 +28,10 @@ demo: setup
 	$(VENV)/bin/frictionid identify bags/emps_estimation --system emps --friction coulomb --solver ls --json demo_result.json
 	$(VENV)/bin/frictionid validate bags/emps_validation --params demo_result.json --json demo_validation.json
 
+# Friction compensation in the loop: simulated arm, controller and node over ROS 2 (~2.5 min).
+demo-loop: setup
+	$(VENV)/bin/frictionid loop --robot tx40 --json demo_loop.json --plots demo_loop_plots
+
 test: setup
 	$(VENV)/bin/pytest -q tests
 
@@ -43,4 +47,4 @@ bench-optim: setup
 	$(PY) bench/optimizers.py $(BENCH_ARGS)
 
 clean:
-	rm -rf $(VENV) build demo_result.json demo_validation.json
+	rm -rf $(VENV) build demo_result.json demo_validation.json demo_loop.json demo_loop_plots

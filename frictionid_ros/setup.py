@@ -20,7 +20,11 @@ setup(
     description="ROS 2 node wrapping frictionid_core",
     license="Apache-2.0",
     entry_points={
-        "console_scripts": ["frictionid_node = frictionid_ros.node:main"],
-        "frictionid.commands": ["replay = frictionid_ros.replay:register"],
+        "console_scripts": ["frictionid_node = frictionid_ros.node:main",
+                            "frictionid_sim = frictionid_ros.sim_node:main",
+                            "frictionid_loop_controller = frictionid_ros.controller_node:main",
+                            "frictionid_loop = frictionid_ros.loop:main"],
+        "frictionid.commands": ["replay = frictionid_ros.replay:register",
+                                "loop = frictionid_ros.loop:register"],
     },
 )

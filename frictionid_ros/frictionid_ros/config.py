@@ -82,6 +82,17 @@ PARAMETERS: dict[str, tuple[object, str, bool]] = {
     "worker_nice": (19, "niceness of the identification worker process, 0..19 (19: the feed-forward "
                         "path gets the CPU first)", True),
     "diagnostics_period_s": (1.0, "period of /diagnostics [s]", True),
+    "known_rigid_body": (False, "robot systems (tx40, urdf:PATH): keep the base parameters at the model's values "
+                                "(the controller's rigid-body model) and identify friction and offsets only", True),
+    "online_period_s": (0.0, "online re-identification: every this long, identify the last online_window_s and "
+                             "activate the result only if the safety gate accepts it [s]; 0 = off (~/load is then "
+                             "not gated either)", True),
+    "online_window_s": (10.0, "data window of an online re-identification [s]", True),
+    "online_holdout": (0.25, "share of the online window held back (its newest samples) for the safety gate", True),
+    "gate_max_abs": (1000.0, "the safety gate refuses a parameter larger than this in magnitude [SI units]", True),
+    "feedforward_max": (0.0, "clamp of the feed-forward per joint [N·m | N]; 0 = none", True),
+    "feedforward_ramp_s": (0.0, "new parameters blend in over this long (feed-forward rate limit) [s]; 0 = at once",
+                           True),
 }
 
 
@@ -125,6 +136,13 @@ class Config:
     max_wall_s: float
     worker_nice: int
     diagnostics_period_s: float
+    known_rigid_body: bool = False
+    online_period_s: float = 0.0
+    online_window_s: float = 10.0
+    online_holdout: float = 0.25
+    gate_max_abs: float = 1000.0
+    feedforward_max: float = 0.0
+    feedforward_ramp_s: float = 0.0
 
     @property
     def capacity(self) -> int:
@@ -189,7 +207,8 @@ def make_config(values: dict) -> Config:
     for name in ("buffer_seconds", "max_rate_hz", "diagnostics_period_s", "max_window_seconds", "max_wall_s"):
         if not float(v[name]) > 0.0:
             raise FrictionIdError(f"parameter '{name}' must be > 0, got {v[name]}")
-    for name in ("window_seconds", "max_missing_pct", "filter_cutoff_hz", "feedforward_rate_hz", "smoothing_eps"):
+    for name in ("window_seconds", "max_missing_pct", "filter_cutoff_hz", "feedforward_rate_hz", "smoothing_eps",
+                 "online_period_s", "feedforward_max", "feedforward_ramp_s"):
         if not float(v[name]) >= 0.0:
             raise FrictionIdError(f"parameter '{name}' must be >= 0, got {v[name]}")
     for name in ("decimation", "min_samples"):
@@ -208,6 +227,11 @@ def make_config(values: dict) -> Config:
     cap = float(v["buffer_seconds"]) * float(v["max_rate_hz"])
     if cap > 50_000_000:
         raise FrictionIdError(f"buffer_seconds * max_rate_hz = {cap:.0f} samples is too large (max 5e7)")
+    if not 0.0 < float(v["online_holdout"]) < 1.0:
+        raise FrictionIdError(f"parameter 'online_holdout' must lie in (0, 1), got {v['online_holdout']}")
+    if not float(v["online_window_s"]) > 0.0 or not float(v["gate_max_abs"]) > 0.0:
+        raise FrictionIdError(f"parameters 'online_window_s' and 'gate_max_abs' must be > 0, got "
+                              f"{v['online_window_s']} and {v['gate_max_abs']}")
     if v["velocity_source"] == "reference" and not v["reference_topic"]:
         raise FrictionIdError("velocity_source 'reference' needs a reference_topic")
     if not float(v["prior_weight"]) >= 0.0:
@@ -250,6 +274,13 @@ def make_config(values: dict) -> Config:
         max_wall_s=float(v["max_wall_s"]),
         worker_nice=int(v["worker_nice"]),
         diagnostics_period_s=float(v["diagnostics_period_s"]),
+        known_rigid_body=bool(v["known_rigid_body"]),
+        online_period_s=float(v["online_period_s"]),
+        online_window_s=float(v["online_window_s"]),
+        online_holdout=float(v["online_holdout"]),
+        gate_max_abs=float(v["gate_max_abs"]),
+        feedforward_max=float(v["feedforward_max"]),
+        feedforward_ramp_s=float(v["feedforward_ramp_s"]),
     )
 
 

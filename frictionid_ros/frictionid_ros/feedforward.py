@@ -7,9 +7,14 @@ With the node's drive (``drive_file``) velocities and the feed-forward are on it
 in the units of joint_states: joint velocities q̇ = R⁻¹·v (motor-side log), the friction of
 motor-side parameters (``motor_<k>``) acts on w = C·q̇ and gives the joint torques Cᵀ·f(w),
 which are published as recorded efforts (:meth:`Drive.recorded_effort_matrix`).
+
+Rate limit and clamp: new parameters blend in linearly over ``ramp_s`` (τ = (1 − α)·τ_old + α·τ_new,
+α from 0 to 1), and every joint's torque is clamped to ±``limit`` (0: neither).
 """
 
 from __future__ import annotations
+
+import time
 
 import numpy as np
 
@@ -27,10 +32,12 @@ class FeedForward:
     parameter block at the g velocities gives a (g, g) array whose diagonal is the answer.
     """
 
-    def __init__(self, joints: list[str], eps: float = 0.0, drive=None):
+    def __init__(self, joints: list[str], eps: float = 0.0, drive=None, limit: float = 0.0, ramp_s: float = 0.0):
         self.joints = list(joints)
         self.eps = float(eps)
         self.drive = drive
+        self.limit, self.ramp_s = float(limit), float(ramp_s)
+        self._ramp: tuple = (None, 0.0)  # (state before the last change, time of the change [s, monotonic])
         # (groups (model, owner indices, parameters), drive maps (order, A, B) or None)
         self._state: tuple[tuple, tuple | None] = ((), None)
         self.active: tuple[str, ...] = ()
@@ -56,6 +63,8 @@ class FeedForward:
             rows.append(vec)
             active.append(j)
         # One immutable tuple, swapped atomically: readers in other threads never see a half update.
+        if self.ramp_s > 0.0 and self.active:
+            self._ramp = (self._state, time.monotonic())
         self._state = (tuple((m, np.array(idx, dtype=np.intp), np.array(rows, dtype=float))
                              for m, (idx, rows) in groups.items()), maps)
         self.active = tuple(active)
@@ -84,9 +93,23 @@ class FeedForward:
     def torque(self, v: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Friction torque (J,) at velocities v (J,); non-finite velocities give 0 (under a drive,
         0 from every owner whose velocity they enter)."""
+        out = self._torque(self._state, v, out)
+        old, t_change = self._ramp
+        if old is not None:
+            alpha = (time.monotonic() - t_change) / self.ramp_s
+            if alpha >= 1.0:
+                self._ramp = (None, 0.0)
+            else:
+                out *= alpha
+                out += (1.0 - alpha) * self._torque(old, v)
+        if self.limit > 0.0:
+            np.clip(out, -self.limit, self.limit, out=out)
+        return out
+
+    def _torque(self, state, v: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         out = np.zeros(len(self.joints)) if out is None else out
         out.fill(0.0)
-        groups, maps = self._state
+        groups, maps = state
         if maps is None:
             self._friction(groups, v, out)
         else:
@@ -102,5 +125,5 @@ class FeedForward:
     def _friction(self, groups, v: np.ndarray, out: np.ndarray) -> np.ndarray:
         """Each owner's friction at its velocity v[owner] into ``out``."""
         for model, idx, params in groups:
-            out[idx] = np.diagonal(model.torque(params, v[idx], self.eps))
+            out[idx] = model.torque_each(params, v[idx], self.eps)
         return out

@@ -68,7 +68,7 @@ class Inputs:
             self._ref_prev = np.full(nj, np.nan)
         self.v = np.zeros(nj)
         self.tau = np.zeros(nj)
-        ff = FeedForward(joints, cfg.smoothing_eps, cfg.drive)
+        ff = FeedForward(joints, cfg.smoothing_eps, cfg.drive, cfg.feedforward_max, cfg.feedforward_ramp_s)
         for problem in ff.set_params(self._per_joint):
             self._warn(f"feed-forward: {problem}")
         self.ff = ff

@@ -4,7 +4,6 @@
     python -m frictionid_ros.node --ros-args --params-file config/frictionid.yaml -p system:=friction-only
 
 Topics (``~`` = ``/frictionid``):
-
 * in:  ``joint_states`` (sensor_msgs/JointState), optional ``effort_topic`` (JointState or
   std_msgs/Float64MultiArray), optional ``reference_topic`` (JointState, feed-forward velocity);
 * out: ``~/parameters`` (IdentifiedParameters, transient local: a late subscriber gets the
@@ -16,21 +15,24 @@ Services: ``~/identify`` (Identify), ``~/reset`` (std_srvs/Trigger: clear the bu
 running identification), ``~/save`` and ``~/load`` (ParametersFile: files of the results folder
 only). Action: ``~/identify`` (frictionid_interfaces/action/Identify: feedback, cancel).
 
-Lifecycle: a managed node (rclpy LifecycleNode). ``configure`` creates the subscriptions,
-publishers, services, action, worker and restores the parameters; ``activate`` starts the
-feed-forward, ``deactivate`` stops it (buffering and identification go on); ``cleanup`` and
-``shutdown`` cancel a running identification and remove everything ``configure`` created.
-With ``--lifecycle`` the node starts unconfigured and offers the lifecycle services; without
-it (the default) it configures and activates itself and offers none.
+Lifecycle: a managed node (rclpy LifecycleNode): ``configure`` creates the subscriptions,
+publishers, services, action, worker and restores the parameters; ``activate``/``deactivate``
+start/stop the feed-forward; ``cleanup``/``shutdown`` cancel a running identification and remove
+what ``configure`` created. With ``--lifecycle`` the node starts unconfigured and offers the
+lifecycle services; without it (the default) it configures and activates itself.
+
+Online re-identification (``online_period_s`` > 0, :mod:`.online`): the recent window is identified
+and its result activated only if the safety gate accepts it; ``~/load`` is gated too; every
+decision is in ``/diagnostics`` ("safety gate").
 
 Concurrency: the input callbacks (joint states, effort, reference, feed-forward) run on a hidden
 helper node ``_frictionid_input`` spun in its own thread by rclpy's EventsExecutor (or a
 SingleThreadedExecutor, ``input_executor``), the only writer of the ring buffers. Services, the
-action and diagnostics run on this node in a MultiThreadedExecutor (:mod:`.runner`); a second
-``~/identify`` is answered "busy" at once while the first one waits for the identification in a
-low-priority worker process (:mod:`.worker`) or thread. What the callbacks do is in ROS-free
-modules: :mod:`.inputs`, :mod:`.service` (with :mod:`.request`, :mod:`.window`: limits, cancel),
-:mod:`.store` (active parameters, results folder); :mod:`.messages` builds the outputs.
+action, online updates and diagnostics run on this node in a MultiThreadedExecutor (:mod:`.runner`);
+a second ``~/identify`` is answered "busy" at once while the first waits for the identification
+in a low-priority worker process (:mod:`.worker`) or thread. The callbacks' logic is in ROS-free
+modules: :mod:`.inputs`, :mod:`.service` (:mod:`.request`, :mod:`.window`), :mod:`.store`,
+:mod:`.online`; :mod:`.messages` builds the outputs.
 """
 
 from __future__ import annotations
@@ -65,6 +67,7 @@ from frictionid_ros.action import IdentifyActionServer
 from frictionid_ros.buffer import NS
 from frictionid_ros.inputs import Inputs
 from frictionid_ros.messages import diagnostic_array, parameters_msg
+from frictionid_ros.online import Online
 from frictionid_ros.runner import make_input_executor, run
 from frictionid_ros.service import IdentifyService
 from frictionid_ros.store import ActiveParameters, Results
@@ -201,6 +204,10 @@ class FrictionIdNode(LifecycleNode):
 
         self.identify_service = IdentifyService(lambda: self.cfg, self.inputs, self.active, self.topics, self._worker,
                                                 self._log)
+        self.online = Online(lambda: self.cfg, self.identify_service, self.active, lambda: self.inputs.joints, self._log)
+        if cfg.online_period_s > 0.0:  # re-identification behind the safety gate (:mod:`.online`)
+            self._keep(self.destroy_timer, self.create_timer(cfg.online_period_s, self._on_online,
+                                                             callback_group=MutuallyExclusiveCallbackGroup()))
         # Deep request queues: a burst of calls is answered (most of them "busy"), not dropped by DDS.
         qos_srv = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=SERVICE_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
         admin, identify = MutuallyExclusiveCallbackGroup(), ReentrantCallbackGroup()
@@ -250,8 +257,6 @@ class FrictionIdNode(LifecycleNode):
         """Remember ``entity`` (and how to ``destroy`` it) for :meth:`close`; returns it."""
         self._entities.append((destroy, entity))
         return entity
-
-    # ------------------------------------------------------------------ parameters
 
     def _declare_parameters(self) -> cfgmod.Config:
         values = {}
@@ -322,8 +327,6 @@ class FrictionIdNode(LifecycleNode):
         self._pub_ff_state.publish(st)
         inp.published(t_rx)
 
-    # ------------------------------------------------------------------ services
-
     @_guarded
     def _on_identify(self, req, res):
         answer = self.identify_service.handle(req)
@@ -358,8 +361,12 @@ class FrictionIdNode(LifecycleNode):
         return self._file_request(req, res, self.active.save)
 
     @_guarded
-    def _on_load(self, req, res):
-        return self._file_request(req, res, self.active.load)
+    def _on_load(self, req, res):  # through the safety gate while online re-identification is on
+        return self._file_request(req, res, self.online.offer if self.cfg.online_period_s > 0 else self.active.load)
+
+    @_guarded
+    def _on_online(self) -> None:
+        self.online.tick()
 
     def _file_request(self, req, res, action):
         """~/save or ~/load: a file of the results folder (refused otherwise, nothing touched)."""
@@ -372,24 +379,15 @@ class FrictionIdNode(LifecycleNode):
         res.path, (res.success, res.message) = str(path), action(path)
         return res
 
-    # ------------------------------------------------------------------ diagnostics
-
     @_guarded
     def _on_diagnostics(self) -> None:
         ok, message, values = self.inputs.buffer_status()
         pid = self._worker.pid if self._worker is not None else None
         values.update(rss_kb=rss_kb(), worker_pid=pid or "", worker_rss_kb=rss_kb(pid) if pid else 0)
-        service = self.identify_service
-        busy, running = service.busy, service.running
-        ident = {"busy": busy, "last_success": service.last_ok, "last_status": service.last_status,
-                 "active_joints": ",".join(sorted(self.active.results.per_joint)),
-                 "consistency": service.last_consistency,
-                 "feedforward_on": self._ff_on, "last_cancel_ms": f"{service.last_cancel_ms:.1f}",
-                 "running_s": f"{time.monotonic() - running.t_start:.1f}" if running is not None else "",
-                 **self.inputs.feedforward_values()}
+        ident = self.identify_service.status(active_joints=",".join(sorted(self.active.results.per_joint)),
+                                             feedforward_on=self._ff_on, **self.inputs.feedforward_values())
         self._pub_diag.publish(diagnostic_array(self.get_fully_qualified_name(), [
-            ("joint buffer", ok, message, values),
-            ("identification", service.last_ok, ("busy; last: " if busy else "") + service.last_status[:300], ident),
+            ("joint buffer", ok, message, values), ("identification", *ident), ("safety gate", *self.online.status()),
         ], self.get_clock().now().to_msg()))
 
 

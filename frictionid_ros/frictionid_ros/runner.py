@@ -88,22 +88,33 @@ def run(node_class, argv: list[str] | None = None) -> int:
     # A thread waiting for the GIL gets it after at most this long (default 5 ms): bounds how
     # long the services/diagnostics threads can delay the 1 kHz input callback.
     sys.setswitchinterval(GIL_SWITCH_INTERVAL)
+
+    def executors(node):
+        services = MultiThreadedExecutor(num_threads=SERVICE_THREADS)
+        services.add_node(node)
+        return node.input_executor, services
+
+    return serve(lambda: node_class(lifecycle=lifecycle), executors, "frictionid_node")
+
+
+def serve(make_node, make_executors, prog: str) -> int:
+    """Spin the node ``make_node()`` until SIGINT/SIGTERM: ``make_executors(node)`` gives (the input
+    executor, spun in a thread of its own; the main one, spun here), both with their nodes added.
+    Then ``node.close()``, the executors shut down, the node destroyed; exit code 0, or 2 with one
+    line for a FrictionIdError (a bad configuration)."""
     node, executors, input_thread = None, [], None
     try:
-        node = node_class(lifecycle=lifecycle)
+        node = make_node()
         # The start-up objects (modules, the node: ~90k) are never scanned again by the garbage
         # collector: a full collection then takes ~0.1 ms instead of ~90 ms, a stall of the 1 kHz
         # input thread that bench/ros_load.py showed as ~100 ms feed-forward latency bursts.
         gc.freeze()
-        services = MultiThreadedExecutor(num_threads=SERVICE_THREADS)
-        services.add_node(node)
-        executors = [node.input_executor, services]
-        input_thread = threading.Thread(target=spin, args=(node.input_executor, node), name="frictionid-input",
-                                        daemon=True)
+        executors = list(make_executors(node))
+        input_thread = threading.Thread(target=spin, args=(executors[0], node), name=f"{prog}-input", daemon=True)
         input_thread.start()
-        spin(services, node)
+        spin(executors[1], node)
     except FrictionIdError as exc:
-        print(f"frictionid_node: error: {exc}", file=sys.stderr)
+        print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 import traceback
@@ -69,6 +70,24 @@ class IdentifyService:
         """The control of the identification under way, if any."""
         return self._running
 
+    def status(self, **values) -> tuple[bool, str, dict]:
+        """(ok, message, values) of the identification for /diagnostics; ``values`` are added."""
+        busy, running = self.busy, self._running
+        return self.last_ok, ("busy; last: " if busy else "") + self.last_status[:300], {
+            "busy": busy, "last_success": self.last_ok, "last_status": self.last_status,
+            "consistency": self.last_consistency, "last_cancel_ms": f"{self.last_cancel_ms:.1f}",
+            "running_s": f"{time.monotonic() - running.t_start:.1f}" if running is not None else "", **values}
+
+    @contextlib.contextmanager
+    def slot(self):
+        """Hold the one identification slot if it is free: yields True, or False when busy."""
+        got = self._busy.acquire(blocking=False)
+        try:
+            yield got
+        finally:
+            if got:
+                self._busy.release()
+
     def cancel_running(self, reason: str) -> bool:
         """Stop the identification under way (its request is answered ``reason``); False if none."""
         control = self._running
@@ -100,7 +119,7 @@ class IdentifyService:
 
         def work():
             try:
-                box["result"] = self._run(job, control)
+                box["result"] = self.run_job(job, control)
             except BaseException as exc:  # reported to the caller below, never kills the node
                 box["error"] = exc
             finally:
@@ -139,15 +158,28 @@ class IdentifyService:
             text += "; notes: " + "; ".join(sel.notes)
         return self._record(True, text, identified)
 
-    def _run(self, job: Job, control: JobControl) -> tuple[dict, Selection]:
-        """Identify the job's window: (the core's result dict, the window)."""
-        cfg = self._settings()
+    def window(self, job: Job) -> Selection:
+        """The buffered data window of ``job`` (InputError if unusable)."""
         inputs = self._inputs
-        sel = window_series(job, cfg, inputs.ring, self._topics["joint_states"], inputs.effort_ring,
-                            self._topics.get("effort", ""))
+        return window_series(job, self._settings(), inputs.ring, self._topics["joint_states"], inputs.effort_ring,
+                             self._topics.get("effort", ""))
+
+    def run_job(self, job: Job, control: JobControl, sel: Selection | None = None, review: dict | None = None,
+                candidate: dict | None = None) -> tuple[dict, Selection]:
+        """Identify the job's window (or ``sel``'s series): (the core's result dict, the window);
+        ``review``: judge the result by the safety gate as well, ``candidate``: judge this one
+        instead of identifying (:func:`.worker.run_identification`: in the worker)."""
+        cfg = self._settings()
+        sel = sel or self.window(job)
         kwargs = job.identify_kwargs(cfg.system, self._pre)
+        kwargs.update({k: v for k, v in (("review", review), ("candidate", candidate)) if v is not None})
         kwargs["drive"] = cfg.drive  # read-only: the one of start-up
         kwargs.update(consistency_kwargs(cfg))
+        if cfg.known_rigid_body:
+            from frictionid_core.systems import get_system
+            from frictionid_core.systems.robot import nominal_parameters
+
+            kwargs["fixed"] = nominal_parameters(get_system(cfg.system))
         reply = (self._worker.run(sel.series, kwargs, control) if self._worker is not None
                  else run_identification(sel.series, kwargs, control.report))
         return checked_result(reply, self._log.error), sel

@@ -111,13 +111,26 @@ def _recv(stream):
 def run_identification(series, kwargs: dict, progress=None) -> tuple:
     """One identification → ("ok", result dict) | ("error" | "cancelled" | "crash", message).
 
+    ``kwargs["review"]`` = {current, holdout, max_abs}: the result is also judged by the safety
+    gate (:func:`frictionid_core.loop.gate.review`); the decision's fields are in ``result["review"]``.
+    ``kwargs["candidate"]``: judge this result (an ``Identification.to_dict()``) instead of identifying.
+
     ``progress``: the optimiser's hook (see :func:`frictionid_core.identification.identify`); it
     cancels the run by raising :class:`Cancelled`."""
     from frictionid_core.errors import FrictionIdError
     from frictionid_core.identification import identify
 
+    kwargs = dict(kwargs)
+    gate, candidate = kwargs.pop("review", None), kwargs.pop("candidate", None)
     try:
-        return ("ok", identify(series, progress=progress, **kwargs).to_dict())
+        result = dict(candidate) if candidate is not None else identify(series, progress=progress, **kwargs).to_dict()
+        if gate is not None:  # judged here too: the prediction of the held-back slice is CPU work
+            from dataclasses import asdict
+
+            from frictionid_core.loop.gate import review
+
+            result["review"] = asdict(review(gate["current"], result, gate["holdout"], gate["max_abs"]))
+        return ("ok", result)
     except Cancelled as exc:
         return ("cancelled", str(exc))
     except FrictionIdError as exc:
@@ -229,8 +242,14 @@ class _Child:
 
 
 def _lower_priority() -> None:
-    """The niceness of the environment (FRICTIONID_WORKER_NICE), set before any thread starts:
-    every thread of the child inherits it."""
+    """Normal scheduling (a node run real-time passes its policy on) and the niceness of the
+    environment (FRICTIONID_WORKER_NICE), set before any thread starts: every thread of the child
+    inherits them."""
+    try:
+        if os.sched_getscheduler(0) != os.SCHED_OTHER:
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    except (OSError, AttributeError):
+        pass
     try:
         os.nice(int(os.environ.get("FRICTIONID_WORKER_NICE", "0")))
     except (OSError, ValueError):

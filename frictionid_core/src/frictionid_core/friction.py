@@ -191,6 +191,11 @@ class FrictionModel:
             out = np.where(v >= 0.0, out, self._branch(p[:, nb:], v, s, a))
         return out[0] if single else out
 
+    def torque_each(self, params: np.ndarray, v: np.ndarray, eps: float = 0.0) -> np.ndarray:
+        """Friction (J,) of J joints, each with its own parameters ``params`` (J, k) at its own
+        velocity v (J,) (the diagonal of :meth:`torque`; for a handful of joints)."""
+        return np.diagonal(self.torque(params, v, eps)).copy()
+
     def _branch(self, p: np.ndarray, v, s, a) -> np.ndarray:
         law = self.law
         col = {n: p[:, i : i + 1] for i, n in enumerate(law.params)}

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from frictionid_core.errors import FrictionIdError
 from frictionid_core.preprocess import Prepared, Preprocessing
 from frictionid_core.robots.base import base_parameter_names, check_excitation, robot_base_parameters
 from frictionid_core.systems.system import RobotInfo, System
@@ -58,6 +59,15 @@ def robot_system(robot, name: str, joint_map: dict[str, str] | None = None, base
 
     return System(name, tuple(robot.joints), columns, names, bounds, preprocessing, dict(joint_map or {}),
                   robot=info, drive=drive)
+
+
+def nominal_parameters(system: System) -> dict[str, float]:
+    """{base parameter name: value} of a robot system's own model (its rigid body as modelled:
+    what ``identify(fixed=...)`` takes to identify friction only on a known arm)."""
+    info = system.robot
+    if info is None:
+        raise FrictionIdError(f"system '{system.name}' has no robot model (tx40 or urdf:PATH only)")
+    return dict(zip(system.rigid_names, map(float, info.base.from_standard(info.model.parameters()))))
 
 
 def _check_rank(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list[str], name: str) -> None:

@@ -1,0 +1,71 @@
+"""The safety gate of online re-identification (no ROS import).
+
+A candidate parameter set (an ``Identification.to_dict()``) replaces the current one only if it
+predicts a held-back slice of recent data — samples it was not fitted on — better: a lower
+effort RMSE under :func:`frictionid_core.identification.validate` than the current set. A
+candidate with a non-finite parameter or one larger than ``max_abs`` in magnitude is refused
+before any prediction.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from frictionid_core.errors import FrictionIdError
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What the gate decided: ``accepted``, ``reason`` (one line), and the effort RMSE on the
+    held-back slice of the current and candidate sets [N·m | N] (nan when not computed)."""
+
+    accepted: bool
+    reason: str
+    current_rmse: float = math.nan
+    candidate_rmse: float = math.nan
+
+
+def _rmse(result: dict, holdout) -> float:
+    from frictionid_core.identification import validate
+
+    try:
+        return float(validate(holdout, result)["rmse"])
+    except (FrictionIdError, KeyError, ValueError, FloatingPointError) as exc:
+        raise FrictionIdError(f"cannot predict the held-back slice: {exc}") from None
+
+
+def screen(candidate: dict, max_abs: float = 1e3) -> Decision | None:
+    """The rejection of a candidate with a non-finite parameter or one over ``max_abs`` in
+    magnitude (no prediction needed), else None."""
+    params = candidate.get("params") or {}
+    bad = sorted(k for k, v in params.items() if not math.isfinite(float(v)))
+    if bad:
+        return Decision(False, f"rejected: non-finite parameter(s) {bad}")
+    huge = sorted(k for k, v in params.items() if abs(float(v)) > max_abs)
+    if huge:
+        return Decision(False, f"rejected: parameter(s) {huge} over gate_max_abs = {max_abs:g}")
+    return None
+
+
+def review(current: dict | None, candidate: dict, holdout, max_abs: float = 1e3) -> Decision:
+    """Accept ``candidate`` over ``current`` (None: no active set) on the held-back JointSeries
+    ``holdout``? ``max_abs``: largest parameter magnitude accepted (SI units)."""
+    refused = screen(candidate, max_abs)
+    if refused is not None:
+        return refused
+    try:
+        cand = _rmse(candidate, holdout)
+    except FrictionIdError as exc:
+        return Decision(False, f"rejected: candidate: {exc}")
+    if not math.isfinite(cand):
+        return Decision(False, "rejected: the candidate's prediction of the held-back slice is not finite")
+    if current is None:
+        return Decision(True, f"accepted: no active parameters (held-back RMSE {cand:.4g})", math.nan, cand)
+    try:
+        cur = _rmse(current, holdout)
+    except FrictionIdError as exc:
+        return Decision(True, f"accepted: the active set cannot predict the held-back slice ({exc})", math.nan, cand)
+    if cand < cur or not math.isfinite(cur):
+        return Decision(True, f"accepted: held-back RMSE {cand:.4g} < {cur:.4g} of the active set", cur, cand)
+    return Decision(False, f"rejected: held-back RMSE {cand:.4g} >= {cur:.4g} of the active set", cur, cand)

@@ -1,0 +1,176 @@
+"""A MuJoCo arm built from a Pinocchio model, with hidden joint friction (no ROS import).
+
+The MJCF is generated from the :class:`~frictionid_core.robots.model.RobotModel` (bodies,
+joint placements, inertias, armature, gravity; no geometry, no contact), so MuJoCo and the
+Pinocchio inverse dynamics describe the same arm. Friction is not MuJoCo's: every step applies
+−f(q̇) of the core's law (:class:`~frictionid_core.friction.FrictionModel`, Stribeck + viscous
+per joint, sign smoothed by tanh(v/eps)) as a generalised force. The law is stiff near v = 0,
+so it is integrated semi-implicitly: f(v₀) goes to ``qfrc_applied`` and its slope c = ∂f/∂v
+(≥ 0) to ``dof_damping`` under MuJoCo's ``implicitfast`` integrator — the applied friction is
+f(v₀) + c·(v₁ − v₀), stable at 1 kHz for any eps. The Coulomb level (Fc and Fs) may drift:
+it is scaled by 1 + drift·min(1, (t − t_start)/duration).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.friction import get_model
+
+DT = 1e-3  # simulation step [s]
+SIM_EPS = 1e-3  # sign smoothing of the hidden friction [rad/s | m/s]
+_SLOPE_H = 1e-6  # step of the numerical slope ∂f/∂v [rad/s | m/s]
+
+# Default hidden friction of a URDF arm (per joint, Stribeck): Fv [N·m·s/rad], Fc, Fs [N·m], vs [rad/s], δ.
+URDF_FRICTION = {"Fv": 0.8, "Fc": 1.5, "Fs": 2.0, "vs": 0.04, "delta": 2.0}
+
+
+def load_robot(spec: str):
+    """The robot of ``spec``: ``tx40`` or ``urdf:PATH`` (a :class:`RobotModel`)."""
+    from frictionid_core.robots.model import load_urdf
+    from frictionid_core.robots.tx40 import build_tx40
+
+    if spec == "tx40":
+        return build_tx40()
+    if spec.startswith("urdf:"):
+        return load_urdf(spec[5:])
+    raise FrictionIdError(f"robot '{spec}': choose tx40 or urdf:PATH")
+
+
+def hidden_friction(spec: str, joints: list[str]) -> np.ndarray:
+    """The hidden Stribeck parameters (J, 5) [Fv, Fc, Fs, vs, delta] of robot ``spec``: the TX40's
+    table (docs/reference.md#tx40) or :data:`URDF_FRICTION` on every joint."""
+    names = get_model("stribeck").names
+    if spec == "tx40":
+        from frictionid_core.robots.tx40 import FRICTION
+
+        return np.array([[FRICTION[n][k] for n in names] for k in range(len(joints))], dtype=float)
+    return np.tile([URDF_FRICTION[n] for n in names], (len(joints), 1)).astype(float)
+
+
+def _axis_and_kind(jm) -> tuple[str, np.ndarray]:
+    """(MuJoCo joint type, axis in the joint frame) of a 1-DOF Pinocchio joint."""
+    name = jm.shortname()
+    for kind, prefix in (("hinge", "JointModelR"), ("slide", "JointModelP")):
+        if name.startswith(prefix):
+            last = name[-1]
+            if last in "XYZ" and not name.endswith("Unaligned"):
+                return kind, np.eye(3)["XYZ".index(last)]
+            if hasattr(jm, "axis"):
+                return kind, np.asarray(jm.axis, dtype=float)
+    raise FrictionIdError(f"joint type {name} has no MuJoCo counterpart here (revolute or prismatic only)")
+
+
+def mjcf(robot) -> str:
+    """MJCF text of ``robot`` (a RobotModel): one body per joint, inertias and armature of the
+    Pinocchio model, no geometry, contacts off, ``implicitfast`` at :data:`DT`."""
+    pm = robot.model
+    children: dict[int, list[int]] = {}
+    for i in range(1, pm.njoints):
+        children.setdefault(int(pm.parents[i]), []).append(i)
+
+    def fmt(x) -> str:
+        return " ".join(f"{float(v):.17g}" for v in x)
+
+    def body(i: int, indent: str) -> list[str]:
+        jm, pl, inertia = pm.joints[i], pm.jointPlacements[i], pm.inertias[i]
+        kind, axis = _axis_and_kind(jm)
+        qx, qy, qz, qw = np.asarray(__import__("pinocchio").Quaternion(pl.rotation).coeffs())
+        I = inertia.inertia
+        mass = max(float(inertia.mass), 1e-9)
+        lines = [f'{indent}<body name="{pm.names[i]}_link" pos="{fmt(pl.translation)}" quat="{fmt((qw, qx, qy, qz))}">',
+                 f'{indent}  <inertial pos="{fmt(inertia.lever)}" mass="{mass:.17g}" '
+                 f'fullinertia="{fmt((I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))}"/>',
+                 f'{indent}  <joint name="{pm.names[i]}" type="{kind}" axis="{fmt(axis)}" '
+                 f'armature="{float(pm.armature[jm.idx_v]):.17g}" limited="false"/>']
+        for c in children.get(i, []):
+            lines += body(c, indent + "  ")
+        return lines + [f"{indent}</body>"]
+
+    g = np.asarray(pm.gravity.linear, dtype=float)
+    out = [f'<mujoco model="{robot.name}">',
+           '  <compiler angle="radian" boundmass="1e-9" boundinertia="1e-12"/>',
+           f'  <option timestep="{DT}" integrator="implicitfast" gravity="{fmt(g)}"><flag contact="disable"/></option>',
+           "  <worldbody>"]
+    for c in children.get(0, []):
+        out += body(c, "    ")
+    return "\n".join(out + ["  </worldbody>", "</mujoco>"])
+
+
+class SimArm:
+    """The arm of ``robot`` in MuJoCo at :data:`DT` with hidden friction ``friction`` (J, 5)
+    Stribeck parameters; ``q0`` start position (J,) [rad | m].
+
+    :meth:`step` applies a joint torque for one step; ``q``, ``qd`` [rad, rad/s | m, m/s] and
+    ``t`` [s] are the state after it, ``tau`` the torque applied, ``tau_friction`` the friction
+    of the step (N·m | N, opposing the motion: τ_cmd − τ_friction drives the arm).
+    """
+
+    def __init__(self, robot, friction: np.ndarray, q0: np.ndarray | None = None, eps: float = SIM_EPS):
+        import mujoco
+
+        self._mj = mujoco
+        self.robot = robot
+        self.model = mujoco.MjModel.from_xml_string(mjcf(robot))
+        self.data = mujoco.MjData(self.model)
+        nv = self.model.nv
+        if nv != robot.nv:
+            raise FrictionIdError(f"MuJoCo model of {robot.name} has {nv} DOF, Pinocchio {robot.nv}")
+        self.law = get_model("stribeck")
+        self.params = np.array(friction, dtype=float).reshape(nv, len(self.law.names))
+        self.eps = float(eps)
+        if q0 is not None:
+            self.data.qpos[:] = np.asarray(q0, dtype=float)  # MuJoCo hinges and slides: one coordinate each
+        mujoco.mj_forward(self.model, self.data)
+        self.drift, self.drift_s, self._drift_t0 = 0.0, 60.0, None
+        self.tau = np.zeros(nv)
+        self.tau_friction = np.zeros(nv)
+
+    @property
+    def t(self) -> float:
+        return float(self.data.time)
+
+    @property
+    def q(self) -> np.ndarray:
+        return np.array(self.data.qpos)
+
+    @property
+    def qd(self) -> np.ndarray:
+        return np.array(self.data.qvel)
+
+    def start_drift(self, fraction: float, duration_s: float) -> None:
+        """Scale the Coulomb level (Fc, Fs) by 1 + fraction·min(1, (t − now)/duration_s) from now on."""
+        self.drift, self.drift_s, self._drift_t0 = float(fraction), max(float(duration_s), 1e-9), self.t
+
+    def level_scale(self) -> float:
+        """Factor on the Coulomb level now (1 before any drift)."""
+        if self._drift_t0 is None:
+            return 1.0
+        return 1.0 + self.drift * min(1.0, (self.t - self._drift_t0) / self.drift_s)
+
+    def current_params(self) -> np.ndarray:
+        """Hidden Stribeck parameters (J, 5) now, with the drift."""
+        p = self.params.copy()
+        p[:, 1:3] *= self.level_scale()
+        return p
+
+    def friction(self, v: np.ndarray, params: np.ndarray | None = None) -> np.ndarray:
+        """Hidden friction f(v) (J,) [N·m | N] of the core's Stribeck law, joint k at v[k]."""
+        p = self.current_params() if params is None else params
+        return self.law.torque_each(p, np.asarray(v, dtype=float), self.eps)
+
+    def step(self, tau: np.ndarray) -> None:
+        """Apply the joint torque ``tau`` (J,) for one step (friction semi-implicit, module docstring)."""
+        d = self.data
+        v0 = np.array(d.qvel)
+        n = len(v0)
+        p = np.tile(self.current_params(), (3, 1))  # one law call: f(v0), f(v0 + h), f(v0 − h)
+        f = self.law.torque_each(p, np.concatenate([v0, v0 + _SLOPE_H, v0 - _SLOPE_H]), self.eps)
+        f0, c = f[:n], (f[n:2 * n] - f[2 * n:]) / (2.0 * _SLOPE_H)
+        np.maximum(c, 0.0, out=c)
+        self.tau[:] = tau
+        self.model.dof_damping[:] = c
+        d.qfrc_applied[:] = self.tau - f0 + c * v0
+        self._mj.mj_step(self.model, d)
+        self.tau_friction[:] = f0 + c * (np.asarray(d.qvel) - v0)

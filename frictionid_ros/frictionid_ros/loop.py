@@ -1,0 +1,387 @@
+"""``frictionid loop``: friction compensation in the loop, measured end to end with real rclpy.
+
+Registered in the core CLI through the entry-point group ``frictionid.commands`` (the core
+imports no ROS). Three processes on a ROS domain of their own (discovery on this host only):
+``frictionid_sim`` (:mod:`.sim_node`), ``frictionid_loop_controller`` (:mod:`.controller_node`)
+and ``frictionid_node`` (online re-identification behind the safety gate, feed-forward from the
+controller's desired velocity). This process only drives the phases through parameters and
+services and computes the figures from the controller's record (:mod:`frictionid_core.loop.evaluate`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import warnings
+from pathlib import Path
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.jsonfile import write_json
+
+DESCRIPTION = """\
+Run a simulated arm (MuJoCo, hidden Stribeck friction), a PD + rigid-body controller and the
+frictionid node as separate ROS 2 processes on a low-speed tracking task with reversals, through
+phases: feed-forward off; identified feed-forward on (~/identify on the off phase); a Coulomb
+drift (+DRIFT_FRACTION over DRIFT_S) with online re-identification; the feed-forward off again
+under the drifted friction (the reference of the drift's gain); a deliberately bad parameter set
+offered to the safety gate (~/load). Writes the figures as JSON (--json) and one PNG of the
+tracking error per phase (--plots)."""
+
+NS = 1_000_000_000
+AUTO_PRIORITY = 10  # SCHED_FIFO priority of --realtime auto
+
+
+def register(subparsers):
+    """Add the ``loop`` sub-command to the core CLI; returns its handler."""
+    p = subparsers.add_parser("loop", help="friction feed-forward in a simulated ROS 2 control loop: tracking "
+                                           "gain, drift recovery, safety gate, latency", description=DESCRIPTION)
+    add_arguments(p)
+    return handler
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--robot", default="tx40", help="tx40 | urdf:PATH (a fixed-base URDF; meshes are not needed)")
+    p.add_argument("--json", required=True, type=Path, help="write the figures here")
+    p.add_argument("--plots", type=Path, help="write loop_<phase>.png here")
+    p.add_argument("--phase-s", type=float, default=12.0, help="length of the feed-forward off/on phases [s]")
+    p.add_argument("--drift-s", type=float, default=60.0, help="the Coulomb drift ramps over this long [s]")
+    p.add_argument("--drift-fraction", type=float, default=0.3, help="Coulomb level increase of the drift")
+    p.add_argument("--after-s", type=float, default=20.0, help="observed after the drift [s]")
+    p.add_argument("--online-period-s", type=float, default=3.0, help="online re-identification period [s]")
+    p.add_argument("--online-window-s", type=float, default=8.0, help="online re-identification window [s]")
+    p.add_argument("--velocity-source", choices=("reference", "measured"), default="reference",
+                   help="the node's feed-forward velocity: the controller's desired velocity (default) or the "
+                        "measured one (its sign chatters near zero speed)")
+    p.add_argument("--no-drift", action="store_true", help="only the off and on phases (and the gate)")
+    p.add_argument("--realtime", default="auto", metavar="PRIO|auto|off",
+                   help="run the three processes SCHED_FIFO at priority PRIO (1..99), as ros2_control runs its "
+                        "control loop (the identification worker goes back to normal scheduling); auto "
+                        f"(default): {AUTO_PRIORITY} if this user may (root, or an rtprio limit), else off")
+    p.add_argument("--keep", action="store_true", help="keep the work folder (logs, record, parameters)")
+
+
+def handler(args) -> int:
+    """Run ``loop``; FrictionIdError propagates to the CLI (one line, exit code 2)."""
+    args.realtime = realtime_priority(args.realtime)
+    print("scheduling: " + (f"SCHED_FIFO {args.realtime}" if args.realtime else
+                            "normal (no real-time priority: expect latency tails of several ms on a busy machine)"))
+    for name in ("phase_s", "drift_s", "after_s", "online_period_s", "online_window_s"):
+        if not getattr(args, name) > 0:
+            raise FrictionIdError(f"--{name.replace('_', '-')} must be > 0")
+    t0 = time.monotonic()
+    result, record, phases = run(args)
+    write_json(args.json, result)
+    from frictionid_core.loop.evaluate import median_ratio, plot
+
+    if args.plots:
+        plot(record, phases, args.plots)
+    r = result["rms_tracking_error"]
+    print(f"RMS tracking error [mrad] off {[round(x * 1e3, 3) for x in r['feedforward_off']]}")
+    print(f"                          on  {[round(x * 1e3, 3) for x in r['feedforward_on']]}")
+    print(f"median RMS(on)/RMS(off) = {median_ratio(result):.3f}")
+    if "drift" in result:
+        print(f"drift: recovered fraction {result['drift']['recovered_fraction']:.3f}, "
+              f"recovery {result['drift']['recovery_s']} s")
+    print(f"bad parameters rejected: {result['gate']['bad_parameters_rejected']}")
+    lat = result.get("feedforward_latency_ms", {})
+    print("feed-forward latency [ms]: " + ", ".join(f"{k} {v:.3f}" for k, v in lat.items()))
+    import numpy as np
+
+    hop = np.percentile(record["state_latency_ns"], [50, 99]) * 1e-6
+    print(f"  of which joint_states stamp → controller receipt [ms]: p50 {hop[0]:.3f}, p99 {hop[1]:.3f}")
+    print(f"wrote {args.json} in {time.monotonic() - t0:.0f} s")
+    return 0
+
+
+def realtime_priority(value: str) -> int:
+    """The SCHED_FIFO priority of ``--realtime`` (0: off); ``auto``: AUTO_PRIORITY if allowed."""
+    if value == "auto":
+        try:
+            allowed = subprocess.run(["chrt", "--fifo", str(AUTO_PRIORITY), "true"], capture_output=True,
+                                     timeout=10).returncode == 0
+        except (OSError, subprocess.TimeoutExpired):
+            allowed = False
+        return AUTO_PRIORITY if allowed else 0
+    if value == "off":
+        return 0
+    try:
+        prio = int(value)
+    except ValueError:
+        prio = -1
+    if not 0 <= prio <= 99:
+        raise FrictionIdError(f"--realtime must be auto, off or a priority 0..99, got {value!r}")
+    return prio
+
+
+def ros_env(domain: int) -> dict:
+    """The environment of a loop process: ``domain``, discovery on this host, these packages first."""
+    import frictionid_core
+
+    import frictionid_ros
+
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    paths = [str(Path(m.__file__).resolve().parents[1]) for m in (frictionid_ros, frictionid_core)]
+    env["PYTHONPATH"] = os.pathsep.join(paths + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
+    env.pop("_ROS_WHEELS_BOOTSTRAP_COMPLETE", None)  # let the child bootstrap its own library path
+    return env
+
+
+def node_parameters(robot: str, joints: list[str], work: Path, args) -> Path:
+    """The frictionid node's parameters file of the loop."""
+    system = robot if robot.startswith("urdf:") else "tx40"
+    values = {"system": system, "joints": joints, "friction_model": "coulomb", "solver": "ls",
+              "velocity_source": args.velocity_source, "smoothing_eps": 0.02, "known_rigid_body": True,
+              "online_period_s": float(args.online_period_s), "online_window_s": float(args.online_window_s),
+              "online_holdout": 0.25, "gate_max_abs": 1000.0, "feedforward_max": 100.0, "feedforward_ramp_s": 0.5,
+              "results_file": str(work / "results" / "parameters.json"), "max_missing_pct": 20.0,
+              "buffer_seconds": 30.0, "diagnostics_period_s": 0.5}
+    path = work / "node.yaml"
+    path.write_text("frictionid:\n  ros__parameters:\n" + "".join(
+        f"    {k}: {json.dumps(v)}\n" for k, v in values.items()))
+    return path
+
+
+def _die_with_parent() -> None:
+    """In a loop process before exec: SIGTERM when this process dies (Linux PR_SET_PDEATHSIG)."""
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)
+    except Exception:  # noqa: BLE001 - not Linux: the processes are stopped by Processes.stop
+        pass
+
+
+class Processes:
+    """The loop's processes, output in ``work``; stopped by SIGINT (their records are written then)."""
+
+    def __init__(self, work: Path, domain: int, realtime: int = 0):
+        self.work, self.env, self.procs = work, ros_env(domain), {}
+        self.prefix = ["chrt", "--fifo", str(realtime)] if realtime > 0 else []
+
+    def start(self, name: str, module: str, *args: str) -> None:
+        with open(self.work / f"{name}.out", "w") as out, open(self.work / f"{name}.err", "w") as err:
+            self.procs[name] = subprocess.Popen([*self.prefix, sys.executable, "-m", module, *args], env=self.env, stdout=out,
+                                                stderr=err, cwd=self.work, preexec_fn=_die_with_parent)
+
+    def check(self) -> None:
+        for name, p in self.procs.items():
+            if p.poll() is not None:
+                tail = (self.work / f"{name}.err").read_text()[-2000:]
+                raise FrictionIdError(f"loop process {name} exited with {p.returncode}: {tail}")
+
+    def stop(self) -> None:
+        for p in self.procs.values():
+            if p.poll() is None:
+                p.send_signal(signal.SIGINT)
+        for p in self.procs.values():
+            try:
+                p.wait(15.0)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait(5.0)
+
+
+class Client:
+    """rclpy in this process on ``domain``: services, parameters, the gate's diagnostics."""
+
+    def __init__(self, domain: int):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            import rclpy
+            from diagnostic_msgs.msg import DiagnosticArray
+            from rclpy.executors import SingleThreadedExecutor
+
+        self.rclpy = rclpy
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx, domain_id=domain)
+        self.node = rclpy.create_node("frictionid_loop_driver", context=self.ctx)
+        self.executor = SingleThreadedExecutor(context=self.ctx)
+        self.executor.add_node(self.node)
+        self.gate: list[tuple[float, str, dict]] = []
+        self.buffer: dict = {}
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, 10)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        while not self._stop.is_set() and self.ctx.ok():
+            try:
+                self.executor.spin_once(timeout_sec=0.05)
+            except Exception:  # noqa: BLE001 - shutting down
+                return
+
+    def _on_diag(self, arr) -> None:
+        for s in arr.status:
+            values = {kv.key: kv.value for kv in s.values}
+            if s.name.endswith(": safety gate"):
+                if not self.gate or self.gate[-1][2].get("reviews") != values.get("reviews"):
+                    self.gate.append((time.time(), s.message, values))
+            elif s.name.endswith(": joint buffer"):
+                self.buffer = values
+
+    def call(self, srv_type, name: str, request, timeout: float = 60.0):
+        cli = self.node.create_client(srv_type, name)
+        try:
+            if not cli.wait_for_service(timeout_sec=timeout):
+                raise FrictionIdError(f"service {name} did not appear within {timeout:g} s")
+            future = cli.call_async(request)
+            done = threading.Event()
+            future.add_done_callback(lambda _: done.set())
+            if not done.wait(timeout):
+                raise FrictionIdError(f"service {name}: no answer within {timeout:g} s")
+            return future.result()
+        finally:
+            self.node.destroy_client(cli)
+
+    def wait_service(self, srv_type, name: str, procs: Processes, timeout: float = 60.0) -> None:
+        """Wait until service ``name`` is offered; FrictionIdError as soon as a loop process dies."""
+        cli = self.node.create_client(srv_type, name)
+        deadline = time.monotonic() + timeout
+        try:
+            while not cli.wait_for_service(timeout_sec=0.2):
+                procs.check()
+                if time.monotonic() > deadline:
+                    raise FrictionIdError(f"service {name} did not appear within {timeout:g} s")
+        finally:
+            self.node.destroy_client(cli)
+
+    def set_parameter(self, node: str, name: str, value) -> None:
+        from rcl_interfaces.srv import SetParameters
+        from rclpy.parameter import Parameter
+
+        res = self.call(SetParameters, f"/{node}/set_parameters",
+                        SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()]))
+        if not res.results or not res.results[0].successful:
+            raise FrictionIdError(f"{node}: cannot set {name} = {value!r}")
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(2.0)
+        self.executor.shutdown(timeout_sec=2.0)
+        self.node.destroy_node()
+        self.rclpy.try_shutdown(context=self.ctx)
+
+
+def _wait(seconds: float, procs: Processes) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        procs.check()
+        time.sleep(min(0.2, max(0.0, end - time.monotonic())))
+
+
+def offer_bad_parameters(client: Client, results_file: Path) -> bool:
+    """Offer the active set with every Coulomb level negated and tripled to the gate (~/load);
+    True if the node refused it and kept its active parameters."""
+    from frictionid_interfaces.srv import ParametersFile
+
+    data = json.loads(results_file.read_text())
+    bad = json.loads(json.dumps(data))
+    for p in bad["per_joint"].values():
+        p["params"] = {k: -3.0 * v if k.startswith("Fc") else v for k, v in p["params"].items()}
+    bad["params"] = {k: -3.0 * v if k.rsplit("/", 1)[-1].startswith("Fc") else v for k, v in bad["params"].items()}
+    write_json(results_file.parent / "bad.json", bad)
+    res = client.call(ParametersFile, "/frictionid/load", ParametersFile.Request(path="bad.json"))
+    after = json.loads(results_file.read_text())
+    return (not res.success) and "safety gate" in res.message and after["per_joint"] == data["per_joint"]
+
+
+def run(args) -> tuple[dict, dict, dict]:
+    """The loop's phases → (the JSON figures, the controller's record, the phases' stamps)."""
+    import numpy as np
+
+    from frictionid_core.loop.evaluate import summarize
+    from frictionid_core.loop.sim import load_robot
+    from frictionid_interfaces.srv import Identify
+
+    robot = load_robot(args.robot)
+    work = Path(tempfile.mkdtemp(prefix="frictionid-loop-"))
+    (work / "results").mkdir()
+    domain = random.randint(1, 200)
+    record_file = work / "record.npz"
+    procs = Processes(work, domain, args.realtime)
+    client = None
+    phases: dict[str, tuple[int, int]] = {}
+    try:
+        procs.start("node", "frictionid_ros.node", "--params-file", str(node_parameters(args.robot, robot.joints,
+                                                                                          work, args)))
+        procs.start("controller", "frictionid_ros.controller_node", "--ros-args", "-p", f"robot:={args.robot}",
+                    "-p", f"record_file:={record_file}")
+        procs.start("sim", "frictionid_ros.sim_node", "--ros-args", "-p", f"robot:={args.robot}",
+                    "-p", f"drift_s:={args.drift_s}", "-p", f"drift_fraction:={args.drift_fraction}")
+        client = Client(domain)
+        from rcl_interfaces.srv import SetParameters
+
+        for name, srv_type in (("/frictionid/identify", Identify), ("/frictionid_loop_controller/set_parameters",
+                               SetParameters), ("/frictionid_sim/set_parameters", SetParameters)):
+            client.wait_service(srv_type, name, procs)
+        deadline = time.monotonic() + 60.0
+        while float(client.buffer.get("rate_hz", 0.0)) < 500.0:
+            procs.check()
+            if time.monotonic() > deadline:
+                raise FrictionIdError("the frictionid node receives no joint states from the simulated arm")
+            time.sleep(0.2)
+        _wait(2.0, procs)  # the start transient
+
+        def phase(name: str, seconds: float) -> None:
+            start = time.time_ns()
+            _wait(seconds, procs)
+            phases[name] = (start, time.time_ns())
+
+        phase("feedforward_off", args.phase_s)
+        while True:  # the online re-identification may hold the slot for a moment
+            res = client.call(Identify, "/frictionid/identify", Identify.Request(window_seconds=args.phase_s - 1.0))
+            if res.success or not res.message.startswith("busy"):
+                break
+            time.sleep(0.2)
+        if not res.success:
+            raise FrictionIdError(f"identification of the off phase failed: {res.message}")
+        client.set_parameter("frictionid_loop_controller", "feedforward_enabled", True)
+        phase("feedforward_on", args.phase_s)
+        if not args.no_drift:
+            client.set_parameter("frictionid_sim", "drift_start", True)
+            phase("drift", args.drift_s)
+            phase("after_drift", args.after_s)
+            client.set_parameter("frictionid_loop_controller", "feedforward_enabled", False)
+            phase("drift_off", args.phase_s)
+        rejected = offer_bad_parameters(client, work / "results" / "parameters.json")
+    finally:
+        if client is not None:
+            client.close()
+        procs.stop()
+    if not record_file.exists():
+        raise FrictionIdError(f"the controller wrote no record (see {work}/controller.err)")
+    with np.load(record_file) as z:
+        record = {k: z[k] for k in z.files}
+    figures = summarize(record, phases, after_s=args.after_s)
+    result = {k: figures[k] for k in ("rms_tracking_error", "drift") if k in figures}
+    result["gate"] = {"bad_parameters_rejected": bool(rejected)}
+    result.update({k: v for k, v in figures.items() if k not in result})
+    if not args.keep:
+        import shutil
+
+        shutil.rmtree(work, ignore_errors=True)
+    else:
+        print(f"work folder: {work}")
+    return result, record, phases
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``frictionid_loop``: the same command without the core CLI."""
+    from frictionid_core.cli import run_handler
+
+    parser = argparse.ArgumentParser(prog="frictionid_loop", description=DESCRIPTION)
+    add_arguments(parser)
+    return run_handler(handler, parser.parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,119 @@
+"""Online re-identification behind the safety gate (no ROS import).
+
+Every ``online_period_s`` the node calls :meth:`Online.tick`: the last ``online_window_s`` of
+buffered data is split in time, the older (1 − ``online_holdout``) share is identified (in the
+worker, with the node's friction model, solver and ``known_rigid_body``) and the newest share is
+held back; :func:`frictionid_core.loop.gate.review`, run in the worker too (its predictions
+would otherwise take the GIL from the 1 kHz inputs), decides whether the candidate replaces the
+active parameters (it must predict the held-back slice better). ``~/load`` goes through the
+same gate while online re-identification is on (:meth:`Online.offer`). Every decision is kept
+for ``/diagnostics`` (:meth:`Online.status`) and logged.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.loop.gate import Decision, screen
+
+from frictionid_ros.request import Job
+from frictionid_ros.store import Results, read_results, split_identification
+from frictionid_ros.window import Selection
+from frictionid_ros.worker import Cancelled, JobControl
+
+
+def split(series, holdout: float):
+    """(fit, held back): the older (1 − holdout) share of ``series`` and its newest ``holdout`` share."""
+    n = len(series.t)
+    k = int(round(n * (1.0 - holdout)))
+    return series.slice(0, k), series.slice(k, n)
+
+
+class Online:
+    """Periodic re-identification and gated loads of a node: ``settings()`` (its Config),
+    ``service`` (IdentifyService: the slot, window and worker), ``active`` (ActiveParameters),
+    ``joints()`` (buffered joints), ``log`` (rclpy-like logger)."""
+
+    def __init__(self, settings, service, active, joints, log):
+        self._settings, self._service, self._active, self._joints, self._log = settings, service, active, joints, log
+        self.reviews = self.accepted = self.rejected = self.skipped = 0
+        self.last: Decision | None = None
+        self.last_source = ""
+        self.last_note = "no review yet"
+
+    def _job(self, seconds: float) -> Job:
+        return Job(list(self._joints()), self._settings().solve, window_seconds=seconds, dry_run=True)
+
+    def tick(self) -> Decision | None:
+        """One re-identification and its review; None when skipped (busy, too little data, failed)."""
+        cfg = self._settings()
+        with self._service.slot() as free:
+            if not free:
+                return self._skip("an identification is running")
+            try:
+                sel = self._service.window(self._job(cfg.online_window_s))
+                fit, held = split(sel.series, cfg.online_holdout)
+                review_args = {"current": self._active.results.last, "holdout": held, "max_abs": cfg.gate_max_abs}
+                result, _ = self._service.run_job(self._job(cfg.online_window_s), JobControl(),
+                                                  Selection(fit, sel.start_ns, sel.end_ns, sel.notes), review_args)
+            except (FrictionIdError, Cancelled) as exc:
+                return self._skip(str(exc))
+            decision = Decision(**result.pop("review"))
+            if decision.accepted:
+                stamp = time.time_ns()
+                self._active.activate(Results(split_identification(result, stamp), result, sel.start_ns,
+                                              sel.end_ns, len(fit.t), stamp))
+            return self._record(decision, "online re-identification")
+
+    def offer(self, path) -> tuple[bool, str]:
+        """``~/load`` through the gate: the file's parameters are judged on the newest
+        ``online_window_s·online_holdout`` of data and activated only if accepted."""
+        cfg = self._settings()
+        try:
+            loaded = read_results(path)
+            if not loaded.last or "params" not in loaded.last:
+                raise FrictionIdError(f"{path}: no complete identification result to judge")
+            decision = screen(loaded.last, cfg.gate_max_abs)
+            if decision is None:  # the predictions run in the worker (they would take the GIL here)
+                job = self._job(cfg.online_window_s * cfg.online_holdout)
+                sel = self._service.window(job)
+                gate = {"current": self._active.results.last, "holdout": sel.series, "max_abs": cfg.gate_max_abs}
+                decision = Decision(**self._service.run_job(job, JobControl(), sel, gate, loaded.last)[0]["review"])
+        except (FrictionIdError, Cancelled) as exc:
+            return False, f"not loaded: {exc}"
+        decision = self._record(decision, f"load {path}")
+        if not decision.accepted:
+            return False, f"{path}: safety gate: {decision.reason}; active parameters unchanged"
+        self._active.activate(Results(loaded.per_joint, loaded.last, stamp_ns=time.time_ns()))
+        return True, f"loaded parameters of {sorted(loaded.per_joint)} from {path}; safety gate: {decision.reason}"
+
+    def _skip(self, why: str) -> None:
+        self.skipped += 1
+        self.last_note = f"skipped: {why}"
+        return None
+
+    def _record(self, decision: Decision, source: str) -> Decision:
+        self.reviews += 1
+        self.accepted += decision.accepted
+        self.rejected += not decision.accepted
+        self.last, self.last_source, self.last_note = decision, source, ""
+        if decision.accepted:  # rclpy forbids one call site logging at two severities
+            self._log.info(f"safety gate ({source}): {decision.reason}")
+        else:
+            self._log.warning(f"safety gate ({source}): {decision.reason}")
+        return decision
+
+    def status(self) -> tuple[bool, str, dict]:
+        """(ok, message, values) for /diagnostics: ok unless the last decision was a rejection."""
+        d = self.last
+        message = f"{self.last_source}: {d.reason}" if d is not None else self.last_note
+        if d is not None and self.last_note:
+            message += f" (then {self.last_note})"
+        fmt = lambda x: "" if x is None or not math.isfinite(x) else f"{x:.6g}"  # noqa: E731
+        return (d is None or d.accepted), message[:300], {
+            "reviews": self.reviews, "accepted": self.accepted, "rejected": self.rejected, "skipped": self.skipped,
+            "last_accepted": "" if d is None else d.accepted, "last_source": self.last_source,
+            "current_rmse": fmt(d and d.current_rmse), "candidate_rmse": fmt(d and d.candidate_rmse),
+            "online_period_s": self._settings().online_period_s}
