@@ -13,10 +13,9 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
-from tx40_real import DEFAULT_DATA, LAYOUT, RESULTS, SPLIT_S, frictionid
+from tx40_real import RESULTS, SPLIT_S, fit_and_validate, prepare
 
 VARIANTS = {"unconstrained": [], "consistent": ["--consistent"],
             "consistent + prior W=1": ["--consistent", "--prior", "urdf", "--prior-weight", "1"],
@@ -31,24 +30,14 @@ def consistency(path: Path) -> str:
 
 
 def main() -> int:
-    data = Path(sys.argv[1]) if len(sys.argv) > 1 else DEFAULT_DATA
-    source = data / "pos_read_data.csv"
-    if not source.is_file():
-        raise SystemExit(f"{source}: not found (give the folder of FIGAROH's TX40 log)")
-    tmp = Path(tempfile.mkdtemp(prefix="tx40_consistent_"))
-    layout = tmp / "layout.yaml"
-    layout.write_text(LAYOUT)
+    data, source, tmp, layout = prepare("tx40_consistent_")
     runs = {}
     for fit_name, (friction, solver) in FITS.items():
         for var, flags in VARIANTS.items():
             name = f"{fit_name} · {var}"
-            fit, val = tmp / f"{len(runs)}.json", tmp / f"{len(runs)}_val.json"
-            wall = frictionid("identify", str(source), "--layout", str(layout), "--drive", "tx40", "--system", "tx40",
-                              "--friction", friction, "--solver", solver, "--end", str(SPLIT_S), *flags,
-                              "--json", str(fit))
-            frictionid("validate", str(source), "--layout", str(layout), "--params", str(fit), "--start",
-                       str(SPLIT_S), "--json", str(val))
-            r, v = json.loads(fit.read_text()), json.loads(val.read_text())
+            fit = tmp / f"{len(runs)}.json"
+            wall, r, v = fit_and_validate(source, layout, "tx40", friction, solver, fit, tmp / f"{len(runs)}_val.json",
+                                          *flags)
             c = r.get("consistency") or {}
             runs[name] = {"command": "identify --drive tx40 --friction {} --solver {} {}".format(friction, solver,
                                                                                                 " ".join(flags)),

@@ -12,12 +12,10 @@ alternation). Writes bench/results/tx40_consistent_alternation.txt.
 from __future__ import annotations
 
 import sys
-import tempfile
 import time
-from pathlib import Path
 
 from scipy.optimize import least_squares
-from tx40_real import DEFAULT_DATA, LAYOUT, RESULTS, SPLIT_S
+from tx40_real import RESULTS, SPLIT_S, prepare
 
 from frictionid_core.cli import build_parser
 from frictionid_core.cli._common import drive_option, load_sources
@@ -27,11 +25,9 @@ from frictionid_core.systems import as_system
 
 
 def main() -> int:
-    data = Path(sys.argv[1]) if len(sys.argv) > 1 else DEFAULT_DATA
-    layout = Path(tempfile.mkdtemp(prefix="tx40_alt_")) / "layout.yaml"
-    layout.write_text(LAYOUT)
+    _, source, _, layout = prepare("tx40_alt_")
     parser, _ = build_parser(["identify"])
-    args = parser.parse_args(["identify", str(data / "pos_read_data.csv"), "--layout", str(layout), "--drive", "tx40",
+    args = parser.parse_args(["identify", str(source), "--layout", str(layout), "--drive", "tx40",
                               "--system", "tx40"])
     sources, system = load_sources(args), as_system("tx40", None, drive_option(args))
     model = build_model([s.window(None, SPLIT_S) for s in sources], system, "stribeck", False)

@@ -70,14 +70,30 @@ def frictionid(*args: str) -> float:
     return wall
 
 
-def main() -> int:
+def prepare(prefix: str) -> tuple[Path, Path, Path, Path]:
+    """(data folder from argv, its CSV, a temporary folder, the layout file written there)."""
     data = Path(sys.argv[1]) if len(sys.argv) > 1 else DEFAULT_DATA
     source = data / "pos_read_data.csv"
     if not source.is_file():
         raise SystemExit(f"{source}: not found (give the folder of FIGAROH's TX40 log)")
-    tmp = Path(tempfile.mkdtemp(prefix="tx40_real_"))
+    tmp = Path(tempfile.mkdtemp(prefix=prefix))
     layout = tmp / "layout.yaml"
     layout.write_text(LAYOUT)
+    return data, source, tmp, layout
+
+
+def fit_and_validate(source: Path, layout: Path, drive: str, friction: str, solver: str, fit: Path, val: Path,
+                     *flags: str) -> tuple[float, dict, dict]:
+    """Identify on 0–SPLIT_S s and validate on the rest through the CLI: (identify wall [s], result, validation)."""
+    wall = frictionid("identify", str(source), "--layout", str(layout), "--drive", drive, "--system", "tx40",
+                      "--friction", friction, "--solver", solver, "--end", str(SPLIT_S), *flags, "--json", str(fit))
+    frictionid("validate", str(source), "--layout", str(layout), "--params", str(fit), "--start", str(SPLIT_S),
+               "--json", str(val))
+    return wall, json.loads(fit.read_text()), json.loads(val.read_text())
+
+
+def main() -> int:
+    data, source, tmp, layout = prepare("tx40_real_")
     drives = {"coupled": "tx40",
               "joint friction": drive_variant(tmp, "tx40_joint_friction", friction_on="joint", coupling=True),
               "no coupling": drive_variant(tmp, "tx40_no_coupling", friction_on="joint", coupling=False)}
@@ -85,12 +101,8 @@ def main() -> int:
     runs["stribeck"] = ("stribeck", "hybrid", "tx40")
     out: dict = {"data": str(data), "layout": LAYOUT, "split_s": SPLIT_S, "runs": {}}
     for name, (friction, solver, drive) in runs.items():
-        fit, val = tmp / f"{name}.json", tmp / f"{name}_val.json"
-        wall = frictionid("identify", str(source), "--layout", str(layout), "--drive", drive, "--system", "tx40",
-                          "--friction", friction, "--solver", solver, "--end", str(SPLIT_S), "--json", str(fit))
-        frictionid("validate", str(source), "--layout", str(layout), "--params", str(fit), "--start", str(SPLIT_S),
-                   "--json", str(val))
-        r, v = json.loads(fit.read_text()), json.loads(val.read_text())
+        wall, r, v = fit_and_validate(source, layout, drive, friction, solver, tmp / f"{name}.json",
+                                      tmp / f"{name}_val.json")
         out["runs"][name] = {"command": f"identify --drive {Path(drive).stem} --friction {friction} --solver {solver}",
                              "wall_s": wall, "estimation": r["metrics"], "validation": v["metrics"],
                              "params": r["params"], "preprocessing": r.get("preprocessing"),
