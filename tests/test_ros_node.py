@@ -96,7 +96,7 @@ def identified(ros, node, stream):
     """Reset, replay 8 s of the bag into the node, identify; returns (response, replay stats)."""
     ros.reset()
     before = ros.received()
-    stats = replay.publish_stream(ros.node, stream, rate=REPLAY_RATE, qos=RELIABLE, ack_timeout=0)
+    stats = replay.publish_stream(ros.node, stream, rate=REPLAY_RATE, qos=RELIABLE)  # kept until acknowledged: lost samples are resent
     assert stats["sent"] == len(stream) and stats["subscribers"] >= 1
     ros.wait_received(before + len(stream))
     start = stats["first_stamp_ns"]
