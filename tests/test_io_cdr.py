@@ -94,3 +94,25 @@ def test_decode_refuses_what_it_does_not_understand():
     assert decode_joint_states([]) is None
     assert decode_joint_states([b"\x00\x01\x00\x00" + b"\xff" * 20]) is None  # counts past the end
     assert decode_joint_states([b"\x00\x03\x00\x00" + b"\x00" * 40]) is None  # not CDR
+
+
+def test_bag_without_type_definitions_reads_with_the_builtin_types(tmp_path):
+    """A rosbag2 that stores no message definitions (as Humble and older write) is read with the
+    built-in ROS 2 types, loaded for it only; the same samples as with its definitions."""
+    import sqlite3
+
+    rng = np.random.default_rng(5)
+    rows = rng.standard_normal((20, 3, 2))
+    path = _write(tmp_path / "old", [("base", ["a", "b"], *r) for r in rows], storage="sqlite3")
+    with_definitions = load(path)
+    (db,) = path.glob("*.db3")
+    with sqlite3.connect(db) as con:
+        assert con.execute("DELETE FROM message_definitions").rowcount == 1
+    from rosbags.highlevel import AnyReader, AnyReaderError
+
+    with pytest.raises(AnyReaderError, match="no type definitions"), AnyReader([path]):
+        pass  # the bag really has none
+    without = load(path)
+    np.testing.assert_array_equal(without.position, rows[:, 0])
+    for field in ("t", "position", "velocity", "effort"):
+        np.testing.assert_array_equal(getattr(without, field), getattr(with_definitions, field))
