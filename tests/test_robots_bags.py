@@ -50,6 +50,23 @@ def test_thesis_joint2_model_recovers_the_truth(j2_bags):
     assert floor["ratio"] < 1.1
 
 
+def test_hybrid_dip_refit_polishes_and_finds_the_full_search_optimum(j2_bags):
+    """After the dip refit hybrid only polishes (lm) the first round's point at the finer rates;
+    on the joint-2 bag that reaches the cost of a whole new de + lm search at those rates (to
+    1e-6: both end in one least-squares optimum, at ftol 1e-10)."""
+    from frictionid_core.identification import solve_model
+
+    est, _ = j2_bags
+    r = identify(est, system="tx40-j2", friction="stribeck", solver="hybrid", varpro=True, seed=0).to_dict()
+    assert r["preprocessing"]["decimate"] == 2 and "dip" in r["preprocessing"]
+    assert r["optimizer"]["method"] == "hybrid" and "; dip refit at the finer rates: lm from this point [lm:" in \
+        r["optimizer"]["message"]
+    model = build_model(est, "tx40-j2", "stribeck", False, Preprocessing.from_dict(r["preprocessing"]))
+    x, _ = solve_model(model, "hybrid", varpro=True, seed=0)
+    full = float(model.batch_cost(x[None])[0])
+    assert r["metrics"]["cost"] == pytest.approx(full, rel=1e-6)
+
+
 def test_a_decimation_too_coarse_for_the_dip_is_a_warning(j2_bags):
     """Decimation 18 set by the user (55.6 Hz) on the joint-2 bag: the fit's vs (≈ 0.053 rad/s,
     crossed at 4.81 rad/s²) needs 6 × 4.81/(π·0.053) = 175 Hz of anti-alias band, i.e. decimation

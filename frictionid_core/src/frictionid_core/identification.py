@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,6 +19,9 @@ from frictionid_core.observation import Observation, concat_observations
 from frictionid_core.preprocess import Preprocessing, dip_needs, rule_decimation
 from frictionid_core.systems import System, as_system, observe, result_system
 from frictionid_core.timeseries import JointSeries
+
+if TYPE_CHECKING:
+    from frictionid_core.optim.problem import OptimResult
 
 # One source, or several fitted together.
 Sources = JointSeries | Sequence[JointSeries]
@@ -175,9 +179,16 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
     extra: dict = {"drive": sys_.drive.to_dict() if sys_.drive else None, **_selection(sources, model, window, bounds)}
     closed_form = solver == "ls" or (varpro and model.searched_nonlinear_index.size == 0)
 
-    def fit(model: IdentificationModel):
+    def fit(model: IdentificationModel, previous: tuple[np.ndarray, OptimResult] | None = None):
+        """The solver on ``model``; in a dip refit of a local solver (lm, hybrid's polish) only the
+        polish, from the ``previous`` round's point: the finer rates move the optimum, not its basin."""
         if closed_form:
             return (*model.fit_linear(), None)
+        if previous is not None and solver in ("lm", "hybrid"):
+            options = {"calls": solver_options.get("calls"), **(solver_options.get("polish_options") or {})}
+            x, polish = solve_model(model, "lm", seed=seed, varpro=varpro, progress=progress, start=previous[0],
+                                    **(options if solver == "hybrid" else solver_options))
+            return x, None, None, previous[1].refined(polish, "dip refit at the finer rates: lm from this point")
         x, res = solve_model(model, solver, seed=seed, varpro=varpro, warm_start=warm_start,
                               progress=progress, **solver_options)
         return x, None, None, res
@@ -193,7 +204,7 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
         model = build_model(sources, sys_, friction, asymmetric, replace(settings, **changes), bounds, fixed=fixed)
         model.obs.report["from_data"] = sorted(set(from_data) | set(model.obs.report["from_data"]))
         model.obs.report["dip"] = why
-        x, std, cond, res = fit(model)
+        x, std, cond, res = fit(model, (x, res))
     warnings += _dip_warnings(model, x)
     if res is not None:
         extra["optimizer"] = res.to_dict()
@@ -330,13 +341,14 @@ def preprocessing_record(obs, metrics: dict, default: Preprocessing, requested: 
 
 
 def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpro: bool = False,
-                warm_start: bool = True, progress=None, **solver_options):
+                warm_start: bool = True, progress=None, start: np.ndarray | None = None, **solver_options):
     """Minimise the model's cost with ``solver``; returns (parameters (k,), OptimResult).
 
-    Local solvers start from the best of a sample of closed-form solutions (:func:`_start_point`;
-    for a model linear in its parameters, the least-squares optimum); with ``warm_start``
-    population methods and bo/dt evaluate it first (as ``problem.x0``), linear models included.
-    With ``varpro`` the solver sees only the nonlinear parameters; fixed parameters are never searched;
+    Local solvers start from ``start`` (k,) if given (e.g. a previous fit), else from the best of
+    a sample of closed-form solutions (:func:`_start_point`; for a model linear in its
+    parameters, the least-squares optimum); with ``warm_start`` population methods and bo/dt
+    evaluate that point first (as ``problem.x0``), linear models included. With ``varpro`` the
+    solver sees only the nonlinear parameters; fixed parameters are never searched;
     ``progress``: see :func:`identify`.
     """
     from frictionid_core.optim import minimize
@@ -344,7 +356,10 @@ def solve_model(model: IdentificationModel, solver: str, *, seed: int = 0, varpr
     searched = model.searched_nonlinear_index if varpro else model.free_index
     problem = _varpro_problem(model) if varpro else _full_problem(model)
     problem.progress = progress
-    if warm_start or solver == "lm":  # linear models too: their start is the least-squares optimum
+    if start is not None:
+        lo, hi = model.bounds()
+        problem.x0 = np.clip(np.asarray(start, dtype=float), lo, hi)[searched]
+    elif warm_start or solver == "lm":  # linear models too: their start is the least-squares optimum
         problem.x0 = _start_point(model, np.random.default_rng(seed))[searched]
     res = minimize(problem, solver, seed=seed, **solver_options)
     x = model.embed(res.x, searched)

@@ -147,6 +147,14 @@ class OptimResult:
     message: str
     names: list[str]
 
+    def refined(self, polish: OptimResult, how: str) -> OptimResult:
+        """This run continued by a local ``polish`` from its point (on the same or a refined
+        problem): the polish's point and cost, evaluations and wall time summed, this run's
+        histories, both messages."""
+        return OptimResult(self.method, polish.x.copy(), float(polish.fun), self.nfev + polish.nfev,
+                           self.wall_s + polish.wall_s, self.history_fmin, self.history_dist_mean,
+                           self.n_nan + polish.n_nan, f"{self.message}; {how} [{polish.message}]", list(polish.names))
+
     def to_dict(self) -> dict:
         """JSON-ready dict (plain lists/floats; non-finite history entries become None)."""
         return {
