@@ -65,6 +65,30 @@ def test_competing_processes_take_the_second_thread_away():
             p.wait()
 
 
+def test_this_process_own_runnable_threads_are_counted_as_its_own():
+    """A thread of this process running without the GIL (as a BLAS pool spinning after its call)
+    is in the run queue: it is one of this process's runnable threads, which busy_cpus takes off
+    the machine's count (it counted as a competitor and kept large kernels on one thread)."""
+    import hashlib
+
+    stop, data = threading.Event(), bytes(1 << 22)
+
+    def spin():
+        while not stop.is_set():
+            hashlib.sha256(data).digest()  # releases the GIL on large buffers
+
+    thread = threading.Thread(target=spin)
+    thread.start()
+    try:
+        deadline, seen = time.monotonic() + 2.0, 0
+        while seen < 2 and time.monotonic() < deadline:
+            seen = parallel._own_running()
+        assert seen >= 2  # the caller and the spinning thread
+    finally:
+        stop.set()
+        thread.join()
+
+
 def test_a_parallel_call_that_did_not_pay_keeps_the_next_ones_on_one_thread(monkeypatch):
     """The load snapshot can miss a competitor; the call itself shows it: a helper thread that
     finished long after the caller (here: its chunk sleeps 0.2 s, the caller's takes nothing)

@@ -17,9 +17,12 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError
+from frictionid_core.parallel import run_chunks
 from frictionid_core.preprocess import Prepared, Preprocessing, decimate, decimation_indices, thinned_rows
 
 VELOCITY_COLUMNS = ("V", "S", "V_pos", "S_pos", "V_neg", "S_neg", "one")
+# Joints are decimated in parallel threads when each has at least this many values to filter.
+PARALLEL_JOINT_VALUES = 2_000_000
 
 
 @dataclass
@@ -133,30 +136,41 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
     parts: dict[str, list] = {k: [] for k in ("y", "velocity", "rigid", "columns")}
     raw: dict[str, list] = {k: [] for k in parts}
 
-    def decimated(small: np.ndarray, rigid: np.ndarray, factor: int) -> np.ndarray:
-        """[τ, q̇, rigid columns, velocity columns] decimated by ``factor``."""
-        a, b = decimate(small, factor), decimate(rigid, factor, stride)
+    def decimated(small: np.ndarray, rigid: np.ndarray, factor: int, rows: np.ndarray | None = None) -> np.ndarray:
+        """[τ, q̇, rigid columns, velocity columns] decimated by ``factor`` (only ``rows`` of it)."""
+        a, b = decimate(small, factor, rows=rows), decimate(rigid, factor, stride, rows)
         return np.column_stack([a[:, :2], b, a[:, 2:]])
 
-    for j in range(nj):
+    def joint_rows(j: int) -> tuple[np.ndarray, np.ndarray]:
+        """(fit rows, metric rows) of joint j: [τ, q̇, rigid columns, velocity columns]."""
         small = np.column_stack([prepared.tau[:, j], prepared.qd[:, j], velocity_columns(prepared.qd[:, j])])
         rigid = rigid_full[j * ns : (j + 1) * ns]
         if settings.thin > 1:
             fit = np.empty((select.size, small.shape[1] + r))
             for L, (at, rows) in sources.items():
-                fit[at] = decimated(small, rigid, L)[rows]
+                fit[at] = decimated(small, rigid, L, rows)
             velocity = fit[:, 1].copy()  # the velocity itself is not weighted
             fit *= weight[:, None]
             fit[:, 1] = velocity
         else:
             fit = decimated(small, rigid, settings.decimate)
-        at = np.column_stack([small[metric_rows, :2], rigid[metric_rigid], small[metric_rows, 2:]])
+        return fit, np.column_stack([small[metric_rows, :2], rigid[metric_rigid], small[metric_rows, 2:]])
+
+    # the joints in the threads the machine has free (the filters release the GIL)
+    per_joint: list = [None] * nj
+
+    def joints_from(lo: int, hi: int) -> None:
+        for j in range(lo, hi):
+            per_joint[j] = joint_rows(j)
+
+    run_chunks(joints_from, nj, min_items=1 if n * (r + len(VELOCITY_COLUMNS) + 2) >= PARALLEL_JOINT_VALUES else nj)
+    for fit, at in per_joint:
         for out, rows in ((parts, fit), (raw, at)):
             out["y"].append(rows[:, 0])
             out["velocity"].append(rows[:, 1])
             out["rigid"].append(rows[:, 2 : 2 + r])
             out["columns"].append(dict(zip(VELOCITY_COLUMNS, rows[:, 2 + r :].T)))
-        del small, fit
+    del per_joint
 
     def observation(p: dict, t: np.ndarray) -> Observation:
         return Observation(list(joints), np.concatenate(p["y"]), np.vstack(p["rigid"]), list(rigid_names),

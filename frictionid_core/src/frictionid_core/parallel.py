@@ -70,15 +70,33 @@ def usable_cpus() -> float:
 
 
 def busy_cpus() -> int:
-    """Runnable tasks other than this call and this pool's active workers: a snapshot of
-    ``/proc/loadavg``, machine-wide (with an affinity narrower than the machine it may count
-    tasks on other CPUs: one thread more often, never a stall); 0 where it does not exist."""
+    """Runnable tasks of other processes: a snapshot of ``/proc/loadavg``, machine-wide (with an
+    affinity narrower than the machine it may count tasks on other CPUs: one thread more often,
+    never a stall), less this process's own runnable threads (this call, this pool's active
+    workers, a BLAS pool still spinning after its last call); 0 where it does not exist."""
     try:
         with open("/proc/loadavg") as fh:
             running = int(fh.read().split()[3].split("/")[0])
     except (OSError, ValueError, IndexError):
         return 0
-    return running - 1 - _POOL.active
+    busy = running - 1 - _POOL.active
+    return busy if busy <= 0 else running - max(_own_running(), 1 + _POOL.active)
+
+
+def _own_running() -> int:
+    """Threads of this process in the run queue (state R), the caller included; 0 if unknown."""
+    n = 0
+    try:
+        tasks = os.listdir("/proc/self/task")
+    except OSError:
+        return 0
+    for task in tasks:
+        try:
+            with open(f"/proc/self/task/{task}/stat", "rb") as fh:
+                n += fh.read().rsplit(b")", 1)[1].split()[0] == b"R"
+        except (OSError, IndexError):
+            continue
+    return n
 
 
 def _cap() -> int | None:

@@ -201,7 +201,7 @@ def central_difference(y: np.ndarray, dt: float) -> np.ndarray:
     return np.gradient(y, dt, axis=0, edge_order=1)
 
 
-def decimate(x: np.ndarray, n: int, stride: int = 1) -> np.ndarray:
+def decimate(x: np.ndarray, n: int, stride: int = 1, rows: np.ndarray | None = None) -> np.ndarray:
     """MATLAB-style decimation of each column of x (N, …) by n.
 
     Chebyshev type I low-pass (order 8, 0.05 dB ripple, cut-off 0.8/n of Nyquist) applied
@@ -209,13 +209,15 @@ def decimate(x: np.ndarray, n: int, stride: int = 1) -> np.ndarray:
 
     ``stride`` (a divisor of n): x holds every ``stride``-th sample only (aligned to the last,
     :func:`decimation_indices`); the filter keeps the same band in Hz (cut-off 0.8·stride/n of
-    x's Nyquist) and the rows are the same instants.
+    x's Nyquist) and the rows are the same instants. ``rows``: only these of the decimated rows.
     """
     if n == 1:
-        return x
+        return x if rows is None else x[rows]
+    kept = decimation_indices(x.shape[0], n // stride)
+    if rows is not None:
+        kept = kept[rows]
     sos = signal.cheby1(8, 0.05, 0.8 * stride / n, output="sos")
     what = f"the anti-alias filter of decimation by {n}"
-    kept = decimation_indices(x.shape[0], n // stride)
     if x.ndim == 1:
         return filtfilt(sos, 8, x, what)[kept]
     # column by column (each is filtered alone), in blocks to bound the filter's work arrays;
