@@ -3,6 +3,13 @@
     python bench/ros_load.py                 # 60 s at 1 kHz, 6 joints, every phase (~3 min)
     python bench/ros_load.py --quick         # 20 s of load and 3 cancels (~1 min)
     python bench/ros_load.py --worker-nice 5 # the same with another worker niceness
+    python bench/ros_load.py --quick --competitors 1  # with a CPU-bound process running throughout
+    python bench/ros_load.py --realtime off  # node and publisher at normal scheduling
+
+Scheduling (``--realtime``, default auto): the node's ``realtime_priority`` and the publisher
+process (the robot's controller) under ``chrt --fifo`` at that priority where the OS allows it;
+what was used is printed and stored (``scheduling``: the publisher's, the node's as it reports it
+in /diagnostics, the competitors).
 
 Phases, each against a real node subprocess (``python -m frictionid_ros.node``, system
 friction-only, 6 joints, default sensor-data QoS) on a private ROS domain:
@@ -32,7 +39,8 @@ friction-only, 6 joints, default sensor-data QoS) on a private ROS domain:
    late subscriber gets the last good parameters on ``~/parameters`` (transient local), values
    unchanged.
 
-Prints a summary and writes ``bench/results/ros_load.json`` (``ros_load_quick.json``). The
+Prints a summary and writes ``bench/results/ros_load.json`` (``ros_load_quick.json``; the
+committed ``ros_load_quick_competitor.json`` is ``--quick --competitors 1 --out ...``). The
 machine's load average is recorded: figures from a busy machine are not the node's.
 """
 

@@ -27,7 +27,8 @@ decision is in ``/diagnostics`` ("safety gate").
 
 Concurrency: the input callbacks (joint states, effort, reference, feed-forward) run on a hidden
 helper node ``_frictionid_input`` spun in its own thread by rclpy's EventsExecutor (or a
-SingleThreadedExecutor, ``input_executor``), the only writer of the ring buffers. Services, the
+SingleThreadedExecutor, ``input_executor``), the only writer of the ring buffers. With
+``realtime_priority`` that thread runs SCHED_FIFO where the OS allows (:mod:`.realtime`). Services, the
 action, online updates and diagnostics run on this node in a MultiThreadedExecutor (:mod:`.runner`);
 a second ``~/identify`` is answered "busy" at once while the first waits for the identification
 in a low-priority worker process (:mod:`.worker`) or thread. The callbacks' logic is in ROS-free
@@ -294,7 +295,8 @@ class FrictionIdNode(LifecycleNode):
 
     def schedule_input_thread(self) -> None:
         """In the input thread before it spins: ``realtime_priority`` (:mod:`.realtime`), logged."""
-        self.scheduling = schedule_this_thread(self.cfg.realtime_priority, self._log)
+        self.scheduling = schedule_this_thread(self.cfg.realtime_priority, self._log,
+                                               others=self.cfg.identification_worker == "process")
 
     @_guarded
     def _on_joint_state(self, msg: JointState, t_rx: int) -> None:

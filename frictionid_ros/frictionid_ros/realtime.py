@@ -1,5 +1,7 @@
 """Real-time scheduling: the SCHED_FIFO priority of ``frictionid loop --realtime`` and of the node's
-``realtime_priority`` parameter (its input/feed-forward thread), the way ros2_control runs its loop.
+``realtime_priority`` parameter (its input/feed-forward thread and the middleware threads that receive
+its joint states at that priority, its other threads at SCHED_FIFO 1: :func:`fifo_this_thread`), the
+way ros2_control runs its loop.
 
 ``auto`` asks for SCHED_FIFO AUTO_PRIORITY and falls back to normal scheduling, said so, when the
 OS refuses (no CAP_SYS_NICE, RLIMIT_RTPRIO 0, a container); ``off`` or 0: normal scheduling; 1..99:
@@ -10,6 +12,7 @@ from __future__ import annotations
 
 import os
 import subprocess
+import threading
 
 from frictionid_core.errors import FrictionIdError
 
@@ -48,10 +51,13 @@ def realtime_priority(value, what: str = "--realtime") -> int:
     return AUTO_PRIORITY if allowed else 0
 
 
-def fifo_this_thread(requested: int | str) -> tuple[bool, str]:
+def fifo_this_thread(requested: int | str, others: bool = False) -> tuple[bool, str]:
     """Put the calling thread (Linux: ``sched_setscheduler(0)`` is per thread) at SCHED_FIFO
-    ``requested`` (a :func:`parse_priority` value). (granted, a line saying what was used): a refusal
-    of the OS leaves normal scheduling and says so; 0 asks nothing."""
+    ``requested`` (a :func:`parse_priority` value), the middleware receive threads too, and with
+    ``others`` every other thread of the process at SCHED_FIFO 1 (threads they start inherit it): a
+    thread holding the GIL is then never preempted by an ordinary process while the feed-forward
+    thread waits for it (Python's GIL has no priority inheritance). (granted, a line saying what was
+    used): a refusal of the OS leaves normal scheduling and says so; 0 asks nothing."""
     if requested == 0:
         return False, "normal scheduling (SCHED_OTHER; realtime_priority off)"
     prio = AUTO_PRIORITY if requested == "auto" else int(requested)
@@ -61,10 +67,14 @@ def fifo_this_thread(requested: int | str) -> tuple[bool, str]:
         reason = getattr(exc, "strerror", None) or str(exc)
         return False, f"normal scheduling (SCHED_OTHER): SCHED_FIFO {prio} refused by the OS ({reason})"
     raised = fifo_threads(RECEIVE_THREADS, prio)
-    return True, f"SCHED_FIFO {prio}, and {raised} middleware receive threads ({'*, '.join(RECEIVE_THREADS)}*)"
+    line = f"SCHED_FIFO {prio}, and {raised} middleware receive threads ({'*, '.join(RECEIVE_THREADS)}*)"
+    if others:
+        n = fifo_threads(("",), 1, skip=RECEIVE_THREADS, skip_tid=threading.get_native_id())
+        line += f"; {n} other threads SCHED_FIFO 1"
+    return True, line
 
 
-def fifo_threads(prefixes: tuple[str, ...], prio: int) -> int:
+def fifo_threads(prefixes: tuple[str, ...], prio: int, skip: tuple[str, ...] = (), skip_tid: int = 0) -> int:
     """Put this process's threads whose name starts with one of ``prefixes`` at SCHED_FIFO ``prio``;
     how many were (a refusal or a thread gone meanwhile is skipped)."""
     done = 0
@@ -76,7 +86,7 @@ def fifo_threads(prefixes: tuple[str, ...], prio: int) -> int:
         try:
             with open(f"/proc/self/task/{tid}/comm") as f:
                 name = f.read().strip()
-            if name.startswith(prefixes):
+            if name.startswith(prefixes) and not (skip and name.startswith(skip)) and int(tid) != skip_tid:
                 os.sched_setscheduler(int(tid), os.SCHED_FIFO, os.sched_param(prio))
                 done += 1
         except (OSError, ValueError, AttributeError):
@@ -84,10 +94,10 @@ def fifo_threads(prefixes: tuple[str, ...], prio: int) -> int:
     return done
 
 
-def schedule_this_thread(requested: int | str, log) -> str:
+def schedule_this_thread(requested: int | str, log, others: bool = False) -> str:
     """:func:`fifo_this_thread` and its line logged (``log``: an rclpy logger): info if granted or off or
     ``auto`` fell back, a warning if an explicit priority was refused. Returns the line."""
-    granted, line = fifo_this_thread(requested)
+    granted, line = fifo_this_thread(requested, others)
     if granted or requested in (0, "auto"):
         log.info(f"input/feed-forward thread: {line}")
     else:
