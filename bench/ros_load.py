@@ -3,6 +3,13 @@
     python bench/ros_load.py                 # 60 s at 1 kHz, 6 joints, every phase (~3 min)
     python bench/ros_load.py --quick         # 20 s of load and 3 cancels (~1 min)
     python bench/ros_load.py --worker-nice 5 # the same with another worker niceness
+    python bench/ros_load.py --quick --competitors 1  # with a CPU-bound process running throughout
+    python bench/ros_load.py --realtime off  # node and publisher at normal scheduling
+
+Scheduling (``--realtime``, default auto): the node's ``realtime_priority`` and the publisher
+process (the robot's controller) under ``chrt --fifo`` at that priority where the OS allows it;
+what was used is printed and stored (``scheduling``: the publisher's, the node's as it reports it
+in /diagnostics, the competitors).
 
 Phases, each against a real node subprocess (``python -m frictionid_ros.node``, system
 friction-only, 6 joints, default sensor-data QoS) on a private ROS domain:
@@ -32,7 +39,8 @@ friction-only, 6 joints, default sensor-data QoS) on a private ROS domain:
    late subscriber gets the last good parameters on ``~/parameters`` (transient local), values
    unchanged.
 
-Prints a summary and writes ``bench/results/ros_load.json`` (``ros_load_quick.json``). The
+Prints a summary and writes ``bench/results/ros_load.json`` (``ros_load_quick.json``; the
+committed ``ros_load_quick_competitor.json`` is ``--quick --competitors 1 --out ...``). The
 machine's load average is recorded: figures from a busy machine are not the node's.
 """
 
@@ -53,6 +61,9 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from frictionid_core.errors import FrictionIdError
+
+from frictionid_ros.realtime import realtime_priority
 
 ROOT = Path(__file__).resolve().parents[1]
 NS = 1_000_000_000
@@ -398,7 +409,7 @@ def phase_load(bench: Bench, node: Node, args, work: Path, domain: int, buffer_s
     from frictionid_interfaces.srv import Identify
 
     pub_out = work / "publisher.json"
-    pub = subprocess.Popen([sys.executable, __file__, "--role", "publisher", "--rate", str(args.rate),
+    pub = subprocess.Popen([*args.pub_prefix, sys.executable, __file__, "--role", "publisher", "--rate", str(args.rate),
                             "--duration", str(args.duration), "--pub-out", str(pub_out)], env=_env(domain))
     rss, idents = [], []  # idents: boxes of (start, end, success, message)
     cpu0 = {"node": _cpu_s(node.proc.pid), "bench": time.process_time()}
@@ -647,6 +658,13 @@ def main() -> int:
     ap.add_argument("--input-executor", default="events", choices=("events", "single_threaded"),
                     help="the node's input_executor parameter")
     ap.add_argument("--worker-nice", type=int, default=None, help="the node's worker_nice (default: the node's)")
+    ap.add_argument("--realtime", default="auto", metavar="PRIO|auto|off",
+                    help="the node's realtime_priority (its input/feed-forward thread SCHED_FIFO) and the publisher "
+                         "process (the robot's controller) under chrt --fifo at that priority, as ros2_control runs "
+                         "its loop; auto (default): SCHED_FIFO 10 where the OS allows, else normal scheduling")
+    ap.add_argument("--competitors", type=int, default=0,
+                    help="CPU-bound processes (python -c 'while True: pass') running throughout: a robot computer "
+                         "is never idle")
     ap.add_argument("--out", type=Path, default=None,
                     help="JSON results (default bench/results/ros_load.json, ros_load_quick.json with --quick)")
     ap.add_argument("--role", default="bench", help=argparse.SUPPRESS)
@@ -663,16 +681,27 @@ def main() -> int:
     domain = random.randint(1, 200)
     buffer_s = args.buffer or max(5.0, round(args.duration / 3))
     extra = {} if args.worker_nice is None else {"worker_nice": args.worker_nice}
+    extra["realtime_priority"] = args.realtime
+    try:
+        prio = realtime_priority(args.realtime)
+    except FrictionIdError as exc:
+        ap.error(str(exc))
+    args.pub_prefix = ["chrt", "--fifo", str(prio)] if prio else []
+    competitors = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(args.competitors)]
     work = Path(tempfile.mkdtemp(prefix="frictionid_bench_"))
     write_true_parameters(work / "parameters.json")  # restored at start: feed-forward from the first message
     result = {"input_executor": args.input_executor, "node_parameters": extra, "duration_s": args.duration,
               "rate_hz": args.rate, "joints": len(JOINTS), "buffer_seconds": buffer_s, "domain": domain,
-              "cpus": os.cpu_count(), "loadavg_start": os.getloadavg()}
+              "cpus": os.cpu_count(), "loadavg_start": os.getloadavg(),
+              "scheduling": {"publisher": f"SCHED_FIFO {prio} (chrt)" if prio else "normal (SCHED_OTHER)",
+                             "node_requested": args.realtime, "competitors": args.competitors,
+                             "competitor": "python -c 'while True: pass' (normal scheduling)"}}
     bench = Bench(domain)
     gc.freeze()  # as the node does: no ~100 ms full collections stalling the clients
     node = Node(work, domain, buffer_s, "load", args.input_executor, extra)
     try:
         result["node_start_s"] = wait_ready(bench, node)
+        result["scheduling"]["node_input_thread"] = bench.diag_value("scheduling")
         result["load"] = phase_load(bench, node, args, work, domain, buffer_s)
         result["cancel"] = phase_cancel(bench, cancels)
         result["cancel"]["node_alive"] = node.proc.poll() is None
@@ -687,12 +716,16 @@ def main() -> int:
             except subprocess.TimeoutExpired:
                 node.proc.kill()
         bench.close()
+        for c in competitors:
+            c.kill()
+            c.wait()
 
     result["loadavg_end"] = os.getloadavg()
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=2, default=str) + "\n")
     L, C = result["load"], result["cancel"]
     e2e = L["end_to_end_latency_ms"]
+    print(f"scheduling: {result['scheduling']}")
     print(f"load: {L['sent']} sent at {args.rate:g} Hz x {len(JOINTS)} joints, node received {L['received_by_node']} "
           f"(lost {L['lost']}); feed-forward published {L['feedforward_published_by_node']}, received by the "
           f"publisher {L['feedforward_received_by_publisher']}")

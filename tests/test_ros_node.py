@@ -129,6 +129,23 @@ def test_unknown_system_is_a_clear_startup_error(workdir):
         assert rc == 2 and needle in err and "Traceback" not in err, err
 
 
+@pytest.mark.slow
+def test_realtime_priority_refused_value_is_a_clear_startup_error(workdir):
+    proc = NodeProcess(workdir, ["--params-file", str(YAML), "--ros-args", "-p", "realtime_priority:=fast"], "rt")
+    rc = proc.proc.wait(30)
+    err = proc.stderr()
+    assert rc == 2 and "realtime_priority' must be auto, off or a priority 0..99, got 'fast'" in err, err
+    assert "Traceback" not in err, err
+
+
+def test_scheduling_is_reported(ros, node):
+    """The default realtime_priority (auto): the input thread's scheduling as the OS granted it, in
+    the start-up log and /diagnostics (SCHED_FIFO where allowed, else normal scheduling, said so)."""
+    line = ros.diag_value("scheduling")
+    assert line.startswith(("SCHED_FIFO 10", "normal scheduling (SCHED_OTHER): SCHED_FIFO 10 refused")), line
+    assert f"input/feed-forward thread: {line}" in node.stderr()
+
+
 def test_identify_matches_offline(identified, offline, ros):
     res, stats = identified
     ref = offline.to_dict()

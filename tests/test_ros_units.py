@@ -90,6 +90,12 @@ def test_config_validation():
     assert make_config(defaults).capacity == 30001
     for change, needle in [({"system": "scara"}, "scara"), ({"solver": "x"}, "solver"),
                            ({"qos": "fast"}, "qos"), ({"buffer_seconds": 0.0}, "buffer_seconds"),
-                           ({"joints": ["a", "a"]}, "duplicated")]:
+                           ({"joints": ["a", "a"]}, "duplicated"),
+                           ({"realtime_priority": "fast"}, "realtime_priority' must be auto, off or a priority"),
+                           ({"realtime_priority": 100}, "realtime_priority"),
+                           ({"realtime_priority": 10.0}, "realtime_priority")]:
         with pytest.raises(FrictionIdError, match=needle):
             make_config({**defaults, **change})
+    # realtime_priority: a string or an integer (YAML 20 or "20")
+    for value, want in (("auto", "auto"), ("off", 0), (0, 0), (20, 20), ("20", 20)):
+        assert make_config({**defaults, "realtime_priority": value}).realtime_priority == want

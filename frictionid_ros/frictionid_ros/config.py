@@ -19,6 +19,8 @@ from frictionid_core.friction import FRICTIONS
 from frictionid_core.optim import SOLVERS
 from frictionid_core.options import SolveOptions, check_choice
 
+from frictionid_ros.realtime import parse_priority
+
 NODE_NAME = "frictionid"
 
 # ROS name → SolveOptions field, for the parameters and the ~/identify request (other names agree).
@@ -81,6 +83,10 @@ PARAMETERS: dict[str, tuple[object, str, bool]] = {
     "max_wall_s": (120.0, "wall time after which an identification is stopped [s]", True),
     "worker_nice": (19, "niceness of the identification worker process, 0..19 (19: the feed-forward "
                         "path gets the CPU first)", True),
+    "realtime_priority": ("auto", "scheduling of the input/feed-forward thread, as ros2_control runs its loop: auto "
+                                  "(SCHED_FIFO 10 if the OS allows, else normal) | off | a SCHED_FIFO priority "
+                                  "1..99 (refused by the OS: normal scheduling and a warning); a string or an "
+                                  "integer", True),
     "diagnostics_period_s": (1.0, "period of /diagnostics [s]", True),
     "known_rigid_body": (False, "robot systems (tx40, urdf:PATH): keep the base parameters at the model's values "
                                 "(the controller's rigid-body model) and identify friction and offsets only", True),
@@ -96,6 +102,7 @@ PARAMETERS: dict[str, tuple[object, str, bool]] = {
 }
 
 
+DYNAMIC_PARAMETERS = ("realtime_priority",)  # a string or an integer (auto | off | 0..99)
 PATH_PARAMETERS = ("system", "results_file", "results_dir")
 LIMITS = ("max_budget", "max_population", "max_window_seconds", "max_wall_s", "worker_nice")
 
@@ -137,6 +144,7 @@ class Config:
     worker_nice: int
     diagnostics_period_s: float
     known_rigid_body: bool = False
+    realtime_priority: int | str = "auto"  # "auto" or 0..99 (realtime.parse_priority)
     online_period_s: float = 0.0
     online_window_s: float = 10.0
     online_holdout: float = 0.25
@@ -275,6 +283,7 @@ def make_config(values: dict) -> Config:
         worker_nice=int(v["worker_nice"]),
         diagnostics_period_s=float(v["diagnostics_period_s"]),
         known_rigid_body=bool(v["known_rigid_body"]),
+        realtime_priority=parse_priority(v["realtime_priority"], "parameter 'realtime_priority'"),
         online_period_s=float(v["online_period_s"]),
         online_window_s=float(v["online_window_s"]),
         online_holdout=float(v["online_holdout"]),

@@ -26,6 +26,8 @@ from pathlib import Path
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.jsonfile import write_json
 
+from frictionid_ros.realtime import AUTO_PRIORITY, realtime_priority
+
 DESCRIPTION = """\
 Run a simulated arm (MuJoCo, hidden Stribeck friction), a PD + rigid-body controller and the
 frictionid node as separate ROS 2 processes on a low-speed tracking task with reversals, through
@@ -36,7 +38,6 @@ offered to the safety gate (~/load). Writes the figures as JSON (--json) and one
 tracking error per phase (--plots)."""
 
 NS = 1_000_000_000
-AUTO_PRIORITY = 10  # SCHED_FIFO priority of --realtime auto
 
 
 def register(subparsers):
@@ -99,26 +100,6 @@ def handler(args) -> int:
     print(f"  of which joint_states stamp → controller receipt [ms]: p50 {hop[0]:.3f}, p99 {hop[1]:.3f}")
     print(f"wrote {args.json} in {time.monotonic() - t0:.0f} s")
     return 0
-
-
-def realtime_priority(value: str) -> int:
-    """The SCHED_FIFO priority of ``--realtime`` (0: off); ``auto``: AUTO_PRIORITY if allowed."""
-    if value == "auto":
-        try:
-            allowed = subprocess.run(["chrt", "--fifo", str(AUTO_PRIORITY), "true"], capture_output=True,
-                                     timeout=10).returncode == 0
-        except (OSError, subprocess.TimeoutExpired):
-            allowed = False
-        return AUTO_PRIORITY if allowed else 0
-    if value == "off":
-        return 0
-    try:
-        prio = int(value)
-    except ValueError:
-        prio = -1
-    if not 0 <= prio <= 99:
-        raise FrictionIdError(f"--realtime must be auto, off or a priority 0..99, got {value!r}")
-    return prio
 
 
 def ros_env(domain: int) -> dict:

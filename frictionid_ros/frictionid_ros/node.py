@@ -27,7 +27,8 @@ decision is in ``/diagnostics`` ("safety gate").
 
 Concurrency: the input callbacks (joint states, effort, reference, feed-forward) run on a hidden
 helper node ``_frictionid_input`` spun in its own thread by rclpy's EventsExecutor (or a
-SingleThreadedExecutor, ``input_executor``), the only writer of the ring buffers. Services, the
+SingleThreadedExecutor, ``input_executor``), the only writer of the ring buffers. With
+``realtime_priority`` that thread runs SCHED_FIFO where the OS allows (:mod:`.realtime`). Services, the
 action, online updates and diagnostics run on this node in a MultiThreadedExecutor (:mod:`.runner`);
 a second ``~/identify`` is answered "busy" at once while the first waits for the identification
 in a low-priority worker process (:mod:`.worker`) or thread. The callbacks' logic is in ROS-free
@@ -68,6 +69,7 @@ from frictionid_ros.buffer import NS
 from frictionid_ros.inputs import Inputs
 from frictionid_ros.messages import diagnostic_array, parameters_msg
 from frictionid_ros.online import Online
+from frictionid_ros.realtime import schedule_this_thread
 from frictionid_ros.runner import make_input_executor, run
 from frictionid_ros.service import IdentifyService
 from frictionid_ros.store import ActiveParameters, Results
@@ -113,6 +115,7 @@ class FrictionIdNode(LifecycleNode):
         self._ff_on = False  # publish the feed-forward (lifecycle state active)
         self._entities: list = []  # (destroy, entity) of what configure created, for cleanup
         self._failure = ""
+        self.scheduling = "normal (the input thread has not started)"  # realtime_priority as granted
         self.input_node = self._worker = None
         self.input_executor = make_input_executor(cfg.input_executor, self._log, self.context)
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -261,7 +264,7 @@ class FrictionIdNode(LifecycleNode):
     def _declare_parameters(self) -> cfgmod.Config:
         values = {}
         for name, (default, desc, ro) in cfgmod.PARAMETERS.items():
-            d = ParameterDescriptor(description=desc, read_only=ro)
+            d = ParameterDescriptor(description=desc, read_only=ro, dynamic_typing=name in cfgmod.DYNAMIC_PARAMETERS)
             try:
                 if isinstance(default, list):
                     p = self.declare_parameter(name, Parameter.Type.STRING_ARRAY, d)
@@ -289,6 +292,11 @@ class FrictionIdNode(LifecycleNode):
         return SetParametersResult(successful=True)
 
     # ------------------------------------------------------------------ inputs and feed-forward
+
+    def schedule_input_thread(self) -> None:
+        """In the input thread before it spins: ``realtime_priority`` (:mod:`.realtime`), logged."""
+        self.scheduling = schedule_this_thread(self.cfg.realtime_priority, self._log,
+                                               others=self.cfg.identification_worker == "process")
 
     @_guarded
     def _on_joint_state(self, msg: JointState, t_rx: int) -> None:
@@ -383,7 +391,8 @@ class FrictionIdNode(LifecycleNode):
     def _on_diagnostics(self) -> None:
         ok, message, values = self.inputs.buffer_status()
         pid = self._worker.pid if self._worker is not None else None
-        values.update(rss_kb=rss_kb(), worker_pid=pid or "", worker_rss_kb=rss_kb(pid) if pid else 0)
+        values.update(rss_kb=rss_kb(), worker_pid=pid or "", worker_rss_kb=rss_kb(pid) if pid else 0,
+                      scheduling=self.scheduling)
         ident = self.identify_service.status(active_joints=",".join(sorted(self.active.results.per_joint)),
                                              feedforward_on=self._ff_on, **self.inputs.feedforward_values())
         self._pub_diag.publish(diagnostic_array(self.get_fully_qualified_name(), [

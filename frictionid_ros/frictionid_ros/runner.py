@@ -94,14 +94,16 @@ def run(node_class, argv: list[str] | None = None) -> int:
         services.add_node(node)
         return node.input_executor, services
 
-    return serve(lambda: node_class(lifecycle=lifecycle), executors, "frictionid_node")
+    return serve(lambda: node_class(lifecycle=lifecycle), executors, "frictionid_node",
+                 lambda node: node.schedule_input_thread())
 
 
-def serve(make_node, make_executors, prog: str) -> int:
+def serve(make_node, make_executors, prog: str, input_setup=None) -> int:
     """Spin the node ``make_node()`` until SIGINT/SIGTERM: ``make_executors(node)`` gives (the input
     executor, spun in a thread of its own; the main one, spun here), both with their nodes added.
     Then ``node.close()``, the executors shut down, the node destroyed; exit code 0, or 2 with one
-    line for a FrictionIdError (a bad configuration)."""
+    line for a FrictionIdError (a bad configuration). ``input_setup(node)``, if given, runs first in the
+    input thread (the node's real-time scheduling: :mod:`.realtime`)."""
     node, executors, input_thread = None, [], None
     try:
         node = make_node()
@@ -110,7 +112,13 @@ def serve(make_node, make_executors, prog: str) -> int:
         # input thread that bench/ros_load.py showed as ~100 ms feed-forward latency bursts.
         gc.freeze()
         executors = list(make_executors(node))
-        input_thread = threading.Thread(target=spin, args=(executors[0], node), name=f"{prog}-input", daemon=True)
+        def spin_input(executor, node):
+            if input_setup is not None:
+                input_setup(node)
+            spin(executor, node)
+
+        input_thread = threading.Thread(target=spin_input, args=(executors[0], node), name=f"{prog}-input",
+                                        daemon=True)
         input_thread.start()
         spin(executors[1], node)
     except FrictionIdError as exc:
