@@ -16,6 +16,7 @@ from frictionid_core.friction import get_model
 from frictionid_core.metrics import observation_metrics
 from frictionid_core.model import IdentificationModel
 from frictionid_core.observation import Observation, concat_observations
+from frictionid_core.parallel import single_threaded_libraries
 from frictionid_core.preprocess import Preprocessing, dip_needs, rule_decimation
 from frictionid_core.systems import System, as_system, observe, result_system
 from frictionid_core.timeseries import JointSeries
@@ -109,6 +110,10 @@ def _selection(sources: list[JointSeries], model: IdentificationModel, window,
             "bounds": {name: [float(lo), float(hi)] for name, (lo, hi) in (bounds or {}).items()}}
 
 
+# One BLAS thread: the tall products (FᵀF of the dip refit's 161k rows, the Jacobian's JᵀJ) gain
+# nothing from a second one, and a thread parked behind a competing process stalls each call:
+# large log (issue 15) at load ~4, 43.6 s → 24.7 s, every parameter bit for bit the same.
+@single_threaded_libraries()
 def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[str, str] | None = None,
              friction: str = "coulomb", asymmetric: bool = False, solver: str = "ls", seed: int = 0,
              varpro: bool | None = None, warm_start: bool = True, preprocessing: Preprocessing | None = None,
