@@ -26,8 +26,9 @@ import tempfile
 import time
 from pathlib import Path
 
+from _results import publish
+
 ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "bench" / "results"
 RATE = 5000
 WALL_TARGET_S, RSS_TARGET_GB = 20.0, 2.0
 SHAPE_TOLERANCE = 0.05  # vs, δ relative to truth
@@ -80,7 +81,7 @@ def shape_errors(params: dict, truth: dict) -> dict[str, dict[str, float]]:
 
 
 def main() -> int:
-    from frictionid_core.jsonfile import read_json, write_json
+    from frictionid_core.jsonfile import read_json
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--keep", type=Path, help="folder of the logs (kept; reused when present)")
@@ -110,11 +111,7 @@ def main() -> int:
             rec["shape_errors"] = shape_errors(r["params"], truth)
         out["runs"][name] = rec
         print(line(name, rec), flush=True)
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    write_json(RESULTS / "large_log.json", out)
-    text = summary(out, folder)
-    (RESULTS / "large_log.txt").write_text(text + "\n")
-    print(text)
+    publish("large_log", summary(out, folder), out)
     if args.keep is None:
         shutil.rmtree(folder, ignore_errors=True)
     return 0 if all(r["pass"] for r in out["runs"].values()) else 1

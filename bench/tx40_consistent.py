@@ -10,12 +10,12 @@ command's wall time. Writes bench/results/tx40_consistent.{json,txt}.
 
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
 from pathlib import Path
 
-from tx40_real import RESULTS, SPLIT_S, fit_and_validate, prepare
+from _results import publish
+from tx40_real import SPLIT_S, fit_and_validate, prepare
 
 VARIANTS = {"unconstrained": [], "consistent": ["--consistent"],
             "consistent + prior W=1": ["--consistent", "--prior", "urdf", "--prior-weight", "1"],
@@ -46,11 +46,7 @@ def main() -> int:
                           "sdp_wall_s": c.get("sdp_wall_s"), "cost_increase_pct": c.get("cost_increase_pct"),
                           "masses": {j: s["mass"] for j, s in (r.get("standard_parameters") or {}).items()}}
     out = {"data": str(data), "split_s": SPLIT_S, "runs": runs, "acceptance": acceptance(runs)}
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "tx40_consistent.json").write_text(json.dumps(out, indent=2) + "\n")
-    text = summary(out)
-    (RESULTS / "tx40_consistent.txt").write_text(text + "\n")
-    print(text)
+    publish("tx40_consistent", summary(out), out)
     return 0 if all(c["pass"] for c in out["acceptance"]) else 1
 
 

@@ -15,7 +15,8 @@ import sys
 import time
 
 from scipy.optimize import least_squares
-from tx40_real import RESULTS, SPLIT_S, prepare
+from _results import publish
+from tx40_real import SPLIT_S, prepare
 
 from frictionid_core.cli import build_parser
 from frictionid_core.cli._common import drive_option, load_sources
@@ -58,9 +59,7 @@ def main() -> int:
             p[nl] = least_squares(residuals, xc[nl], bounds=(lo[nl], hi[nl])).x
             xc = consistent_fit(model, p, system.robot, prior_weight=weight).x
             report(f"  + alternation {it + 1} ({time.perf_counter() - t0:.1f} s)", xc)
-    text = "\n".join(lines)
-    (RESULTS / "tx40_consistent_alternation.txt").write_text(text + "\n")
-    print(text)
+    publish("tx40_consistent_alternation", "\n".join(lines))
     return 0
 
 

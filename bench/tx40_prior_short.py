@@ -12,6 +12,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from _results import publish
+
 from frictionid_core.identification import identify, validate
 from frictionid_core.io import load
 
@@ -34,9 +36,7 @@ def main() -> int:
             masses = " ".join(f"{s['mass']:.3g}" for s in r["standard_parameters"].values())
             lines.append(f"{window[0]:g}–{window[1]:g} s {tag:<21} {r['metrics']['relerr_pct']:7.3f} / "
                          f"{validate(val, r)['relerr_pct']:7.3f}   masses {masses}")
-    text = "\n".join(lines)
-    (ROOT / "bench" / "results" / "tx40_prior_short.txt").write_text(text + "\n")
-    print(text)
+    publish("tx40_prior_short", "\n".join(lines))
     return 0
 
 

@@ -28,9 +28,10 @@ import tempfile
 import time
 from pathlib import Path
 
+from _results import publish
+
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "tx40_real"
-RESULTS = ROOT / "bench" / "results"
 SPLIT_S = 6.3
 FIGAROH_MOTOR6 = {"Fv": 0.616, "Fc": 1.95}  # TX40_config.yaml (fvm6, fsm6), joint side of the coupling
 
@@ -108,11 +109,7 @@ def main() -> int:
                              "params": r["params"], "preprocessing": r.get("preprocessing"),
                              "warnings": r.get("warnings", [])}
     out["acceptance"] = acceptance(out["runs"])
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "tx40_real.json").write_text(json.dumps(out, indent=2) + "\n")
-    text = summary(out)
-    (RESULTS / "tx40_real.txt").write_text(text + "\n")
-    print(text)
+    publish("tx40_real", summary(out), out)
     return 0 if all(c["pass"] for c in out["acceptance"]) else 1
 
 

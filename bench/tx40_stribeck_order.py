@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from _results import publish
+
 from frictionid_core.identification import build_model, identify, model_metrics
 from frictionid_core.io import load
 from frictionid_core.preprocess import Preprocessing
@@ -47,9 +49,7 @@ def main() -> int:
     for order in (False, True):
         fit = consistent_fit(model, x, system.robot, stribeck_order=order)
         row(f"consistent{' + Fs ≥ Fc' if order else ''} (SDP {fit.record['sdp_wall_s']:.2f} s)", fit.x)
-    text = "\n".join(lines)
-    (ROOT / "bench" / "results" / "tx40_stribeck_order.txt").write_text(text + "\n")
-    print(text)
+    publish("tx40_stribeck_order", "\n".join(lines))
     return 0
 
 

@@ -36,7 +36,6 @@ UNITS = {"emps": ("N", "m/s")}
 ROTARY_UNITS = ("N·m", "rad/s")
 # Result keys shown as settings (beside system, friction, solver, source and joints).
 SETTING_KEYS = ("joint_map", "preprocessing", "drive", "layout", "window", "fixed", "bounds", "varpro")
-# At most this many points per plotted trace (an evenly strided subset; metrics use every row).
 
 
 @dataclass
@@ -107,7 +106,6 @@ def joint_figure(trace: JointTrace, friction, units: tuple, title: str) -> bytes
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
 
     step = max(1, trace.t.size // MAX_PLOT_POINTS)
     t, residual = trace.t[::step], (trace.recorded - trace.predicted)
