@@ -39,6 +39,13 @@ friction-only, 6 joints, default sensor-data QoS) on a private ROS domain:
    late subscriber gets the last good parameters on ``~/parameters`` (transient local), values
    unchanged.
 
+The machine's own floor is measured in the same run (``machine_floor``): a process that only
+sleeps to a 1 ms deadline, one bound to each CPU, at SCHED_FIFO 99 (normal scheduling with ``--realtime off``) records how
+late each wake-up is, and the hypervisor's steal time is read from /proc/stat. On a virtual machine
+the host takes a vCPU away for several ms at a time (seen here: 9 ms wake-ups of that probe, and of
+``cyclictest -p99``, on an idle VM); no scheduling inside the guest can beat that, so end-to-end
+figures are also given for the messages whose way through did not overlap such a stall.
+
 Prints a summary and writes ``bench/results/ros_load.json`` (``ros_load_quick.json``; the
 committed ``ros_load_quick_competitor.json`` is ``--quick --competitors 1 --out ...``). The
 machine's load average is recorded: figures from a busy machine are not the node's.
@@ -175,6 +182,69 @@ def run_publisher(rate: float, duration: float, out: Path) -> None:
                                "feedforward_received": probe.n}))
     node.destroy_node()
     rclpy.try_shutdown()
+
+
+FLOOR_PERIOD_S = 1e-3  # wake-up period of the machine-floor probe [s]
+FLOOR_STALL_S = 1e-3  # a wake-up later than this is a stall of the machine [s]
+FLOOR_WARMUP_S = 0.5  # the floor probe's first wake-ups, not recorded [s] (it starts long before the publisher)
+
+
+def run_floor(duration: float, cpu: int, out: Path) -> None:
+    """The wake-up latency of CPU ``cpu``, the floor under any feed-forward figure: one thread bound
+    to it that does nothing but sleep to a deadline every FLOOR_PERIOD_S for at most ``duration`` s or
+    until SIGTERM (started under ``chrt --fifo 99`` where allowed: only the kernel and the hypervisor
+    can delay it) and records how late each wake-up was; writes ``out`` (npz: ``due`` [s,
+    time.monotonic], ``late`` [s])."""
+    os.sched_setaffinity(0, {cpu})
+    stop = []
+    signal.signal(signal.SIGTERM, lambda *_: stop.append(True))
+    gc.freeze()
+    gc.disable()
+    n = int(duration / FLOOR_PERIOD_S)
+    due = np.zeros(n)
+    late = np.zeros(n)
+    t0 = time.monotonic()
+    i = 0
+    while i < n and not stop:
+        target = t0 + (i + 1) * FLOOR_PERIOD_S
+        delay = target - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        late[i] = time.monotonic() - target
+        due[i] = target
+        i += 1
+    keep = due[:i] > t0 + FLOOR_WARMUP_S  # the process's own start (page faults, migration) is not the machine
+    np.savez(out, due=due[:i][keep], late=late[:i][keep])
+
+
+def steal_s() -> float:
+    """CPU time the hypervisor has taken from this machine's CPUs so far (/proc/stat steal) [s]."""
+    try:
+        with open("/proc/stat") as f:
+            return int(f.readline().split()[8]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return float("nan")
+
+
+def machine_stalls(floor_npz: list[Path], start_s: np.ndarray, end_s: np.ndarray) -> tuple[dict, np.ndarray]:
+    """The floor probes' figures (one per CPU) and, for each interval [``start_s``, ``end_s``]
+    (time.monotonic [s]), whether a stall of any CPU (a floor wake-up later than FLOOR_STALL_S)
+    overlaps it: conservative, the message's threads may have run on the other CPU."""
+    probes = [np.load(path) for path in floor_npz]
+    due, late = (np.concatenate([f[k] for f in probes]) for k in ("due", "late"))
+    stall = late > FLOOR_STALL_S
+    starts = sum(int(np.sum((f["late"] > FLOOR_STALL_S) & ~np.r_[False, f["late"][:-1] > FLOOR_STALL_S]))
+                 for f in probes)  # a stall and its catch-up count once
+    a, b = due[stall], due[stall] + late[stall]  # each stalled stretch [s]
+    # an interval overlaps a stretch when it starts before the stretch ends and ends after it starts
+    order = np.argsort(a)
+    a, b = a[order], np.maximum.accumulate(b[order])
+    k = np.searchsorted(a, end_s, side="right") - 1  # the last stretch starting before the interval ends
+    hit = (k >= 0) & (b[np.maximum(k, 0)] > start_s) if a.size else np.zeros(np.shape(end_s), bool)
+    summary = {"period_ms": FLOOR_PERIOD_S * 1e3, "cpus": len(probes), "wakeups": int(late.size),
+               "late_p50_ms": pct(late, 50) * 1e3, "late_p99_ms": pct(late, 99) * 1e3,
+               "late_max_ms": pct(late, 100) * 1e3, "stalls": starts}
+    return summary, hit
 
 
 # ----------------------------------------------------------------------------- bench process
@@ -409,6 +479,11 @@ def phase_load(bench: Bench, node: Node, args, work: Path, domain: int, buffer_s
     from frictionid_interfaces.srv import Identify
 
     pub_out = work / "publisher.json"
+    floor_out = [work / f"floor{cpu}.npz" for cpu in sorted(os.sched_getaffinity(0))]
+    floors = [subprocess.Popen([*args.floor_prefix, sys.executable, __file__, "--role", "floor", "--cpu", path.stem[5:],
+                                "--duration", str(args.duration + 60), "--pub-out", str(path)], env=_env(domain))
+              for path in floor_out]
+    steal0 = steal_s()
     pub = subprocess.Popen([*args.pub_prefix, sys.executable, __file__, "--role", "publisher", "--rate", str(args.rate),
                             "--duration", str(args.duration), "--pub-out", str(pub_out)], env=_env(domain))
     rss, idents = [], []  # idents: boxes of (start, end, success, message)
@@ -450,7 +525,11 @@ def phase_load(bench: Bench, node: Node, args, work: Path, domain: int, buffer_s
     finally:
         if pub.poll() is None:
             pub.kill()
+        for floor in floors:
+            floor.terminate()
+            floor.wait(10)
     load_wall = time.monotonic() - t_load
+    steal = steal_s() - steal0
     cpu = {"node": (_cpu_s(node.proc.pid) - cpu0["node"]) / load_wall,
            "bench_clients": (time.process_time() - cpu0["bench"]) / load_wall}
     time.sleep(2.5)  # let the last identification and diagnostics in
@@ -472,6 +551,8 @@ def phase_load(bench: Bench, node: Node, args, work: Path, domain: int, buffer_s
     for a, b, *_ in done_idents:
         during |= (ff_mono >= a) & (ff_mono <= b)
     settled = ff_mono >= t_load + SETTLE_S  # idle/during: after the start-up transient
+    floor_fig, stalled = machine_stalls(floor_out, ff_mono - np.nan_to_num(lat), ff_mono)
+    clear = settled & ~stalled  # no stall of the machine itself while the message was on its way
     reports = [(t, d["frictionid: identification"]) for t, d in bench.diag_log
                if "frictionid: identification" in d and d["frictionid: identification"]["ff_published"] != "0"]
     node_us = {k: [float(r[f"ff_latency_{k}_us"]) for _, r in reports] for k in ("p50", "p99", "max")}
@@ -511,9 +592,13 @@ def phase_load(bench: Bench, node: Node, args, work: Path, domain: int, buffer_s
         "end_to_end_latency_ms": {"all": lat_stats(lat), "start_up": lat_stats(lat[~settled]),
                                   "idle": lat_stats(lat[settled & ~during]),
                                   "during_identification": lat_stats(lat[settled & during])},
+        "machine_floor": {**floor_fig, "steal_s": round(steal, 3), "scheduling": args.floor_sched,
+                          "messages_overlapping_a_stall": int(np.sum(settled & stalled))},
+        "end_to_end_latency_ms_outside_machine_stalls": {"idle": lat_stats(lat[clear & ~during]),
+                                                         "during_identification": lat_stats(lat[clear & during])},
         "end_to_end_timeline_ms": timeline(lat, ff_mono - t_load, during),
         "worst_end_to_end": [{"ms": round(float(lat[i]) * 1e3, 3), "at_s": round(float(ff_mono[i] - t_load), 3),
-                              "during_identification": bool(during[i])}
+                              "during_identification": bool(during[i]), "machine_stall": bool(stalled[i])}
                              for i in np.argsort(np.nan_to_num(lat, nan=-1.0))[::-1][:8]],
         "long_identification": {"feedback_messages": len(de["feedback"]),
                                 "generations_done": max(generations, default=0),
@@ -669,10 +754,14 @@ def main() -> int:
                     help="JSON results (default bench/results/ros_load.json, ros_load_quick.json with --quick)")
     ap.add_argument("--role", default="bench", help=argparse.SUPPRESS)
     ap.add_argument("--pub-out", type=Path, help=argparse.SUPPRESS)
+    ap.add_argument("--cpu", type=int, default=0, help=argparse.SUPPRESS)
     args = ap.parse_args()
     args.duration = args.duration or (20.0 if args.quick else 60.0)
     if args.role == "publisher":
         run_publisher(args.rate, args.duration, args.pub_out)
+        return 0
+    if args.role == "floor":
+        run_floor(args.duration, args.cpu, args.pub_out)
         return 0
     out = args.out or ROOT / "bench" / "results" / ("ros_load_quick.json" if args.quick else "ros_load.json")
     cancels = args.cancels if args.cancels is not None else (3 if args.quick else 5)
@@ -687,6 +776,8 @@ def main() -> int:
     except FrictionIdError as exc:
         ap.error(str(exc))
     args.pub_prefix = ["chrt", "--fifo", str(prio)] if prio else []
+    args.floor_prefix = ["chrt", "--fifo", "99"] if prio else []
+    args.floor_sched = "SCHED_FIFO 99 (chrt)" if prio else "normal (SCHED_OTHER)"
     competitors = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(args.competitors)]
     work = Path(tempfile.mkdtemp(prefix="frictionid_bench_"))
     write_true_parameters(work / "parameters.json")  # restored at start: feed-forward from the first message
@@ -739,6 +830,16 @@ def main() -> int:
         print(f"  end to end (publisher -> node -> publisher), {name.replace('_', ' ')}: p50 {f['p50']:.3f} ms, "
               f"p99 {f['p99']:.3f} ms, max {f['max']:.3f} ms (n={f['n']})")
     print(f"  worst end to end: {L['worst_end_to_end']}")
+    M, clear = L["machine_floor"], L["end_to_end_latency_ms_outside_machine_stalls"]
+    print(f"  machine floor (on each of {M['cpus']} CPUs a thread that only sleeps {M['period_ms']:g} ms, "
+          f"{M['scheduling']}): wake-up late p99 "
+          f"{M['late_p99_ms']:.3f} ms, max {M['late_max_ms']:.3f} ms; {M['stalls']} stalls over "
+          f"{FLOOR_STALL_S * 1e3:g} ms, {M['messages_overlapping_a_stall']} messages on their way during one; "
+          f"hypervisor steal {M['steal_s']:.2f} s")
+    for name in ("idle", "during_identification"):
+        f = clear[name]
+        print(f"  end to end outside the machine's stalls, {name.replace('_', ' ')}: p50 {f['p50']:.3f} ms, "
+              f"p99 {f['p99']:.3f} ms, max {f['max']:.3f} ms (n={f['n']})")
     print(f"  long de goal: {L['long_identification']}")
     print(f"  node RSS: start {L['rss_kb']['start']} kB, max {L['rss_kb']['max']} kB, after the buffer filled "
           f"{L['rss_kb']['after_buffer_full_min']}..{L['rss_kb']['after_buffer_full_max']} kB "
