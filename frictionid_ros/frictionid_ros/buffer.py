@@ -1,8 +1,10 @@
 """Bounded, preallocated ring buffers of joint samples (no ROS import).
 
-Stamps are ns since the epoch (int64). One writer (the subscription callback) appends rows in place, readers take copies of a time
-window under a short lock. Nothing is allocated per message except what numpy needs for
-a fancy-index take into a preallocated row.
+Stamps are ns since the epoch (int64). One writer (the subscription callback) appends rows in
+place under a short lock; a reader copies the rows without holding it (:meth:`JointRing.snapshot`),
+so the writer, which is the feed-forward's path, never waits for a copy however long the buffer
+(the copy of 60 000 rows under the lock took 10 ms). Nothing is allocated per message except what
+numpy needs for a fancy-index take into a preallocated row.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ NS = 1_000_000_000  # ns per second
 NO_POSITION = 1
 NO_VELOCITY = 2
 NO_EFFORT = 4
+SNAPSHOT_CHUNK_ROWS = 8192  # rows a snapshot copies per numpy call (~0.1 ms): the GIL can change hands between them
 
 
 def stamp_ns(stamp) -> int:
@@ -117,6 +120,7 @@ class JointRing:
         self.head = 0        # next row to write
         self.count = 0       # valid rows
         self.total = 0       # rows ever written (since start, survives clear())
+        self.clears = 0      # clear() calls so far
 
     @property
     def nbytes(self) -> int:
@@ -142,14 +146,30 @@ class JointRing:
         with self.lock:
             self.head = 0
             self.count = 0
+            self.clears += 1
 
     def snapshot(self) -> Window:
-        """Copy of every valid row, oldest first."""
+        """Copy of every valid row, oldest first, taken without holding :attr:`lock` while copying:
+        the writer goes on meanwhile, and the oldest rows it overwrote during the copy are left out
+        (a few rows of a long window; a :meth:`clear` during the copy gives an empty window)."""
+        arrays = (self.t_ns, self.rx_ns, self.position, self.velocity, self.effort, self.flags)
         with self.lock:
-            n, h = self.count, self.head
-            if n < self.capacity:
-                order = np.arange(h - n, h)
-            else:
-                order = np.concatenate((np.arange(h, self.capacity), np.arange(0, h)))
-            return Window(self.t_ns[order], self.rx_ns[order], self.position[order], self.velocity[order], self.effort[order],
-                          self.flags[order])
+            n, h, total, clears = self.count, self.head, self.total, self.clears
+        out = [np.empty((n, *a.shape[1:]), a.dtype) for a in arrays]
+        first = (h - n) % self.capacity  # the oldest valid row
+        for lo in range(0, n, SNAPSHOT_CHUNK_ROWS):
+            hi = min(n, lo + SNAPSHOT_CHUNK_ROWS)
+            a, b = first + lo, first + hi  # ring rows a..b-1, wrapped at the capacity
+            for src, dst in zip(arrays, out):
+                if b <= self.capacity or a >= self.capacity:
+                    dst[lo:hi] = src[a % self.capacity:(b - 1) % self.capacity + 1]
+                else:
+                    cut = self.capacity - a
+                    dst[lo:lo + cut] = src[a:]
+                    dst[lo + cut:hi] = src[:b - self.capacity]
+        with self.lock:
+            written, cleared = self.total - total, self.clears != clears
+        # The writer fills row h, h+1, ... (the oldest rows once the ring is full): rows of the copy
+        # it reached meanwhile may mix two samples, so they are dropped.
+        lost = n if cleared else min(n, max(0, n + written - self.capacity))
+        return Window(*(a[lost:] for a in out))

@@ -93,7 +93,8 @@ class JobControl:
 
 def _send(stream, obj) -> None:
     data = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
-    stream.write(_HEADER.pack(len(data)) + data)
+    stream.write(_HEADER.pack(len(data)))
+    stream.write(data)  # not header + data: one copy of a whole window less while holding the GIL
     stream.flush()
 
 
