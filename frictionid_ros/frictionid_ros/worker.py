@@ -8,7 +8,8 @@ node's heap. The child also isolates the node from a crashing solver, and it can
 It runs at a low priority (``nice``) with one BLAS/numba thread, so the identification never
 takes every core from the feed-forward path.
 
-Protocol on the child's stdin/stdout: 8-byte little-endian length + pickle, both ways.
+Protocol on the child's stdin/stdout, both ways: the pickle's length and its number of out-of-band
+buffers (8-byte little-endian each), the pickle (protocol 5), then each buffer as its length and bytes.
 Node → child: ``("job", id, series, kwargs)``, ``("cancel", id)``. Child → node: ``("ready", pid)``
 once, then per job any number of ``("progress", generation, evaluations, best_cost)`` (at most
 every PROGRESS_PERIOD_S) and one reply: ``("ok", Identification.to_dict())``, ``("error", message)``
@@ -92,21 +93,35 @@ class JobControl:
 
 
 def _send(stream, obj) -> None:
-    data = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
-    stream.write(_HEADER.pack(len(data)))
-    stream.write(data)  # not header + data: one copy of a whole window less while holding the GIL
+    """Write ``obj``: its pickle and, out of band, the memory of its arrays as they are (no copy of
+    a data window while holding the GIL: the node's feed-forward thread may be waiting for it)."""
+    buffers: list[pickle.PickleBuffer] = []
+    data = pickle.dumps(obj, protocol=5, buffer_callback=buffers.append)
+    stream.write(_HEADER.pack(len(data)) + _HEADER.pack(len(buffers)) + data)
+    for buf in buffers:
+        raw = buf.raw()
+        stream.write(_HEADER.pack(raw.nbytes))
+        stream.write(raw)  # the write itself releases the GIL
     stream.flush()
 
 
-def _recv(stream):
-    head = stream.read(_HEADER.size)
-    if len(head) < _HEADER.size:
-        raise EOFError("worker pipe closed")
-    (n,) = _HEADER.unpack(head)
+def _read_exactly(stream, n: int) -> bytes:
     data = stream.read(n)
     if len(data) < n:
         raise EOFError("worker pipe closed")
-    return pickle.loads(data)
+    return data
+
+
+def _recv(stream):
+    n, count = _HEADER.unpack(_read_exactly(stream, _HEADER.size)) + _HEADER.unpack(_read_exactly(stream, _HEADER.size))
+    data = _read_exactly(stream, n)
+    buffers = []
+    for _ in range(count):  # writable, so that the arrays made on them are too
+        buf = bytearray(_HEADER.unpack(_read_exactly(stream, _HEADER.size))[0])
+        if stream.readinto(buf) < len(buf):
+            raise EOFError("worker pipe closed")
+        buffers.append(buf)
+    return pickle.loads(data, buffers=buffers)
 
 
 def run_identification(series, kwargs: dict, progress=None) -> tuple:
