@@ -39,12 +39,13 @@ friction-only, 6 joints, default sensor-data QoS) on a private ROS domain:
    late subscriber gets the last good parameters on ``~/parameters`` (transient local), values
    unchanged.
 
-The machine's own floor is measured in the same run (``machine_floor``): a process that only
-sleeps to a 1 ms deadline, one bound to each CPU, at SCHED_FIFO 99 (normal scheduling with ``--realtime off``) records how
-late each wake-up is, and the hypervisor's steal time is read from /proc/stat. On a virtual machine
-the host takes a vCPU away for several ms at a time (seen here: 9 ms wake-ups of that probe, and of
-``cyclictest -p99``, on an idle VM); no scheduling inside the guest can beat that, so end-to-end
-figures are also given for the messages whose way through did not overlap such a stall.
+The machine's own floor is measured in the same run (``machine_floor``): on each CPU, a process
+bound to it that only sleeps to a 1 ms deadline at SCHED_FIFO 99 (normal scheduling with
+``--realtime off``) records how late each wake-up is, and the hypervisor's steal time is read
+from /proc/stat. On a virtual machine the host takes a vCPU away for several ms at a time (seen
+here: 9 ms wake-ups of that probe, and of ``cyclictest -p99``, on an idle VM); no scheduling
+inside the guest can beat that, so end-to-end figures are also given for the messages whose way
+through did not overlap such a stall.
 
 Prints a summary and writes ``bench/results/ros_load.json`` (``ros_load_quick.json``; the
 committed ``ros_load_quick_competitor.json`` is ``--quick --competitors 1 --out ...``). The
