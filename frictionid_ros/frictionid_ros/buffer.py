@@ -10,7 +10,7 @@ numpy needs for a fancy-index take into a preallocated row.
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -91,8 +91,12 @@ class Window:
         return len(self.t_ns)
 
     def take(self, keep: np.ndarray) -> Window:
-        return Window(self.t_ns[keep], self.rx_ns[keep], self.position[keep], self.velocity[keep], self.effort[keep],
-                      self.flags[keep])
+        return Window(*(a[keep] for a in _columns(self)))
+
+
+def _columns(rows: Window | JointRing) -> tuple[np.ndarray, ...]:
+    """The arrays of a window or a ring, in the order of :class:`Window`'s fields."""
+    return tuple(getattr(rows, f.name) for f in fields(Window))
 
 
 class JointRing:
@@ -124,7 +128,7 @@ class JointRing:
 
     @property
     def nbytes(self) -> int:
-        return sum(a.nbytes for a in (self.t_ns, self.rx_ns, self.position, self.velocity, self.effort, self.flags))
+        return sum(a.nbytes for a in _columns(self))
 
     def begin(self) -> int:
         """Row index to fill next; call :meth:`commit` when it is written (under :attr:`lock`)."""
@@ -152,21 +156,18 @@ class JointRing:
         """Copy of every valid row, oldest first, taken without holding :attr:`lock` while copying:
         the writer goes on meanwhile, and the oldest rows it overwrote during the copy are left out
         (a few rows of a long window; a :meth:`clear` during the copy gives an empty window)."""
-        arrays = (self.t_ns, self.rx_ns, self.position, self.velocity, self.effort, self.flags)
+        arrays = _columns(self)
         with self.lock:
             n, h, total, clears = self.count, self.head, self.total, self.clears
         out = [np.empty((n, *a.shape[1:]), a.dtype) for a in arrays]
         first = (h - n) % self.capacity  # the oldest valid row
         for lo in range(0, n, SNAPSHOT_CHUNK_ROWS):
             hi = min(n, lo + SNAPSHOT_CHUNK_ROWS)
-            a, b = first + lo, first + hi  # ring rows a..b-1, wrapped at the capacity
+            a = (first + lo) % self.capacity
+            cut = lo + min(hi - lo, self.capacity - a)  # rows lo..cut-1 come before the ring's end, cut..hi-1 after
             for src, dst in zip(arrays, out):
-                if b <= self.capacity or a >= self.capacity:
-                    dst[lo:hi] = src[a % self.capacity:(b - 1) % self.capacity + 1]
-                else:
-                    cut = self.capacity - a
-                    dst[lo:lo + cut] = src[a:]
-                    dst[lo + cut:hi] = src[:b - self.capacity]
+                dst[lo:cut] = src[a:a + cut - lo]
+                dst[cut:hi] = src[:hi - cut]
         with self.lock:
             written, cleared = self.total - total, self.clears != clears
         # The writer fills row h, h+1, ... (the oldest rows once the ring is full): rows of the copy
