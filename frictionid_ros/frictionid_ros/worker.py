@@ -34,7 +34,8 @@ import time
 import traceback
 from pathlib import Path
 
-_HEADER = struct.Struct("<Q")
+_LENGTH = struct.Struct("<Q")  # an out-of-band buffer's length
+_FRAME = struct.Struct("<QQ")  # a message's pickle length and number of out-of-band buffers
 PROGRESS_PERIOD_S = 0.1  # shortest interval between two progress messages of the child [s]
 CANCEL_GRACE_S = 0.25  # a cancelled child still running after this long is killed [s]
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
@@ -97,10 +98,10 @@ def _send(stream, obj) -> None:
     a data window while holding the GIL: the node's feed-forward thread may be waiting for it)."""
     buffers: list[pickle.PickleBuffer] = []
     data = pickle.dumps(obj, protocol=5, buffer_callback=buffers.append)
-    stream.write(_HEADER.pack(len(data)) + _HEADER.pack(len(buffers)) + data)
+    stream.write(_FRAME.pack(len(data), len(buffers)) + data)
     for buf in buffers:
         raw = buf.raw()
-        stream.write(_HEADER.pack(raw.nbytes))
+        stream.write(_LENGTH.pack(raw.nbytes))
         stream.write(raw)  # the write itself releases the GIL
     stream.flush()
 
@@ -113,11 +114,11 @@ def _read_exactly(stream, n: int) -> bytes:
 
 
 def _recv(stream):
-    n, count = _HEADER.unpack(_read_exactly(stream, _HEADER.size)) + _HEADER.unpack(_read_exactly(stream, _HEADER.size))
+    n, count = _FRAME.unpack(_read_exactly(stream, _FRAME.size))
     data = _read_exactly(stream, n)
     buffers = []
     for _ in range(count):  # writable, so that the arrays made on them are too
-        buf = bytearray(_HEADER.unpack(_read_exactly(stream, _HEADER.size))[0])
+        buf = bytearray(_LENGTH.unpack(_read_exactly(stream, _LENGTH.size))[0])
         if stream.readinto(buf) < len(buf):
             raise EOFError("worker pipe closed")
         buffers.append(buf)
