@@ -40,10 +40,10 @@ import json
 import os
 import platform
 import signal
-import subprocess
 import sys
 import tempfile
 import time
+from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -52,6 +52,7 @@ BENCH = Path(__file__).resolve().parent
 sys.path.insert(0, str(BENCH))
 
 import optimizers as ob  # noqa: E402  (venvs, mealpy peer, cost export, histories)
+from _load import Competitors  # noqa: E402
 
 ROOT, RESULTS = ob.ROOT, ob.RESULTS
 EMPS_BAG, TX40_BAG = ROOT / "bags" / "emps_estimation", ROOT / "bags" / "tx40_excitation"
@@ -66,30 +67,24 @@ QUALITY_TOL = ob.QUALITY_TOL
 log, median = ob.log, ob.median
 
 
-# ----------------------------------------------------------------------------- load
-class Competitors:
-    """``n`` CPU-bound processes for the duration of a ``with`` block."""
+def in_turn(run: int, pair: tuple) -> tuple:
+    """``pair`` in alternate order from run to run: an order effect falls on both alike (the first
+    run after the competitors start is measurably slower on this VM, up to 1.7x for the very same
+    single-thread path)."""
+    return pair if run % 2 == 0 else pair[::-1]
 
-    def __init__(self, n: int) -> None:
-        self.n, self.procs = n, []
 
-    def __enter__(self) -> Competitors:
-        self.procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(self.n)]
-        time.sleep(0.5 if self.n else 0.0)  # running before anything is timed
-        return self
+def threads(n: int | None):
+    """The block on ``n`` threads (``parallel.fixed_threads``), or on the adaptive choice for None."""
+    from frictionid_core.parallel import fixed_threads
 
-    def __exit__(self, *exc) -> None:
-        for p in self.procs:
-            p.kill()
-        for p in self.procs:
-            p.wait()
+    return fixed_threads(n) if n else nullcontext()
 
 
 # ----------------------------------------------------------------------------- ours
 def run_ours(system: str, model, seed: int, best_cost: dict) -> dict:
     """One seed of every frictionid method on ``model`` (the optimiser's own wall time)."""
     from frictionid_core.identification import solve_model
-    from frictionid_core.parallel import fixed_threads
 
     pop, gens = BUDGET[system]
     varpro = system == "tx40"
@@ -102,18 +97,9 @@ def run_ours(system: str, model, seed: int, best_cost: dict) -> dict:
         return {"seed": seed, "fun": fun, "wall_s": res.wall_s, "nfev": res.nfev,
                 "history_fmin": [float(v) for v in res.history_fmin]}
 
-    def one_thread() -> None:
-        with fixed_threads(1):
-            out["de/1 thread"] = once("de", pop=pop, generations=gens)
-
-    # The adaptive DE and its one-thread twin run back to back, in alternate order from seed to
-    # seed: the first run after the competitors start is measurably slower on this VM (up to 1.7x
-    # for the very same single-thread path), which a fixed order charged to one of the two.
-    if seed % 2:
-        one_thread()
-    out["de"] = once("de", pop=pop, generations=gens)
-    if not seed % 2:
-        one_thread()
+    for label, n in in_turn(seed, (("de", None), ("de/1 thread", 1))):  # the two arms back to back
+        with threads(n):
+            out[label] = once("de", pop=pop, generations=gens)
     for algo in ALGOS:
         if algo != "de":
             out[algo] = once(algo, pop=pop, generations=gens)
@@ -123,18 +109,13 @@ def run_ours(system: str, model, seed: int, best_cost: dict) -> dict:
 
 def run_simulation(sim, seed: int) -> dict:
     """A population of the EMPS closed loop, adaptive threads and one thread."""
-    from frictionid_core.parallel import fixed_threads
-
     lo = np.array([90.0, 150.0, 15.0, 20.0, 0.01, 220.0, 15.0, 20.0, 0.01])
     members = lo * (1.0 + 0.1 * np.random.default_rng(seed).random((SIM_MEMBERS, lo.size)))
     out = {}
-    for label, threads in (("simulate", None), ("simulate/1 thread", 1))[::-1 if seed % 2 else 1]:  # as run_ours
+    for label, n in in_turn(seed, (("simulate", None), ("simulate/1 thread", 1))):
         t0 = time.perf_counter()
-        if threads is None:
+        with threads(n):
             sim.position(members)
-        else:
-            with fixed_threads(threads):
-                sim.position(members)
         out[label] = {"seed": seed, "wall_s": time.perf_counter() - t0}
     return out
 
@@ -315,8 +296,7 @@ def main(argv=None) -> int:
                 log(f"[run {r + 1}/{runs}] {n} competitor(s)")
                 cell = {"run": r, "load": n, "results": {}}
                 with Competitors(n):
-                    order = [False, True] if r % 2 == 0 else [True, False]  # mealpy first every other run
-                    for mealpy_now in order:
+                    for mealpy_now in in_turn(r, (False, True)):  # mealpy first every other run
                         for system, model in models.items():
                             got = cell["results"].setdefault(system, {})
                             if mealpy_now and system in peers:

@@ -70,6 +70,10 @@ from pathlib import Path
 
 import numpy as np
 from frictionid_core.errors import FrictionIdError
+from frictionid_core.jsonfile import write_json
+
+from _load import DESCRIPTION as COMPETITOR
+from _load import Competitors
 
 from frictionid_ros.realtime import realtime_priority
 
@@ -779,7 +783,7 @@ def main() -> int:
     args.pub_prefix = ["chrt", "--fifo", str(prio)] if prio else []
     args.floor_prefix = ["chrt", "--fifo", "99"] if prio else []
     args.floor_sched = "SCHED_FIFO 99 (chrt)" if prio else "normal (SCHED_OTHER)"
-    competitors = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(args.competitors)]
+    competitors = Competitors(args.competitors).start()
     work = Path(tempfile.mkdtemp(prefix="frictionid_bench_"))
     write_true_parameters(work / "parameters.json")  # restored at start: feed-forward from the first message
     result = {"input_executor": args.input_executor, "node_parameters": extra, "duration_s": args.duration,
@@ -787,7 +791,7 @@ def main() -> int:
               "cpus": os.cpu_count(), "loadavg_start": os.getloadavg(),
               "scheduling": {"publisher": f"SCHED_FIFO {prio} (chrt)" if prio else "normal (SCHED_OTHER)",
                              "node_requested": args.realtime, "competitors": args.competitors,
-                             "competitor": "python -c 'while True: pass' (normal scheduling)"}}
+                             "competitor": f"{COMPETITOR} (normal scheduling)"}}
     bench = Bench(domain)
     gc.freeze()  # as the node does: no ~100 ms full collections stalling the clients
     node = Node(work, domain, buffer_s, "load", args.input_executor, extra)
@@ -808,13 +812,10 @@ def main() -> int:
             except subprocess.TimeoutExpired:
                 node.proc.kill()
         bench.close()
-        for c in competitors:
-            c.kill()
-            c.wait()
+        competitors.stop()
 
     result["loadavg_end"] = os.getloadavg()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2, default=str) + "\n")
+    write_json(out, result)
     L, C = result["load"], result["cancel"]
     e2e = L["end_to_end_latency_ms"]
     print(f"scheduling: {result['scheduling']}")

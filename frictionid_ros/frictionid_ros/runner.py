@@ -112,6 +112,7 @@ def serve(make_node, make_executors, prog: str, input_setup=None) -> int:
         # input thread that bench/ros_load.py showed as ~100 ms feed-forward latency bursts.
         gc.freeze()
         executors = list(make_executors(node))
+
         def spin_input(executor, node):
             if input_setup is not None:
                 input_setup(node)
