@@ -190,9 +190,10 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
         if closed_form:
             return (*model.fit_linear(), None)
         if previous is not None and solver in ("lm", "hybrid"):
-            options = {"calls": solver_options.get("calls"), **(solver_options.get("polish_options") or {})}
+            options = solver_options if solver == "lm" else {  # hybrid: the options of its polish
+                "calls": solver_options.get("calls"), **(solver_options.get("polish_options") or {})}
             x, polish = solve_model(model, "lm", seed=seed, varpro=varpro, progress=progress, start=previous[0],
-                                    **(options if solver == "hybrid" else solver_options))
+                                    **options)
             return x, None, None, previous[1].refined(polish, "dip refit at the finer rates: lm from this point")
         x, res = solve_model(model, solver, seed=seed, varpro=varpro, warm_start=warm_start,
                               progress=progress, **solver_options)
