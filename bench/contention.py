@@ -259,7 +259,7 @@ def main(argv=None) -> int:
     from frictionid_core.identification import build_model, identify
     from frictionid_core.io import load
     from frictionid_core.parallel import busy_cpus
-    from frictionid_core.simulation import EmpsSimulator
+    from frictionid_core.emps_simulation import EmpsSimulator
 
     log("[setup] models")
     emps = load(str(EMPS_BAG))

@@ -23,8 +23,8 @@ setup(
         "console_scripts": ["frictionid_node = frictionid_ros.node:main",
                             "frictionid_sim = frictionid_ros.sim_node:main",
                             "frictionid_loop_controller = frictionid_ros.controller_node:main",
-                            "frictionid_loop = frictionid_ros.loop:main"],
+                            "frictionid_loop = frictionid_ros.loop_command:main"],
         "frictionid.commands": ["replay = frictionid_ros.replay:register",
-                                "loop = frictionid_ros.loop:register"],
+                                "loop = frictionid_ros.loop_command:register"],
     },
 )

@@ -1,27 +1,11 @@
-"""Shared fixtures of the frictionid_core tests.
-
-The real EMPS data are the MCAP bags in ``bags/`` (never ``../shared``: CI has a clean clone).
-Each bag is read once per session; everything else is small synthetic data written into
-``tmp_path``.
-"""
+"""Shared fixtures: the EMPS bags (read once per session) and factories of small synthetic data
+(:mod:`support.data`)."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import numpy as np
 import pytest
 
-from frictionid_core.timeseries import JointSeries
-
-REPO = Path(__file__).resolve().parents[1]
-BAGS = REPO / "bags"
-EMPS_ESTIMATION = BAGS / "emps_estimation"
-EMPS_VALIDATION = BAGS / "emps_validation"
-
-JOINT_STATE = "sensor_msgs/msg/JointState"
-FLOAT_ARRAY = "std_msgs/msg/Float64MultiArray"
-T0_NS = 1_700_000_000_000_000_000
+from support.data import EMPS_ESTIMATION, EMPS_VALIDATION, emps_like, joint_state_msgs, write_ros2_bag
 
 
 # --------------------------------------------------------------------------- EMPS bags
@@ -41,88 +25,16 @@ def emps_validation():
     return load(EMPS_VALIDATION)
 
 
-# ------------------------------------------------------------------- synthetic data
-def emps_like(n: int = 3000, dt: float = 1e-3, M: float = 95.0, Fv: float = 200.0, Fc: float = 20.0,
-              offset: float = -3.0, joint: str = "emps") -> JointSeries:
-    """Noise-free 1-DOF data τ = M·q̈ + Fv·q̇ + Fc·sign(q̇) + offset on a two-sine trajectory
-    (about 8 velocity reversals in 3 s at 1 kHz)."""
-    t = np.arange(n) * dt
-    w1, w2 = 2 * np.pi * 0.7, 2 * np.pi * 1.9
-    q = 0.05 * np.sin(w1 * t) + 0.01 * np.sin(w2 * t + 0.3)
-    qd = 0.05 * w1 * np.cos(w1 * t) + 0.01 * w2 * np.cos(w2 * t + 0.3)
-    qdd = -0.05 * w1**2 * np.sin(w1 * t) - 0.01 * w2**2 * np.sin(w2 * t + 0.3)
-    tau = M * qdd + Fv * qd + Fc * np.sign(qd) + offset
-    return JointSeries(t, [joint], q, tau, source="synthetic")
-
-
 @pytest.fixture
 def synthetic():
     """Factory of noise-free EMPS-like series (see :func:`emps_like`)."""
     return emps_like
 
 
-# ------------------------------------------------------------------------ bag writing
-def _ros2_typestore():
-    from rosbags.typesys import Stores, get_typestore
-
-    return get_typestore(Stores.ROS2_KILTED)
-
-
-def write_ros2_bag(path: Path, topics: dict[str, tuple[str, list[tuple[int, dict]]]],
-                   storage: str = "mcap") -> Path:
-    """Write arbitrary messages into a new rosbag2 directory.
-
-    ``topics`` maps a topic to (message type, [(bag time ns, fields), …]). For a JointState,
-    ``fields`` holds ``name`` and optionally ``stamp_ns`` (header stamp, default: the bag time),
-    ``position``, ``velocity``, ``effort`` (default: empty). For a Float64MultiArray, ``data``.
-    """
-    from rosbags.rosbag2 import StoragePlugin, Writer
-
-    ts = _ros2_typestore()
-    JointState = ts.types[JOINT_STATE]
-    Header = ts.types["std_msgs/msg/Header"]
-    Time = ts.types["builtin_interfaces/msg/Time"]
-    F64A = ts.types[FLOAT_ARRAY]
-    Layout = ts.types["std_msgs/msg/MultiArrayLayout"]
-    plugin = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}[storage]
-    arr = lambda x: np.ascontiguousarray(x if x is not None else [], dtype=np.float64)  # noqa: E731
-    records = []
-    with Writer(Path(path), version=9, storage_plugin=plugin) as writer:
-        for topic, (msgtype, msgs) in topics.items():
-            conn = writer.add_connection(topic, msgtype, typestore=ts)
-            for bag_ns, f in msgs:
-                if msgtype == JOINT_STATE:
-                    st = int(f.get("stamp_ns", bag_ns))
-                    msg = JointState(
-                        header=Header(stamp=Time(sec=st // 1_000_000_000, nanosec=st % 1_000_000_000),
-                                      frame_id=""),
-                        name=list(f["name"]), position=arr(f.get("position")),
-                        velocity=arr(f.get("velocity")), effort=arr(f.get("effort")))
-                else:
-                    msg = F64A(layout=Layout(dim=[], data_offset=0), data=arr(f["data"]))
-                records.append((bag_ns, conn, ts.serialize_cdr(msg, msgtype)))
-        for bag_ns, conn, raw in sorted(records, key=lambda r: r[0]):
-            writer.write(conn, int(bag_ns), raw)
-    return Path(path)
-
-
 @pytest.fixture
 def ros2_bag():
     """The :func:`write_ros2_bag` helper."""
     return write_ros2_bag
-
-
-def joint_state_msgs(t: np.ndarray, names: list[str], position=None, effort=None, velocity=None,
-                     t0_ns: int = T0_NS) -> list[tuple[int, dict]]:
-    """JointState records for :func:`write_ros2_bag`: row k of each (N, J) array at t[k] s."""
-    out = []
-    for k, tk in enumerate(t):
-        f = {"name": names}
-        for key, a in (("position", position), ("effort", effort), ("velocity", velocity)):
-            if a is not None:
-                f[key] = np.atleast_1d(np.asarray(a[k], dtype=float))
-        out.append((t0_ns + int(round(tk * 1e9)), f))
-    return out
 
 
 @pytest.fixture

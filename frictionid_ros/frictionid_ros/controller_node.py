@@ -30,7 +30,7 @@ with warnings.catch_warnings():
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
-from frictionid_ros.loop_common import SENSOR, LoopNode, run_node
+from frictionid_ros.loop_node import SENSOR, LoopNode, run_node
 
 NS = 1_000_000_000
 CAPACITY = 900_000  # recorded steps (15 min at 1 kHz)

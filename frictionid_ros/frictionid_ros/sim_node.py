@@ -28,7 +28,7 @@ with warnings.catch_warnings():
 
 from frictionid_core.errors import FrictionIdError
 
-from frictionid_ros.loop_common import SENSOR, LoopNode, run_node
+from frictionid_ros.loop_node import SENSOR, LoopNode, run_node
 
 CATCH_UP_S = 0.05  # a step later than this restarts the schedule instead of racing to catch up [s]
 

@@ -1,6 +1,6 @@
 """Compiled sums of one friction dip over its active rows, for a whole population.
 
-The cost and the variable projection of :class:`~frictionid_core.model.IdentificationModel`
+The cost and the variable projection of :class:`~frictionid_core.identification_model.IdentificationModel`
 need, per candidate i, only three reductions of the signed dip column d_i (n,) over the rows
 where its branch is active: d_iᵀd_i, d_iᵀy and d_iᵀF (L,). One numba kernel computes them
 without materialising the (P, n) dip array, over chunks of candidates in the threads that

@@ -1,6 +1,6 @@
 """Grey + black-box ensembles of the EMPS position (thesis §6.2, docs/reference.md#ensembles).
 
-* GBM  ŷ1: the grey-box closed-loop simulation (:mod:`frictionid_core.simulation`).
+* GBM  ŷ1: the grey-box closed-loop simulation (:mod:`frictionid_core.emps_simulation`).
 * BGBM ŷ2 = ŷ1 + ê1: a neural NARX-type model of the simulation residual e1 = y − ŷ1,
   driven by the exogenous signals available in simulation — the drive force (the input) and
   the grey-box simulated velocity — over ``lags`` past samples ``step`` apart. It has no
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from frictionid_core.metrics import improvement_pct, relerr_pct
-from frictionid_core.simulation import EmpsSimulator
+from frictionid_core.emps_simulation import EmpsSimulator
 
 
 @dataclass

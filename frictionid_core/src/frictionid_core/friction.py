@@ -10,7 +10,7 @@ Every law maps joint velocity v (m/s or rad/s) to a friction force/torque (N or 
 i.e. Fv·v + [Fc + c·dip(|v|)]·sign(v) with c = Fs − Fc when the law has Fs, else −Fc: the
 *dip* is the only part that depends on nonlinear parameters. A new law is one
 :class:`FrictionLaw` in :data:`LAWS` (name, parameters, integer code, numpy dip) plus its
-branch in the compiled kernels (:mod:`frictionid_core.dipsums`, :mod:`frictionid_core.simulation`),
+branch in the compiled kernels (:mod:`frictionid_core.dipsums`, :mod:`frictionid_core.emps_simulation`),
 which import the codes below as constants.
 
 A friction *model* is a law, symmetric or asymmetric: the asymmetric variant has one parameter

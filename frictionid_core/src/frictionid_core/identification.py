@@ -14,7 +14,7 @@ from frictionid_core.drive import Drive, result_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import get_model
 from frictionid_core.metrics import observation_metrics
-from frictionid_core.model import IdentificationModel
+from frictionid_core.identification_model import IdentificationModel
 from frictionid_core.observation import Observation, concat_observations
 from frictionid_core.parallel import single_threaded_libraries
 from frictionid_core.preprocess import Preprocessing, dip_needs, rule_decimation
@@ -155,7 +155,7 @@ def identify(series: Sources, *, system: str | System = "emps", joint_map: dict[
         progress: ``progress(generation, evaluations, best_cost)`` during an optimiser run (see
             :class:`frictionid_core.optim.Problem`); not called by ``ls``.
         consistent: robot systems: the final linear parameters are physically consistent
-            standard parameters (:mod:`frictionid_core.robots.consistent`) at the nonlinear shapes
+            standard parameters (:mod:`frictionid_core.robots.consistent_fit`) at the nonlinear shapes
             of the unconstrained solution; σ stay those of the unconstrained fit; the result
             gains ``standard_parameters`` and ``consistency``.
         prior: with ``consistent``: ``"urdf"`` pulls each link's pseudo-inertia toward the robot
@@ -242,8 +242,8 @@ def _consistent(model: IdentificationModel, x: np.ndarray, sys_: System, extra: 
                 prior_weight: float, stribeck_order: bool) -> np.ndarray:
     """The consistent parameters (see :func:`identify`); fills ``extra`` with the standard
     parameters and the ``consistency`` block (with the unconstrained fit's metrics)."""
-    from frictionid_core.robots.consistency import standard_record
-    from frictionid_core.robots.consistent import consistent_fit
+    from frictionid_core.robots.consistency_check import standard_record
+    from frictionid_core.robots.consistent_fit import consistent_fit
 
     unconstrained = model_metrics(model, x)
     fit = consistent_fit(model, x, sys_.robot, prior_weight=prior_weight if use_prior else 0.0,

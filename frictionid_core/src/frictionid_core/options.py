@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.optim import CALL_METHODS, SOLVERS
 
-# Clocks of the EMPS closed-loop simulation (frictionid_core.simulation): the recorded stamps,
+# Clocks of the EMPS closed-loop simulation (frictionid_core.emps_simulation): the recorded stamps,
 # or the benchmark's constant period.
 CLOCKS = ("true", "benchmark")
 # Where identification takes q̇ from (frictionid_core.preprocess): the central difference of the

@@ -1,7 +1,7 @@
 """Output-error identification of the EMPS: minimise the simulated-position error directly.
 
 The dissertation fits the inverse dynamic model (OSA torque) and only then simulates. Here the
-closed-loop simulator (:mod:`frictionid_core.simulation`) is inside the optimiser: the cost is
+closed-loop simulator (:mod:`frictionid_core.emps_simulation`) is inside the optimiser: the cost is
 Σ (q_measured − q_simulated)², m², starting from (and bounded around) the IDM result.
 """
 
@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from frictionid_core.identification import Identification, identify
-from frictionid_core.simulation import EmpsSimulator, load_emps
+from frictionid_core.emps_simulation import EmpsSimulator, load_emps
 
 # Search box around the IDM start: ±50 % of each value (shape parameters included).
 SPAN = 0.5

@@ -66,14 +66,14 @@ def _series(path: str):
 
 @lru_cache(maxsize=4)
 def _emps(path: str):
-    from frictionid_core.simulation import load_emps
+    from frictionid_core.emps_simulation import load_emps
 
     return load_emps(path)
 
 
 @lru_cache(maxsize=64)
 def _simulator(path: str, friction: str, asymmetric: bool, clock: str):
-    from frictionid_core.simulation import EmpsSimulator
+    from frictionid_core.emps_simulation import EmpsSimulator
 
     return EmpsSimulator(_emps(path), friction, asymmetric, clock=clock)
 

@@ -20,7 +20,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     from frictionid_core.jsonfile import read_json
-    from frictionid_core.robots.consistency import report_for_result
+    from frictionid_core.robots.consistency_check import report_for_result
 
     from frictionid_core.systems import result_system
 

@@ -32,7 +32,7 @@ def run(args) -> int:
 
 
 def _run_result(args) -> int:
-    from frictionid_core.fit_report import build_fit_report
+    from frictionid_core.reports.result_report import build_fit_report
     from frictionid_core.io import load
     from frictionid_core.jsonfile import read_json
 
@@ -57,7 +57,7 @@ def _run_result(args) -> int:
 
 
 def _run_emps(args) -> int:
-    from frictionid_core.report import build_report
+    from frictionid_core.reports.emps_report import build_report
 
     if args.sources or (args.validation and len(args.validation) > 1) or args.layout or args.topic:
         raise FrictionIdError("'frictionid report emps' takes --estimation, one --validation, --study and --out only")

@@ -27,7 +27,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     from frictionid_core.jsonfile import read_json
-    from frictionid_core.simulation import load_emps, simulate_identification
+    from frictionid_core.emps_simulation import load_emps, simulate_identification
 
     result = read_json(args.params, "parameters")
     data = load_emps(args.data)
@@ -43,7 +43,7 @@ def run(args) -> int:
 
 def print_simulation(out: dict, stream=None) -> None:
     """A small table of the simulation metrics, stating the clock."""
-    from frictionid_core.simulation import METRIC_KEYS
+    from frictionid_core.emps_simulation import METRIC_KEYS
 
     stream = stream or sys.stdout
     m = out["metrics"]

@@ -1,6 +1,6 @@
 """A MuJoCo arm built from a Pinocchio model, with hidden joint friction (no ROS import).
 
-The MJCF is generated from the :class:`~frictionid_core.robots.model.RobotModel` (bodies,
+The MJCF is generated from the :class:`~frictionid_core.robots.robot_model.RobotModel` (bodies,
 joint placements, inertias, armature, gravity; no geometry, no contact), so MuJoCo and the
 Pinocchio inverse dynamics describe the same arm. Friction is not MuJoCo's: every step applies
 −f(q̇) of the core's law (:class:`~frictionid_core.friction.FrictionModel`, Stribeck + viscous
@@ -28,7 +28,7 @@ URDF_FRICTION = {"Fv": 0.8, "Fc": 1.5, "Fs": 2.0, "vs": 0.04, "delta": 2.0}
 
 def load_robot(spec: str):
     """The robot of ``spec``: ``tx40`` or ``urdf:PATH`` (a :class:`RobotModel`)."""
-    from frictionid_core.robots.model import load_urdf
+    from frictionid_core.robots.robot_model import load_urdf
     from frictionid_core.robots.tx40 import build_tx40
 
     if spec == "tx40":

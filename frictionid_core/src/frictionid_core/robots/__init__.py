@@ -1,6 +1,6 @@
 """Manipulators on Pinocchio: models, base parameters, excitation, synthetic data, checks.
 
-* :mod:`~frictionid_core.robots.model` — :class:`RobotModel` (any fixed-base URDF via
+* :mod:`~frictionid_core.robots.robot_model` — :class:`RobotModel` (any fixed-base URDF via
   :func:`load_urdf`), inverse dynamics, the standard-parameter regressor (+ rotor inertias).
 * :mod:`~frictionid_core.robots.tx40` — the Stäubli TX40 of docs/reference.md#tx40 (:func:`build_tx40`) and
   the thesis joint-2 model equivalents.
@@ -10,7 +10,7 @@
 * :mod:`~frictionid_core.robots.excitation` — Fourier excitation optimised for the condition
   number (``frictionid excite``).
 * :mod:`~frictionid_core.robots.synth` — synthetic JointState data (``frictionid synth``).
-* :mod:`~frictionid_core.robots.consistency` — physical consistency of identified base
+* :mod:`~frictionid_core.robots.consistency_check` — physical consistency of identified base
   parameters (``frictionid consistency``).
 * :mod:`~frictionid_core.robots.compare` — results vs ground truth and the noise floor
   (``frictionid compare``).
@@ -18,6 +18,6 @@
 Pinocchio is imported only when a robot model is built.
 """
 
-from frictionid_core.robots.model import RobotModel, example_robot_data_dir, load_urdf
+from frictionid_core.robots.robot_model import RobotModel, example_robot_data_dir, load_urdf
 
 __all__ = ["RobotModel", "example_robot_data_dir", "load_urdf"]

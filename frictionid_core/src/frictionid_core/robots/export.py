@@ -1,7 +1,7 @@
 """Export a robot identification result: URDF, MuJoCo MJCF and a YAML parameters file.
 
 The standard parameters exported are the result's own (``identify --consistent``) or, for an
-unconstrained result, the consistent witness :func:`~frictionid_core.robots.consistency.report_for_result`
+unconstrained result, the consistent witness :func:`~frictionid_core.robots.consistency_check.report_for_result`
 finds; a result with no consistent witness is refused unless forced (the error names the link).
 
 * URDF: a ``urdf:PATH`` robot's own file with each moving joint's child link given the
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.robots.consistency import report_for_result, standard_record
+from frictionid_core.robots.consistency_check import report_for_result, standard_record
 
 # MuJoCo joint attribute ← friction parameter
 MUJOCO_FRICTION = {"damping": "Fv", "frictionloss": "Fc"}

@@ -9,7 +9,7 @@ motor's terms then sit in its own row:
 
 so the rows are motors, the body columns are Pinocchio's joint torque regressor mapped by C⁻ᵀ,
 and the rotor column of motor m is ẇ_m = (C·q̈)_m in row m (it replaces the joint armature
-columns of :meth:`~frictionid_core.robots.model.RobotModel.regressor`). Standard parameters:
+columns of :meth:`~frictionid_core.robots.robot_model.RobotModel.regressor`). Standard parameters:
 the 10 per body (``<joint>.m`` …), then one rotor inertia per motor (``motor_<k>.Ia``, referred
 to the joint side through the motor's own ratio, kg·m²).
 """
@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from frictionid_core.errors import InputError
-from frictionid_core.robots.model import BODY_PARAMS, ROTOR_PARAM, param_name
+from frictionid_core.robots.robot_model import BODY_PARAMS, ROTOR_PARAM, param_name
 
 
 @dataclass(frozen=True)

@@ -99,10 +99,10 @@ def body_parameters(k: int) -> np.ndarray:
 
 
 def build_tx40():
-    """The TX40 :class:`~frictionid_core.robots.model.RobotModel` (joints ``joint_1`` … ``joint_6``)."""
+    """The TX40 :class:`~frictionid_core.robots.robot_model.RobotModel` (joints ``joint_1`` … ``joint_6``)."""
     import pinocchio as pin
 
-    from frictionid_core.robots.model import from_pinocchio
+    from frictionid_core.robots.robot_model import from_pinocchio
 
     model = pin.Model()
     model.name = "tx40"

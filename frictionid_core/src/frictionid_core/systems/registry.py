@@ -9,7 +9,7 @@ from pathlib import Path
 
 from frictionid_core.drive import Drive, result_drive
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.robots.model import load_urdf
+from frictionid_core.robots.robot_model import load_urdf
 from frictionid_core.robots.tx40 import build_tx40
 from frictionid_core.systems.emps import ONE_JOINT
 from frictionid_core.systems.friction_only import FRICTION_ONLY

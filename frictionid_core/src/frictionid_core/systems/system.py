@@ -31,7 +31,7 @@ class RobotInfo:
     regressor of the fit rows: the model's own, or its motor rows under a drive whose friction
     acts on the motors)."""
 
-    model: object  # frictionid_core.robots.model.RobotModel
+    model: object  # frictionid_core.robots.robot_model.RobotModel
     base: object  # frictionid_core.robots.base.BaseParameters
     rows: object = None  # frictionid_core.robots.motor_side.MotorSide, or None: joint rows
 

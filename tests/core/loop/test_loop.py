@@ -1,0 +1,166 @@
+"""Friction compensation in the loop without ROS: the safety gate, the simulated arm's friction
+and dynamics, and a short in-process loop (frictionid_core.loop)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from frictionid_core.friction import get_model
+from frictionid_core.identification import identify
+from frictionid_core.loop.control import Controller, default_trajectory, friction_feedforward, run_loop
+from frictionid_core.loop.evaluate import median_ratio, summarize
+from frictionid_core.loop.gate import review
+from frictionid_core.loop.sim import SimArm, hidden_friction, load_robot
+from frictionid_core.timeseries import JointSeries
+
+FV, FC = 2.0, 0.5  # friction of the gate's synthetic joint [N·m·s/rad, N·m]
+
+
+def _joint(seconds: float, seed: int) -> JointSeries:
+    """One joint at 1 kHz under Fv·v + Fc·sign(v) + 0.01 N·m noise (a slow sine)."""
+    t = np.arange(int(seconds * 1000)) * 1e-3
+    q = 0.3 * np.sin(2 * np.pi * 0.5 * t)
+    v = 0.3 * np.pi * np.cos(2 * np.pi * 0.5 * t)
+    tau = FV * v + FC * np.sign(v) + 0.01 * np.random.default_rng(seed).standard_normal(t.size)
+    return JointSeries(t, ["j"], q[:, None], tau[:, None], velocity=v[:, None])
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    """(identified result, held-back slice): friction-only fit on 4 s, a fresh 2 s slice."""
+    return identify(_joint(4.0, 1), system="friction-only").to_dict(), _joint(2.0, 2)
+
+
+def _with(result: dict, **params) -> dict:
+    out = dict(result)
+    out["params"] = {**result["params"], **params}
+    return out
+
+
+def test_gate_accepts_a_better_set_and_rejects_a_worse_one(fitted):
+    good, held = fitted
+    assert good["params"]["Fc"] == pytest.approx(FC, abs=0.01)
+    worse = _with(good, Fc=3.0 * FC)
+    d = review(worse, good, held)
+    assert d.accepted and d.candidate_rmse < d.current_rmse
+    assert d.candidate_rmse < 0.02  # the noise is 0.01 N·m
+    d = review(good, worse, held)
+    assert not d.accepted and "rejected" in d.reason
+    assert d.candidate_rmse == pytest.approx(2 * FC, rel=0.05)  # the Coulomb error everywhere
+    assert not review(good, good, held).accepted  # not better: kept
+    assert review(None, good, held).accepted  # nothing active yet
+
+
+@pytest.mark.parametrize("value, word", [(math.nan, "non-finite"), (math.inf, "non-finite"), (-2e3, "gate_max_abs")])
+def test_gate_rejects_non_finite_and_huge_parameters(fitted, value, word):
+    good, held = fitted
+    d = review(None, _with(good, Fv=value), held, max_abs=1e3)
+    assert not d.accepted and word in d.reason and "Fv" in d.reason
+
+
+@pytest.fixture(scope="module")
+def tx40():
+    return load_robot("tx40")
+
+
+def test_sim_friction_is_the_core_law(tx40):
+    """The torque the arm's hidden friction applies is the core's Stribeck law, joint by joint."""
+    params = hidden_friction("tx40", tx40.joints)
+    sim = SimArm(tx40, params)
+    model = get_model("stribeck")
+    v = np.array([-0.3, -0.02, 0.0, 1e-4, 0.04, 0.7])
+    expected = [float(model.torque(params[k], np.array([v[k]]), sim.eps)[0]) for k in range(6)]
+    np.testing.assert_allclose(sim.friction(v), expected, rtol=0, atol=1e-12)
+    sim.start_drift(0.3, 2.0)
+    sim.data.time += 1.0  # half-way: Fc and Fs × 1.15
+    drifted = params.copy()
+    drifted[:, 1:3] *= 1.15
+    np.testing.assert_allclose(sim.friction(v), [float(model.torque(drifted[k], np.array([v[k]]), sim.eps)[0])
+                                                  for k in range(6)], rtol=0, atol=1e-12)
+
+
+def test_sim_dynamics_are_pinocchio_rnea(tx40):
+    """The generated MJCF is the Pinocchio model: MuJoCo's inverse dynamics equal rnea."""
+    import mujoco
+
+    sim = SimArm(tx40, hidden_friction("tx40", tx40.joints))
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        q, v, a = rng.uniform(-1, 1, (3, 6))
+        sim.data.qpos[:], sim.data.qvel[:], sim.data.qacc[:] = q, v, a
+        sim.model.dof_damping[:] = 0.0
+        mujoco.mj_inverse(sim.model, sim.data)
+        np.testing.assert_allclose(sim.data.qfrc_inverse, tx40.inverse_dynamics(q, v, a)[0], rtol=1e-9, atol=1e-9)
+
+
+def test_short_loop_error_falls_with_feedforward(tx40):
+    """In-process loop, 2.5 s each: the friction feed-forward at the desired velocity (true
+    parameters, smoothed sign) cuts the RMS tracking error of every joint at least 3-fold."""
+    traj = default_trajectory(tx40)
+    params = hidden_friction("tx40", tx40.joints)
+    model = get_model("stribeck")
+    errors = []
+    for ff in (None, lambda v: friction_feedforward(model, params, v, 0.02)):
+        sim = SimArm(tx40, params, q0=traj.q0)
+        errors.append(run_loop(sim, Controller(tx40, traj), 2.5, ff))
+    n = errors[0].shape[0]
+    stamp = np.arange(2 * n, dtype=np.int64) * 1_000_000
+    record = {"joints": np.array(tx40.joints), "stamp_ns": stamp, "error": np.concatenate(errors),
+              "latency_ns": np.zeros(0)}
+    result = summarize(record, {"feedforward_off": (0, n * 1_000_000), "feedforward_on": (n * 1_000_000, 2 * n * 1_000_000)},
+                       settle_s=0.5)
+    off, on = (np.array(result["rms_tracking_error"][k]) for k in ("feedforward_off", "feedforward_on"))
+    assert np.all(on < off / 3.0), (off, on)
+    assert median_ratio(result) < 0.2
+    assert np.all(off > 1e-3)  # friction really hurts without it (> 1 mrad)
+
+
+def test_feedforward_clamp_and_ramp():
+    """The node's feed-forward: clamped to ±feedforward_max; new parameters blend in over
+    feedforward_ramp_s (half-way after half of it), then hold."""
+    import time
+
+    from frictionid_ros.feedforward import FeedForward
+    from frictionid_ros.store import JointParams
+
+    def params(fc: float) -> dict:
+        return {"a": JointParams("a", "friction-only", "coulomb", False, "ls", {"Fv": 0.0, "Fc": fc})}
+
+    ff = FeedForward(["a"], 0.0, limit=5.0, ramp_s=0.4)
+    ff.set_params(params(2.0))  # the first set: at once
+    assert ff.torque(np.array([1.0]))[0] == 2.0
+    ff.set_params(params(4.0))
+    t0 = time.monotonic()
+    first = ff.torque(np.array([1.0]))[0]
+    assert 2.0 <= first <= 2.0 + 2.0 * (time.monotonic() - t0 + 0.01) / 0.4
+    time.sleep(0.2)
+    mid = ff.torque(np.array([1.0]))[0]
+    assert 2.9 < mid < 3.5, mid  # 0.2 s of 0.4 s (+ scheduling)
+    time.sleep(0.25)
+    assert ff.torque(np.array([1.0]))[0] == 4.0
+    ff.set_params(params(40.0))
+    time.sleep(0.45)
+    assert ff.torque(np.array([-1.0]))[0] == -5.0  # clamped
+
+
+def test_online_split_holds_back_the_newest_share():
+    from frictionid_ros.online import split
+
+    fit, held = split(_joint(4.0, 3), 0.25)
+    assert len(fit.t) == 3000 and len(held.t) == 1000 and held.t[0] > fit.t[-1]
+
+
+def test_loop_command_registers_in_the_core_cli():
+    """The ``frictionid.commands`` entry point target adds ``loop`` with its defaults (no ROS start)."""
+    import argparse
+
+    from frictionid_ros.loop_command import register
+
+    sub = argparse.ArgumentParser(prog="frictionid").add_subparsers(dest="command")
+    handler = register(sub)
+    args = sub.choices["loop"].parse_args(["--json", "x.json"])
+    assert callable(handler) and args.robot == "tx40" and args.realtime == "auto" and args.drift_s == 60.0
+    assert args.velocity_source == "reference" and args.drift_fraction == 0.3

@@ -1,0 +1,212 @@
+"""Physically consistent parameters (identify --consistent, --prior urdf) and their export to
+URDF, MuJoCo and YAML (issue 16), on the bundled synthetic TX40 bag and a synthetic UR5."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.identification import identify, validate
+from frictionid_core.io import load
+from frictionid_core.robots import example_robot_data_dir, load_urdf
+from frictionid_core.robots.consistency_check import report_for_result, standard_from_record
+from frictionid_core.systems import get_system, result_system
+from support.data import BAGS
+
+TRUTH = json.loads((BAGS / "tx40_truth.json").read_text())["bags"]["tx40_excitation"]
+UR5 = "ur_description/urdf/ur5_robot.urdf"
+
+
+@pytest.fixture(scope="module")
+def tx40_bag():
+    return load(BAGS / "tx40_excitation")
+
+
+@pytest.fixture(scope="module")
+def tx40_fits(tx40_bag):
+    """Unconstrained and consistent Coulomb fits of the bag's 10 s Fourier period (true offsets 0)."""
+    kw = dict(system="tx40", friction="coulomb", window=(0.0, 10.0), fixed={"offset": 0.0})
+    return identify(tx40_bag, **kw).to_dict(), identify(tx40_bag, consistent=True, **kw).to_dict()
+
+
+def _within_sigma(a: dict, b: dict, std: dict, k: float = 3.0) -> list[str]:
+    """Names whose values differ by more than k σ (σ of the unconstrained fit; 1e-9 floor)."""
+    return [n for n in a if abs(a[n] - b[n]) > k * max(std.get(n, 0.0), 1e-9) and std.get(n, 0.0) == std.get(n, 0.0)]
+
+
+def test_consistent_equals_unconstrained_when_the_truth_is_feasible(tx40_fits):
+    """The truth is feasible and the data excite every base parameter: the constraints are
+    inactive, so the consistent estimate is the unconstrained one well within 3 σ (every
+    parameter), the cost barely moves, and `consistency` finds it FEASIBLE from its witness."""
+    free, cons = tx40_fits
+    assert cons["consistency"]["feasible"] and cons["consistency"]["status"] == "optimal"
+    assert _within_sigma(free["params"], cons["params"], free["std"], 3.0) == []
+    assert cons["consistency"]["cost_increase_pct"] < 0.5
+    assert abs(cons["metrics"]["relerr_pct"] - free["metrics"]["relerr_pct"]) < 0.01
+    assert cons["std"] == free["std"]  # σ are those of the unconstrained estimate
+    assert cons["consistency"]["sdp_wall_s"] < 5.0
+    rep = report_for_result(cons, get_system("tx40"))
+    assert rep["feasible"] and rep["prior"] == "result" and rep["base_residual_max"] < 1e-9
+    for link in cons["consistency"]["links"].values():
+        assert link["pseudo_inertia_min_eig"] >= 1e-6  # the margin ε = 2e-6, less solver round-off
+
+
+def test_consistent_needs_a_robot_system():
+    from frictionid_core.io import load as load_bag
+
+    series = load_bag(BAGS / "emps_estimation")
+    with pytest.raises(FrictionIdError, match="--consistent needs a robot system .*'emps'"):
+        identify(series, system="emps", consistent=True)
+    with pytest.raises(FrictionIdError, match="add --consistent"):
+        identify(series, system="emps", prior="urdf")
+    with pytest.raises(FrictionIdError, match="--stribeck-order applies to the consistent fit only"):
+        identify(series, system="emps", stribeck_order=True)
+
+
+@pytest.fixture(scope="module")
+def short_fits(tx40_bag):
+    """2 s of the bag (poorly exciting): unconstrained, and consistent with the URDF prior (W 100)."""
+    kw = dict(system="tx40", friction="coulomb", window=(4.0, 6.0), fixed={"offset": 0.0})
+    return identify(tx40_bag, **kw).to_dict(), identify(tx40_bag, consistent=True, prior="urdf", prior_weight=100.0,
+                                                        **kw).to_dict()
+
+
+@pytest.mark.slow
+def test_short_data_unconstrained_infeasible_consistent_near_the_prior(short_fits):
+    """On 2 s the unconstrained base parameters have no consistent standard parameters (the
+    check's repair fails), the consistent fit is feasible, and the prior holds what the data do
+    not resolve: every link mass within 30 % of the model's (W 1 leaves link 2 at 9 kg, 4.85 true;
+    W 100 gives 5.5), the total within 10 %."""
+    from frictionid_core.robots.export import export_data
+    from frictionid_core.robots.tx40 import MASS
+
+    free, cons = short_fits
+    sys_ = get_system("tx40")
+    with pytest.raises(FrictionIdError, match=r"refused to export an inconsistent result: link 'joint_.*--force"):
+        export_data(free, sys_)  # the consistency check finds no witness
+    assert cons["consistency"]["feasible"] and report_for_result(cons, sys_)["feasible"]
+    masses = [link["mass"] for link in cons["standard_parameters"].values()]
+    assert np.allclose(masses, MASS, rtol=0.30)
+    assert sum(masses) == pytest.approx(sum(MASS), rel=0.10)
+    assert cons["consistency"]["prior"] == "urdf" and cons["consistency"]["prior_weight"] == 100.0
+    # what that buys on other data: the 2 s fit validates at 65 % unconstrained, 1.75 % with the prior
+    val = load(BAGS / "tx40_validation")
+    assert validate(val, free)["relerr_pct"] > 30.0
+    assert validate(val, cons)["relerr_pct"] < 3.0
+
+
+@pytest.mark.slow
+def test_export_of_an_inconsistent_result_when_forced(short_fits, tmp_path, capsys):
+    from frictionid_core.cli import main
+
+    free, _ = short_fits
+    path = tmp_path / "free.json"
+    path.write_text(json.dumps(free))
+    # (the refusal without --force: test_short_data_unconstrained_infeasible_consistent_near_the_prior)
+    assert main(["export", str(path), "--urdf", str(tmp_path / "x.urdf"), "--force"]) == 0
+    assert "exporting an inconsistent result" in capsys.readouterr().out
+
+
+def _predicted_rigid(result: dict, system, q, qd, qdd) -> np.ndarray:
+    """τ of the result's base parameters: W_b(q, q̇, q̈)·β, (N, nv)."""
+    info = system.robot
+    beta = np.array([result["params"][n] for n in system.rigid_names])
+    Y = info.base.reduce(info.model.regressor(q, qd, qdd))
+    return Y @ beta
+
+
+def _check_export(result: dict, tmp_path, capsys):
+    """Export through the CLI; the URDF (Pinocchio, + the rotor inertias as armature) reproduces
+    the result's rigid-body torques to 1e-9 relative; the MJCF's damping, frictionloss, armature
+    and body masses read back equal (1e-12 relative); the YAML is read by the node's reader."""
+    import mujoco
+
+    from frictionid_core.cli import main
+    from frictionid_core.robots.base import random_samples
+    from frictionid_ros.store import read_results
+
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps(result))
+    out = {k: tmp_path / f"out.{k}" for k in ("urdf", "xml", "yaml")}
+    assert main(["export", str(path), "--urdf", str(out["urdf"]), "--mujoco", str(out["xml"]),
+                 "--yaml", str(out["yaml"])]) == 0
+    capsys.readouterr()
+    system = result_system(result)
+    std = result["standard_parameters"]
+    robot = load_urdf(out["urdf"])
+    assert robot.joints == system.robot.model.joints
+    robot.model.armature[:] = [std[j]["rotor_inertia"] for j in robot.joints]
+    q, qd, qdd = random_samples(system.robot.model, 20, seed=4)
+    tau = robot.inverse_dynamics(q, qd, qdd)
+    ref = _predicted_rigid(result, system, q, qd, qdd)
+    assert np.max(np.abs(tau - ref)) <= 1e-9 * np.max(np.abs(ref))
+    m = mujoco.MjModel.from_xml_path(str(out["xml"]))
+    rows = result["joints"]
+    for j in system.robot.model.joints:
+        jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j)
+        dof = m.jnt_dofadr[jid]
+        prefix = f"{j}/" if len(rows) > 1 else ""
+        assert m.dof_damping[dof] == pytest.approx(result["params"][prefix + "Fv"], rel=1e-12)
+        assert m.dof_frictionloss[dof] == pytest.approx(result["params"][prefix + "Fc"], rel=1e-12)
+        assert m.dof_armature[dof] == pytest.approx(std[j]["rotor_inertia"], rel=1e-12)
+        assert m.body_mass[m.jnt_bodyid[jid]] == pytest.approx(std[j]["mass"], rel=1e-12)
+    loaded = read_results(out["yaml"])
+    assert set(loaded.per_joint) == set(rows)
+    assert loaded.per_joint[rows[0]].params["Fc"] == result["params"][f"{rows[0]}/Fc"]
+    return out
+
+
+def test_tx40_export_urdf_mujoco_yaml(tx40_fits, tmp_path, capsys):
+    _, cons = tx40_fits
+    out = _check_export(cons, tmp_path, capsys)
+    assert 'damping="' in out["urdf"].read_text() and "<inertial>" in out["urdf"].read_text()
+
+
+@pytest.mark.slow
+def test_ur5_consistent_and_export(tmp_path, capsys):
+    """A synthetic UR5 (example-robot-data URDF, Coulomb friction): consistent = unconstrained
+    within 3 σ, feasible, and its export (the robot's own URDF edited) passes the same checks."""
+    from frictionid_core.robots.excitation import FourierTrajectory, fit_to_limits
+    from frictionid_core.robots.synth import synthesize
+
+    path = example_robot_data_dir() / UR5
+    ur5 = load_urdf(path)
+    rng = np.random.default_rng(7)
+    traj = FourierTrajectory(list(ur5.joints), np.zeros(6), rng.uniform(-1, 1, (6, 4)), rng.uniform(-1, 1, (6, 4)),
+                             2 * np.pi / 6, 6.0)
+    fric = {j: {"Fv": 2.0 + k, "Fc": 3.0 + 0.5 * k} for k, j in enumerate(ur5.joints)}
+    series, _ = synthesize(ur5, fit_to_limits(ur5, traj), friction="coulomb", friction_params=fric, seed=3)
+    system = f"urdf:{path}"
+    free = identify(series, system=system, friction="coulomb").to_dict()
+    cons = identify(series, system=system, friction="coulomb", consistent=True, prior="urdf").to_dict()
+    assert report_for_result(cons, get_system(system))["feasible"]
+    assert _within_sigma(free["params"], cons["params"], free["std"], 3.0) == []
+    _check_export(cons, tmp_path, capsys)
+    pi = standard_from_record(get_system(system).robot, cons["standard_parameters"])
+    assert np.all(np.isfinite(pi))
+
+
+def test_node_parameters_consistent_and_prior_weight(tx40_fits, tmp_path):
+    """The node's ``consistent``/``prior_weight`` parameters: refused on a system without bodies,
+    turned into identify() keywords, and the answer's text carries the consistency verdict."""
+    from frictionid_ros.config import PARAMETERS, make_config
+    from frictionid_ros.request import Job, consistency_kwargs, consistency_text, summary
+
+    values = {k: v[0] for k, v in PARAMETERS.items()}
+    values["results_file"] = str(tmp_path / "p.json")
+    with pytest.raises(FrictionIdError, match="parameter 'consistent' needs a robot system.*'emps'"):
+        make_config(dict(values, consistent=True))
+    with pytest.raises(FrictionIdError, match="'prior_weight' must be >= 0"):
+        make_config(dict(values, prior_weight=-1.0))
+    assert consistency_kwargs(make_config(values)) == {}
+    cfg = make_config(dict(values, system="tx40", consistent=True))
+    assert consistency_kwargs(cfg) == {"consistent": True}
+    cfg = make_config(dict(values, system="tx40", consistent=True, prior_weight=10.0))
+    assert consistency_kwargs(cfg) == {"consistent": True, "prior": "urdf", "prior_weight": 10.0}
+    free, cons = tx40_fits
+    assert consistency_text(free) == ""
+    text = summary(Job(list(cons["joints"]), cfg.solve), cons, 1000, 1.0)
+    assert "; consistency: FEASIBLE (SDP " in text and "prior none" in text

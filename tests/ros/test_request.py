@@ -1,0 +1,54 @@
+"""The ~/identify request validated into a job: defaults, overrides, errors naming the field."""
+
+from __future__ import annotations
+
+import warnings
+
+import pytest
+
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
+    from frictionid_interfaces.srv import Identify
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_ros.request import parse_request
+from support.node_parts import NS, T0, node_config, stamp_time
+
+
+def test_request_defaults_and_overrides(tmp_path):
+    cfg = node_config(tmp_path, friction_model="tustin", solver="de", seed=7, window_seconds=2.0)
+    job = parse_request(Identify.Request(), cfg, ["a", "b"])
+    assert job.joints == ["a", "b"] and job.window_seconds == 2.0 and not job.dry_run
+    o = job.options
+    assert (o.friction, o.solver, o.seed, o.asymmetric) == ("tustin", "de", 7, False)
+    job = parse_request(Identify.Request(joints=["b"], friction_model="coulomb", solver="ls", seed=3, asymmetric=True,
+                                         window_start=stamp_time(T0), dry_run=True), cfg, ["a", "b"])
+    assert (job.joints, job.options.friction, job.options.seed, job.options.asymmetric) == (["b"], "coulomb", 3, True)
+    assert (job.window_seconds, job.start_ns, job.end_ns, job.dry_run) == (0.0, T0, 0, True)
+    kwargs = parse_request(Identify.Request(budget=50, population=20), cfg, ["a"]).identify_kwargs("tx40")
+    assert kwargs == dict(system="tx40", friction="tustin", asymmetric=False, solver="de", seed=7, generations=50,
+                          pop=20)
+    seeds = {parse_request(Identify.Request(seed=-1), cfg, ["a"]).options.seed for _ in range(3)}
+    assert len(seeds) == 3 and min(seeds) >= 0  # negative: a fresh random seed each time
+
+
+@pytest.mark.parametrize("fields, needle", [
+    (dict(joints=["nope"]), r"unknown joint\(s\) \['nope'\]; buffered joints: \['a', 'b'\]"),
+    (dict(joints=["a", "a"]), r"duplicated joint names"),
+    (dict(friction_model="lugre"), r"request field 'friction_model': unknown friction model 'lugre'"),
+    (dict(solver="simplex"), r"request field 'solver': unknown solver 'simplex'"),
+    (dict(population=-1), r"request field 'population' must be an integer >= 0, got -1"),
+    (dict(budget=-5), r"request field 'budget' must be an integer >= 0, got -5"),
+    (dict(window_seconds=-1.0), r"window_seconds must be >= 0"),
+    (dict(window_seconds=float("nan")), r"window_seconds must be >= 0"),
+    (dict(window_seconds=2.0, window_end=stamp_time(T0)), r"both window_seconds and window_start/window_end"),
+    (dict(window_start=stamp_time(T0), window_end=stamp_time(T0)), r"window_end must be after window_start"),
+    (dict(budget=1001), r"request field 'budget' = 1001 is over the node's limit max_budget = 1000"),
+    (dict(population=2**31 - 1), r"request field 'population' = 2147483647 is over the node's limit max_population"),
+    (dict(window_seconds=61.0), r"window_seconds = 61 s is over the node's limit max_window_seconds = 60 s"),
+    (dict(window_start=stamp_time(T0), window_end=stamp_time(T0 + 61 * NS)),
+     r"window_start..window_end = 61 s is over the node's limit max_window_seconds = 60 s"),
+])
+def test_request_errors_name_the_field(tmp_path, fields, needle):
+    with pytest.raises(FrictionIdError, match=needle):
+        parse_request(Identify.Request(**fields), node_config(tmp_path), ["a", "b"])

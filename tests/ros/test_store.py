@@ -1,0 +1,104 @@
+"""The active parameters and the results files: merge, save, load, paths, round trips."""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import pytest
+
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
+    from frictionid_interfaces.srv import Identify
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_ros.service import IdentifyService
+from frictionid_ros.store import (
+    ActiveParameters,
+    Results,
+    read_results,
+    request_path,
+    split_identification,
+    write_results,
+)
+from support.node_parts import LOG, feed, identification_dict, make_inputs, node_config, service_with_parameters
+
+
+def test_active_parameters_merge_save_and_load(tmp_path):
+    cfg = node_config(tmp_path, identification_worker="thread")
+    inputs = make_inputs(cfg)
+    feed(inputs)
+    changes = []
+    active = ActiveParameters(cfg.results_file, changes.append, log=LOG)
+    service = IdentifyService(lambda: cfg, inputs, active, {"joint_states": "/joint_states"}, None, log=LOG)
+    assert service.handle(Identify.Request(joints=["a"])).ok
+    assert service.handle(Identify.Request(joints=["b"], friction_model="tustin", solver="lm")).ok
+    assert {j: p.friction for j, p in active.results.per_joint.items()} == {"a": "coulomb", "b": "tustin"}
+    assert active.save(active.file("")) == (True, f"saved parameters of ['a', 'b'] to {cfg.results_file}")
+    other = tmp_path / "other.json"
+    ok, message = active.save(other)
+    assert ok and other.is_file()
+    fresh = ActiveParameters(cfg.results_file, changes.append, log=LOG)
+    fresh.restore()  # at start: read quietly
+    assert fresh.results.per_joint.keys() == {"a", "b"} and len(changes) == 2
+    ok, message = fresh.load(other)
+    assert ok and message == f"loaded parameters of ['a', 'b'] from {other}; saved to {cfg.results_file}"
+    assert len(changes) == 3
+    assert fresh.load(tmp_path / "missing.json") == (False, f"{tmp_path / 'missing.json'}: no such parameters file")
+    assert ActiveParameters(tmp_path / "none.json", changes.append, LOG).save(other)[1].startswith("no active")
+
+
+def test_request_paths_stay_inside_the_results_folder(tmp_path):
+    folder, outside = tmp_path / "results", tmp_path / "outside"
+    folder.mkdir()
+    outside.mkdir()
+    (outside / "notes.txt").write_text("x")
+    (folder / "sub").mkdir()
+    (folder / "out").symlink_to(outside, target_is_directory=True)
+    (folder / "evil.json").symlink_to(outside / "notes.txt")
+    (folder / "alias.json").symlink_to(folder / "sub" / "p.json")  # a link inside the folder is fine
+    assert request_path(folder, "p.json") == folder / "p.json"
+    assert request_path(folder, "sub/p.json") == request_path(folder, str(folder / "sub" / "p.json"))
+    assert request_path(folder, "./sub//p.json") == folder / "sub" / "p.json"
+    assert request_path(folder, "alias.json") == folder / "sub" / "p.json"
+    refused = {str(outside / "notes.txt"): "outside the results folder", "/etc/passwd": "outside the results folder",
+               "../outside/notes.txt": "'..'", "sub/../../outside/x.json": "'..'",
+               "out/x.json": "symbolic link", "evil.json": "symbolic link", ".": "symbolic link",
+               "none/x.json": "no such folder", "a\0b": "NUL"}
+    for name, needle in refused.items():
+        with pytest.raises(FrictionIdError, match="refused") as err:
+            request_path(folder, name)
+        assert needle in str(err.value) and f"inside the results folder {folder}" in str(err.value), str(err.value)
+    # a folder reached through a symbolic link: its real path is accepted as inside too
+    (tmp_path / "link").symlink_to(folder, target_is_directory=True)
+    assert request_path(tmp_path / "link", str(folder / "p.json")) == folder / "p.json"
+
+
+def test_the_node_overwrites_only_its_own_files(tmp_path):
+    _, active = service_with_parameters(tmp_path)
+    foreign = tmp_path / "foreign.json"
+    for text in ('{"params": {}}', "not json", '{"format": "other/1"}'):
+        foreign.write_text(text)
+        ok, message = active.save(active.file("foreign.json"))
+        assert not ok and "not a parameters file written by this node" in message and foreign.read_text() == text
+    (tmp_path / "dir.json").mkdir()
+    assert not active.save(active.file("dir.json"))[0]
+    assert active.save(active.file("mine.json"))[0] and active.save(active.file("mine.json"))[0]  # its own: again
+
+
+def test_results_file_round_trip_and_plain_identify_json(tmp_path):
+    d = identification_dict(["a", "b"], {"a/Fv": 1.0, "a/Fc": 0.5, "b/Fv": 2.0, "b/Fc": 0.25, "a/offset": 0.0, "b/offset": 0.1})
+    per = split_identification(d, stamp_ns=7)
+    assert per["b"].params == {"Fv": 2.0, "Fc": 0.25, "offset": 0.1} and per["a"].samples == 100
+    path = write_results(tmp_path / "sub" / "p.json", Results(per, d, 1, 2, 300, 7))
+    back = read_results(path)
+    assert back.per_joint["b"].params == per["b"].params and back.window_samples == 300
+    assert json.loads(path.read_text())["params"] == d["params"]  # Identification.to_dict() schema on top
+    plain = tmp_path / "plain.json"
+    plain.write_text(json.dumps(d))
+    assert read_results(plain).per_joint["a"].params["Fc"] == 0.5
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(identification_dict(["a"], {"Fv": 1.0})))
+    with pytest.raises(FrictionIdError, match=r"\['Fc'\] missing"):
+        read_results(bad)
+    assert not list((tmp_path / "sub").glob("*.tmp"))  # atomic write leaves no temporary file

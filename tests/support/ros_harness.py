@@ -1,0 +1,288 @@
+"""Shared by the ROS tests: the node as a subprocess and an rclpy client in the test process,
+on a ROS domain of their own (DOMAIN, drawn once per session, discovery on this host only)."""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import threading
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
+    import rclpy
+    from builtin_interfaces.msg import Time
+    from diagnostic_msgs.msg import DiagnosticArray
+    from frictionid_interfaces.action import Identify as IdentifyAction
+    from frictionid_interfaces.msg import IdentifiedParameters
+    from frictionid_interfaces.srv import Identify
+    from rclpy.action import ActionClient
+    from rclpy.executors import MultiThreadedExecutor
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+    from std_srvs.srv import Trigger
+
+ROOT = Path(__file__).resolve().parents[2]
+DOMAIN = random.randint(1, 200)
+NS = 1_000_000_000
+RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2000, reliability=ReliabilityPolicy.RELIABLE)
+LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def node_env(domain: int) -> dict:
+    env = dict(os.environ)
+    env["ROS_DOMAIN_ID"] = str(domain)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    src = [str(ROOT / "frictionid_core" / "src"), str(ROOT / "frictionid_ros")]
+    env["PYTHONPATH"] = os.pathsep.join(src + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
+    env.pop("_ROS_WHEELS_BOOTSTRAP_COMPLETE", None)  # let the child bootstrap its own library path
+    return env
+
+
+class NodeProcess:
+    """``python -m frictionid_ros.node`` as a subprocess, output in files."""
+
+    def __init__(self, workdir: Path, args: list[str], tag: str, domain: int = DOMAIN):
+        self.out = workdir / f"node-{tag}.out"
+        self.err = workdir / f"node-{tag}.err"
+        with open(self.out, "w") as out, open(self.err, "w") as err:
+            self.proc = subprocess.Popen([sys.executable, "-m", "frictionid_ros.node", *args], env=node_env(domain),
+                                         stdout=out, stderr=err, cwd=workdir)
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stop(self, sig=signal.SIGTERM, timeout: float = 10.0) -> int:
+        if self.alive():
+            self.proc.send_signal(sig)
+        try:
+            return self.proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait(5)
+            raise AssertionError(f"node did not stop within {timeout} s after {sig!r}")
+
+    def stderr(self) -> str:
+        return self.err.read_text()
+
+
+def start_node(workdir: Path, ros: Ros, params: Path, tag: str, *args: str, domain: int = DOMAIN) -> NodeProcess:
+    """``frictionid_node --params-file params *args`` on ``domain``, once it offers ``~/identify``
+    (at once with ``--lifecycle``: an unconfigured node offers nothing yet)."""
+    proc = NodeProcess(workdir, ["--params-file", str(params), *args], tag, domain)
+    if "--lifecycle" not in args:
+        ros.wait_service(proc)
+    return proc
+
+
+class Ros:
+    """rclpy in the test process: one client node on ``domain`` spun by a MultiThreadedExecutor thread."""
+
+    def __init__(self, domain: int = DOMAIN):
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx, domain_id=domain)
+        self.node = rclpy.create_node("frictionid_test_client", context=self.ctx)
+        self.executor = MultiThreadedExecutor(num_threads=3, context=self.ctx)
+        self.executor.add_node(self.node)
+        self._stop = threading.Event()
+        self.errors = []
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+        self._clients = {}
+        self._action = None
+        self.lock = threading.Lock()
+        self.ff, self.ff_state, self.params, self.diag = [], [], [], {}
+        self.node.create_subscription(Float64MultiArray, "/frictionid/friction_torque",
+                                      lambda m: self._add(self.ff, m), RELIABLE)
+        self.ff_state_at = {}  # header stamp [ns] → index in ff_state
+        self.node.create_subscription(JointState, "/frictionid/friction_torque_state", self._on_ff_state, RELIABLE)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diag, RELIABLE)
+        self.js = self.node.create_publisher(JointState, "/joint_states", RELIABLE)
+
+    def _spin(self):
+        """Spin until closed; an exception in one callback must not stop every later one."""
+        while not self._stop.is_set():
+            try:
+                self.executor.spin_once(timeout_sec=0.05)
+            except Exception as exc:
+                if self._stop.is_set() or not self.ctx.ok():
+                    return
+                self.errors.append(exc)
+
+    def _add(self, lst, m):
+        with self.lock:
+            lst.append(m)
+
+    def _on_ff_state(self, m):
+        with self.lock:
+            self.ff_state_at[m.header.stamp.sec * NS + m.header.stamp.nanosec] = len(self.ff_state)
+            self.ff_state.append(m)
+
+    def _on_diag(self, arr):
+        with self.lock:
+            for s in arr.status:
+                self.diag[s.name] = ({kv.key: kv.value for kv in s.values}, s, time.monotonic())
+
+    def close(self):
+        self._stop.set()
+        self.thread.join(5.0)
+        self.executor.shutdown(timeout_sec=5.0)
+        self.thread.join(5.0)
+        self.node.destroy_node()
+        rclpy.shutdown(context=self.ctx)
+
+    def call(self, srv_type, name: str, req, timeout: float = 30.0):
+        """call_async + wait with a timeout: a test never hangs on a dead node."""
+        cli = self._clients.get(name)
+        if cli is None:
+            cli = self._clients[name] = self.node.create_client(srv_type, name)
+        assert cli.wait_for_service(timeout_sec=20.0), f"service {name} not available"
+        return self.wait(cli.call_async(req), timeout, name)
+
+    @staticmethod
+    def wait(future, timeout: float, what: str = "request"):
+        """The result of ``future``, done within ``timeout`` s."""
+        done = threading.Event()
+        future.add_done_callback(lambda _: done.set())
+        assert done.wait(timeout), f"{what}: no answer within {timeout} s"
+        return future.result()
+
+    def wait_service(self, proc: NodeProcess, name: str = "/frictionid/identify", srv_type=Identify,
+                     timeout: float = 60.0) -> None:
+        """Wait until the node ``proc`` offers service ``name``."""
+        cli = self.node.create_client(srv_type, name)
+        deadline = time.monotonic() + timeout
+        while not cli.wait_for_service(timeout_sec=0.2):
+            assert proc.alive(), f"node exited with {proc.proc.returncode}:\n{proc.stderr()}"
+            assert time.monotonic() < deadline, f"service {name} did not appear"
+
+    def send_goal(self, feedback: list | None = None, **fields):
+        """Send an ``~/identify`` action goal; returns its (accepted) goal handle. Feedback messages
+        are appended to ``feedback``."""
+        if self._action is None:
+            self._action = ActionClient(self.node, IdentifyAction, "/frictionid/identify")
+        assert self._action.wait_for_server(timeout_sec=20.0), "action ~/identify not available"
+        on_feedback = None if feedback is None else (lambda m: self._add(feedback, m.feedback))
+        handle = self.wait(self._action.send_goal_async(IdentifyAction.Goal(**fields), feedback_callback=on_feedback),
+                           30.0, "send_goal")
+        assert handle.accepted
+        return handle
+
+    def identify(self, timeout: float = 60.0, **fields):
+        return self.call(Identify, "/frictionid/identify", Identify.Request(**fields), timeout)
+
+    def reset(self):
+        res = self.call(Trigger, "/frictionid/reset", Trigger.Request())
+        assert res.success, res.message
+
+    def diag_value(self, key: str, status: str = "frictionid: joint buffer", newer_than: float = 0.0,
+                   timeout: float = 10.0) -> str:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            with self.lock:
+                entry = self.diag.get(status)
+            if entry and entry[2] > newer_than:
+                return entry[0][key]
+            time.sleep(0.02)
+        raise AssertionError(f"no /diagnostics status '{status}' within {timeout} s")
+
+    def received(self) -> int:
+        """Joint states the node has taken in so far (from a fresh /diagnostics)."""
+        return int(self.diag_value("received", newer_than=time.monotonic()))
+
+    def wait_received(self, n: int, timeout: float = 15.0) -> int:
+        """Wait until the node's diagnostics report ``n`` joint states received."""
+        deadline = time.monotonic() + timeout
+        got = -1
+        while time.monotonic() < deadline:
+            got = self.received()
+            if got >= n:
+                return got
+        raise AssertionError(f"the node received {got} joint states, expected {n}")
+
+    def publish_states(self, t_ns, position, velocity=None, effort=None, names=("emps",), rate_hz: float = 4000.0,
+                       wait: bool = False):
+        """Publish JointStates row by row at ``rate_hz`` (stamps t_ns [ns]); ``wait``: until the node has them."""
+        before = self.received() if wait else 0
+        msg = JointState(name=list(names))
+        period = 1.0 / rate_hz
+        t0 = time.monotonic()
+        for k in range(len(t_ns)):
+            msg.header.stamp = Time(sec=int(t_ns[k]) // NS, nanosec=int(t_ns[k]) % NS)
+            msg.position = [] if position is None else np.atleast_1d(position[k]).tolist()
+            msg.velocity = [] if velocity is None else np.atleast_1d(velocity[k]).tolist()
+            msg.effort = [] if effort is None else np.atleast_1d(effort[k]).tolist()
+            self.js.publish(msg)
+            delay = t0 + (k + 1) * period - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+        if wait:
+            self.wait_received(before + len(t_ns))
+
+    def feedforward_for(self, stamp_ns: int, timeout: float = 5.0, resend=None):
+        """The (friction_torque_state, friction_torque) published for the joint state stamped ``stamp_ns``.
+
+        ``resend``: called every 0.25 s until then (a fresh node may not have matched our publisher yet).
+        """
+        deadline = time.monotonic() + timeout
+        last = time.monotonic()
+        while time.monotonic() < deadline:
+            if resend is not None and time.monotonic() - last > 0.25:
+                resend()
+                last = time.monotonic()
+            with self.lock:
+                i = self.ff_state_at.get(stamp_ns)
+                if i is not None:
+                    # both publishers send one message per input, in the same order
+                    return self.ff_state[i], (self.ff[i] if i < len(self.ff) else None)
+            time.sleep(0.01)
+        raise AssertionError(f"no feed-forward for the joint state stamped {stamp_ns}")
+
+    def latched_parameters(self, timeout: float = 10.0) -> IdentifiedParameters:
+        """A late subscriber of ~/parameters (transient local): the message it receives."""
+        got = []
+        # kept until the end (destroying a subscription the executor may be serving is racy)
+        self.node.create_subscription(IdentifiedParameters, "/frictionid/parameters", got.append, LATCHED)
+        deadline = time.monotonic() + timeout
+        while not got and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert got, "no ~/parameters for a late subscriber (transient local)"
+        return got[-1]
+
+    def assert_alive(self, proc: NodeProcess):
+        """Still running and still publishing: a fresh joint state yields a feed-forward."""
+        assert proc.alive(), proc.stderr()
+        stamp = 5_000 * NS + random.randint(0, NS - 1)
+        send = lambda: self.publish_states([stamp], [[0.0]], [[0.05]], [[0.0]])
+        send()
+        try:
+            self.feedforward_for(stamp, timeout=15.0, resend=send)
+        except AssertionError as exc:
+            with self.lock:
+                seen = (len(self.ff_state), self.ff_state[-1].header.stamp if self.ff_state else None,
+                        {k: v[0] for k, v in self.diag.items()})
+            raise AssertionError(f"{exc}; client saw {seen}; node stderr:\n{proc.stderr()[-3000:]}") from None
+
+
+@pytest.fixture(scope="module")
+def ros():
+    """The rclpy client of a test module, on DOMAIN (also the ROS_DOMAIN_ID meanwhile)."""
+    old = os.environ.get("ROS_DOMAIN_ID")
+    os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)  # also passed to rclpy.init explicitly
+    r = Ros()
+    yield r
+    r.close()
+    if old is None:
+        os.environ.pop("ROS_DOMAIN_ID", None)
+    else:
+        os.environ["ROS_DOMAIN_ID"] = old
