@@ -30,10 +30,11 @@ CORE_NAMES = {"friction_model": "friction", "population": "pop"}
 class Parameter:
     """The declaration of one node parameter.
 
-    ``default``'s type is the ROS type (bool, int, float, str; a list: a string array). A number may
-    have bounds ``low``/``high`` (inclusive, both exclusive with ``exclusive``), a string ``choices``.
-    ``parse(value, where)`` turns a value into the :class:`Config` field, raising FrictionIdError
-    that starts with ``where`` (default: the default's type, then the bounds or choices).
+    ``default``'s type is the ROS type (bool, int, float, str; a list: a string array); ``unit``: the
+    unit of a number ("s", "Hz", "%"), shown after the description. A number may have bounds
+    ``low``/``high`` (inclusive; both exclusive with ``exclusive``), a string ``choices``.
+    ``parse(value, where)`` turns a value into the :class:`Config` field, raising FrictionIdError that
+    starts with ``where`` (by default :meth:`config_value`: the default's type, then the bounds or choices).
     ``dynamic_typing``: a value of any type (``parse`` decides); ``constraints``: the rule as text
     when it is not a range or choices.
     """
@@ -66,7 +67,7 @@ class Parameter:
             return f"{'<' if self.exclusive else '<='} {high:g}"
         return self.constraints
 
-    def value(self, name: str, raw: Any) -> Any:
+    def config_value(self, name: str, raw: Any) -> Any:
         """The :class:`Config` value of ``raw`` (a value of parameter ``name``), checked."""
         where = f"parameter '{name}'"
         if self.parse is not None:
@@ -271,7 +272,7 @@ PARAMETERS: dict[str, Parameter] = {f.name: f.metadata["parameter"] for f in fie
 
 def make_config(values: dict) -> Config:
     """Validate raw parameter values (name → value; missing or None: the default) into a :class:`Config`."""
-    settings = {name: p.value(name, p.default if values.get(name) is None else values[name])
+    settings = {name: p.config_value(name, p.default if values.get(name) is None else values[name])
                 for name, p in PARAMETERS.items()}
     # The checks across parameters; each parameter's own are in its declaration.
     if settings["window_seconds"] > settings["max_window_seconds"]:

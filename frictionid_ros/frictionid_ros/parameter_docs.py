@@ -22,8 +22,8 @@ TABLE_START = "<!-- parameter table: written by python -m frictionid_ros.paramet
 TABLE_END = "<!-- end of the parameter table -->"
 
 YAML_HEAD = """\
-# Parameters of the frictionid node and their defaults, written from their declarations in
-# frictionid_ros/config.py by `python -m frictionid_ros.parameter_docs` (change them there).
+# Parameters of the frictionid node at their defaults (copy this file to set others), written from
+# their declarations in frictionid_ros/config.py by `python -m frictionid_ros.parameter_docs`.
 #   python -m frictionid_ros.node --params-file config/frictionid.yaml
 #   frictionid_node --ros-args --params-file config/frictionid.yaml
 /**/frictionid:    # the node in any namespace (a bare "frictionid:" matches only "/frictionid")

@@ -55,7 +55,7 @@ def declare_parameters(node: Node) -> Config:
             values[name] = node.declare_parameter(name, default, d).value
         except InvalidParameterValueException as exc:  # outside the range: the declaration's own message
             d.integer_range, d.floating_point_range = [], []
-            p.value(name, node.declare_parameter(name, default, d).value)
+            p.config_value(name, node.declare_parameter(name, default, d).value)
             raise FrictionIdError(f"parameter '{name}': {exc}") from None
         except Exception as exc:  # e.g. InvalidParameterTypeException for "30" where 30.0 is expected
             raise FrictionIdError(f"parameter '{name}': {exc} (default {p.default!r}: "
