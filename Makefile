@@ -15,7 +15,7 @@ $(STAMP): requirements.txt constraints.txt frictionid_core/pyproject.toml fricti
 	$(PIP) install -q --upgrade pip
 	$(PIP) install -q -r requirements.txt -c constraints.txt
 	$(PIP) install -q --no-deps -e frictionid_core
-	$(PIP) install -q --no-deps -e frictionid_ros
+	$(PIP) install -q --no-deps -e frictionid_ros --config-settings editable_mode=compat
 	touch $@
 
 $(IFACE_STAMP): $(STAMP) $(shell find ros2_ws/src/frictionid_interfaces/ -type f 2>/dev/null)

@@ -1,24 +1,24 @@
-"""Node parameters: names, defaults, descriptions and validation (no ROS import).
+"""Node parameters, each declared once, and their validation (no ROS import).
 
-The defaults here are the values of ``config/frictionid.yaml`` (a test checks that they agree).
-The node declares every parameter with a descriptor built from :data:`PARAMETERS` and turns the
-values into a validated :class:`Config`; a bad value is a :class:`~frictionid_core.errors.FrictionIdError`
-with one clear line, reported at startup.
+Every node parameter is a field of :class:`Config` whose metadata holds its :class:`Parameter`:
+default (its type is the ROS type), unit, description, range or choices, read-only flag and parser.
+From these declarations :mod:`.parameters` declares the ROS parameters with their descriptors,
+:func:`make_config` validates a set of values, and :mod:`.parameter_docs` writes
+``config/frictionid.yaml`` and the table of ``README.md`` (tests check both agree). A bad value is a
+:class:`~frictionid_core.FrictionIdError` with one line naming the parameter, reported at startup.
 """
 
 from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields
 from pathlib import Path
+from typing import Any
 
-from frictionid_core.drive import Drive, load_drive
-from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import FRICTIONS
+from frictionid_core import FRICTIONS, Drive, FrictionIdError, SolveOptions, check_choice, load_drive
 from frictionid_core.optim import SOLVERS
-from frictionid_core.options import SolveOptions, check_choice
-
 from frictionid_ros.realtime import parse_priority
 
 NODE_NAME = "frictionid"
@@ -26,140 +26,74 @@ NODE_NAME = "frictionid"
 # ROS name → SolveOptions field, for the parameters and the ~/identify request (other names agree).
 CORE_NAMES = {"friction_model": "friction", "population": "pop"}
 
-QOS_CHOICES = ("sensor_data", "reliable")
-VELOCITY_SOURCES = ("measured", "reference")
-EFFORT_TYPES = ("joint_state", "float64_multi_array")
-WORKERS = ("process", "thread")
-EXECUTORS = ("events", "single_threaded")
-
-# name: (default, description, read_only). Empty string-array defaults are declared typed.
-# Every parameter naming a file or folder (system urdf:PATH, results_file, results_dir) and every
-# limit is read-only: set at start-up, never by a client at runtime (PATH_PARAMETERS, LIMITS).
-PARAMETERS: dict[str, tuple[object, str, bool]] = {
-    "joints": ([], "joint names to buffer, identify and feed forward, in this order "
-                   "(empty: the names of the first joint_states message)", True),
-    "system": ("emps", "inverse dynamic model: emps | joint | friction-only | tx40-j2 | tx40 | urdf:PATH (a URDF file)", True),
-    "friction_model": ("coulomb", f"default friction model: {' | '.join(FRICTIONS)}", False),
-    "asymmetric": (False, "default: separate parameters for v > 0 and v < 0", False),
-    "solver": ("ls", f"default solver: {' | '.join(SOLVERS)}", False),
-    "seed": (0, "default RNG seed of stochastic solvers", False),
-    "consistent": (False, "robot systems (tx40, urdf:PATH): every identification estimates physically consistent "
-                          "parameters (frictionid identify --consistent)", False),
-    "prior_weight": (0.0, "with consistent: weight of the log-det pull toward the URDF inertials "
-                          "(identify --prior urdf --prior-weight); 0 = no prior", False),
-    "input_executor": ("events", "executor of the input callbacks: events (rclpy EventsExecutor, lighter) | "
-                                 "single_threaded (SingleThreadedExecutor: latency measured from middleware receipt)",
-                       True),
-    "identification_worker": ("process", "where identifications run: process (a child process: the input "
-                                         "callbacks keep the GIL) | thread", True),
-    "buffer_seconds": (30.0, "length of the joint-state ring buffer [s]", True),
-    "max_rate_hz": (1000.0, "highest expected joint_states rate [Hz]; sizes the ring buffer "
-                            "(capacity = buffer_seconds * max_rate_hz samples)", True),
-    "window_seconds": (0.0, "default identification window [s]; 0 = the whole buffer", False),
-    "min_samples": (200, "fewest joint-state samples an identification accepts", False),
-    "max_missing_pct": (5.0, "refuse a window whose stamps show more than this share of lost samples [%]", False),
-    "filter_cutoff_hz": (0.0, "Butterworth cut-off on position [Hz]; 0 = the system's default", True),
-    "decimation": (0, "keep 1 sample of n after the anti-alias filter; 0 = the system's default", True),
-    "drive_file": ("", "drive model between joint_states and the model's joints (gear ratios, coupling, effort "
-                       "units, friction on joints or motors): a YAML file or a bundled name (tx40); read at start; "
-                       "empty = none (joint-side data in N·m)", True),
-    "joint_states_topic": ("joint_states", "sensor_msgs/JointState input topic", True),
-    "qos": ("sensor_data", "QoS of the input topics: sensor_data (best effort) | reliable", True),
-    "qos_depth": (100, "history depth of the input subscriptions [messages]", True),
-    "effort_topic": ("", "separate effort topic; empty = the JointState effort field", True),
-    "effort_topic_type": ("joint_state", f"type of effort_topic: {' | '.join(EFFORT_TYPES)}", True),
-    "velocity_source": ("measured", "feed-forward velocity: measured (joint_states velocity, else finite "
-                                    "difference of positions) | reference (reference_topic)", True),
-    "reference_topic": ("reference_joint_states", "desired/reference sensor_msgs/JointState topic "
-                                                  "(velocity_source = reference)", True),
-    "feedforward_rate_hz": (0.0, "feed-forward publish rate [Hz]; 0 = on every velocity-source message", True),
-    "smoothing_eps": (0.01, "sign smoothing tanh(v/eps) of the feed-forward [rad/s | m/s]; 0 = sign(v)", False),
-    "results_file": ("~/.ros/frictionid/parameters.json", "JSON file of the active parameters: written "
-                                                           "after each identification, read at start", True),
-    "results_dir": ("", "the only folder ~/save and ~/load may use; empty = the folder of results_file", True),
-    "max_budget": (1000, "largest budget a request may ask for [generations | cost calls]", True),
-    "max_population": (200, "largest population a request may ask for", True),
-    "max_window_seconds": (60.0, "longest data window of an identification [s]", True),
-    "max_wall_s": (120.0, "wall time after which an identification is stopped [s]", True),
-    "worker_nice": (19, "niceness of the identification worker process, 0..19 (19: the feed-forward "
-                        "path gets the CPU first)", True),
-    "realtime_priority": ("auto", "scheduling of the input/feed-forward thread, as ros2_control runs its loop: auto "
-                                  "(SCHED_FIFO 10 if the OS allows, else normal) | off | a SCHED_FIFO priority "
-                                  "1..99 (refused by the OS: normal scheduling and a warning); a string or an "
-                                  "integer", True),
-    "diagnostics_period_s": (1.0, "period of /diagnostics [s]", True),
-    "known_rigid_body": (False, "robot systems (tx40, urdf:PATH): keep the base parameters at the model's values "
-                                "(the controller's rigid-body model) and identify friction and offsets only", True),
-    "online_period_s": (0.0, "online re-identification: every this long, identify the last online_window_s and "
-                             "activate the result only if the safety gate accepts it [s]; 0 = off (~/load is then "
-                             "not gated either)", True),
-    "online_window_s": (10.0, "data window of an online re-identification [s]", True),
-    "online_holdout": (0.25, "share of the online window held back (its newest samples) for the safety gate", True),
-    "gate_max_abs": (1000.0, "the safety gate refuses a parameter larger than this in magnitude [SI units]", True),
-    "feedforward_max": (0.0, "clamp of the feed-forward per joint [N·m | N]; 0 = none", True),
-    "feedforward_ramp_s": (0.0, "new parameters blend in over this long (feed-forward rate limit) [s]; 0 = at once",
-                           True),
-}
-
-
-DYNAMIC_PARAMETERS = ("realtime_priority",)  # a string or an integer (auto | off | 0..99)
-PATH_PARAMETERS = ("system", "results_file", "results_dir")
-LIMITS = ("max_budget", "max_population", "max_window_seconds", "max_wall_s", "worker_nice")
-
-
 @dataclass(frozen=True)
-class Config:
-    """Validated node settings (units in :data:`PARAMETERS`)."""
+class Parameter:
+    """The declaration of one node parameter.
 
-    joints: tuple[str, ...]
-    system: str
-    solve: SolveOptions  # the defaults of ~/identify: friction_model, asymmetric, solver, seed
-    consistent: bool  # physically consistent parameters (robot systems)
-    prior_weight: float  # with consistent: weight of the URDF prior; 0 = none
-    input_executor: str
-    identification_worker: str
-    buffer_seconds: float
-    max_rate_hz: float
-    window_seconds: float
-    min_samples: int
-    max_missing_pct: float
-    filter_cutoff_hz: float
-    decimation: int
-    drive: Drive | None  # from drive_file
-    joint_states_topic: str
-    qos: str
-    qos_depth: int
-    effort_topic: str
-    effort_topic_type: str
-    velocity_source: str
-    reference_topic: str
-    feedforward_rate_hz: float
-    smoothing_eps: float
-    results_file: Path
-    results_dir: Path
-    max_budget: int
-    max_population: int
-    max_window_seconds: float
-    max_wall_s: float
-    worker_nice: int
-    diagnostics_period_s: float
-    known_rigid_body: bool = False
-    realtime_priority: int | str = "auto"  # "auto" or 0..99 (realtime.parse_priority)
-    online_period_s: float = 0.0
-    online_window_s: float = 10.0
-    online_holdout: float = 0.25
-    gate_max_abs: float = 1000.0
-    feedforward_max: float = 0.0
-    feedforward_ramp_s: float = 0.0
+    ``default``'s type is the ROS type (bool, int, float, str; a list: a string array); ``unit``: the
+    unit of a number ("s", "Hz", "%"), shown after the description. A number may have bounds
+    ``low``/``high`` (inclusive; both exclusive with ``exclusive``), a string ``choices``.
+    ``parse(value, where)`` turns a value into the :class:`Config` field, raising FrictionIdError that
+    starts with ``where`` (by default :meth:`config_value`: the default's type, then the bounds or choices).
+    ``dynamic_typing``: a value of any type (``parse`` decides); ``constraints``: the rule as text
+    when it is not a range or choices.
+    """
+
+    default: bool | int | float | str | list
+    description: str
+    unit: str = ""
+    low: int | float | None = None
+    high: int | float | None = None
+    exclusive: bool = False
+    choices: tuple[str, ...] = ()
+    read_only: bool = True
+    parse: Callable[[Any, str], Any] | None = None
+    dynamic_typing: bool = False
+    constraints: str = ""
 
     @property
-    def capacity(self) -> int:
-        """Ring-buffer capacity [samples]."""
-        return int(math.ceil(self.buffer_seconds * self.max_rate_hz)) + 1
+    def rule(self) -> str:
+        """The allowed values as text ("> 0", "0..19", "(0, 1)", "one of a, b"); empty: any value of the type."""
+        if self.choices:
+            return f"one of {', '.join(self.choices)}"
+        low, high = self.low, self.high
+        if low is not None and high is not None:
+            if self.exclusive:
+                return f"({low:g}, {high:g})"
+            return f"{low}..{high}" if isinstance(self.default, int) else f"[{low:g}, {high:g}]"
+        if low is not None:
+            return f"{'>' if self.exclusive else '>='} {low:g}"
+        if high is not None:
+            return f"{'<' if self.exclusive else '<='} {high:g}"
+        return self.constraints
+
+    def config_value(self, name: str, raw: Any) -> Any:
+        """The :class:`Config` value of ``raw`` (a value of parameter ``name``), checked."""
+        where = f"parameter '{name}'"
+        if self.parse is not None:
+            return self.parse(raw, where)
+        kind = type(self.default)
+        try:
+            value = kind(raw)
+        except (TypeError, ValueError):
+            raise FrictionIdError(f"{where} must be a {kind.__name__}, got {raw!r}") from None
+        if self.choices:
+            return check_choice(where, value, self.choices, name.replace("_", " "))
+        if not self._in_range(value):
+            verb = "lie in" if self.low is not None and self.high is not None else "be"
+            raise FrictionIdError(f"{where} must {verb} {self.rule}, got {raw}")
+        return value
+
+    def _in_range(self, value: float) -> bool:
+        """``value`` within the bounds (NaN never is)."""
+        if self.low is not None and not (value > self.low if self.exclusive else value >= self.low):
+            return False
+        return self.high is None or (value < self.high if self.exclusive else value <= self.high)
 
 
-def _choice(name: str, value: str, choices, what: str = "") -> str:
-    return check_choice(f"parameter '{name}'", value, choices, what or name)
+def parameter(default, description: str, **declaration) -> Any:
+    """A :class:`Config` field that is the node parameter declared by these arguments (:class:`Parameter`)."""
+    return field(metadata={"parameter": Parameter(default, description, **declaration)})
 
 
 def solve_options(where: str, **fields) -> SolveOptions:
@@ -205,92 +139,157 @@ def _drive(path_or_name: str) -> Drive | None:
         raise FrictionIdError(f"parameter 'drive_file': {exc}") from None
 
 
-def make_config(values: dict) -> Config:
-    """Validate raw parameter values (name → value) into a :class:`Config`."""
-    v = {name: (default if values.get(name) is None else values[name])
-         for name, (default, _, _) in PARAMETERS.items()}
-    joints = tuple(str(j) for j in v["joints"] if str(j))
+def _joint_names(value, where: str) -> tuple[str, ...]:
+    joints = tuple(str(j) for j in value if str(j))
     if len(set(joints)) != len(joints):
-        raise FrictionIdError(f"parameter 'joints': duplicated names in {list(joints)}")
-    for name in ("buffer_seconds", "max_rate_hz", "diagnostics_period_s", "max_window_seconds", "max_wall_s"):
-        if not float(v[name]) > 0.0:
-            raise FrictionIdError(f"parameter '{name}' must be > 0, got {v[name]}")
-    for name in ("window_seconds", "max_missing_pct", "filter_cutoff_hz", "feedforward_rate_hz", "smoothing_eps",
-                 "online_period_s", "feedforward_max", "feedforward_ramp_s"):
-        if not float(v[name]) >= 0.0:
-            raise FrictionIdError(f"parameter '{name}' must be >= 0, got {v[name]}")
-    for name in ("decimation", "min_samples"):
-        if int(v[name]) < 0:
-            raise FrictionIdError(f"parameter '{name}' must be >= 0, got {v[name]}")
-    for name in ("max_budget", "max_population"):
-        if int(v[name]) < 1:
-            raise FrictionIdError(f"parameter '{name}' must be >= 1, got {v[name]}")
-    if not 0 <= int(v["worker_nice"]) <= 19:
-        raise FrictionIdError(f"parameter 'worker_nice' must lie in 0..19, got {v['worker_nice']}")
-    if float(v["window_seconds"]) > float(v["max_window_seconds"]):
-        raise FrictionIdError(f"parameter 'window_seconds' = {v['window_seconds']} s is over the limit "
-                              f"max_window_seconds = {v['max_window_seconds']} s")
-    if not 1 <= int(v["qos_depth"]) <= 100_000:
-        raise FrictionIdError(f"parameter 'qos_depth' must lie in 1..100000, got {v['qos_depth']}")
-    cap = float(v["buffer_seconds"]) * float(v["max_rate_hz"])
-    if cap > 50_000_000:
-        raise FrictionIdError(f"buffer_seconds * max_rate_hz = {cap:.0f} samples is too large (max 5e7)")
-    if not 0.0 < float(v["online_holdout"]) < 1.0:
-        raise FrictionIdError(f"parameter 'online_holdout' must lie in (0, 1), got {v['online_holdout']}")
-    if not float(v["online_window_s"]) > 0.0 or not float(v["gate_max_abs"]) > 0.0:
-        raise FrictionIdError(f"parameters 'online_window_s' and 'gate_max_abs' must be > 0, got "
-                              f"{v['online_window_s']} and {v['gate_max_abs']}")
-    if v["velocity_source"] == "reference" and not v["reference_topic"]:
+        raise FrictionIdError(f"{where}: duplicated names in {list(joints)}")
+    return joints
+
+
+def _absolute_path(value, where: str) -> Path | None:
+    """The absolute path of ``value`` (``~`` expanded); None when empty."""
+    return Path(os.path.expanduser(str(value))).absolute() if value else None
+
+
+# The identification limits and every parameter naming a file or folder (system urdf:PATH,
+# results_file, results_dir) are read-only: set at start-up, never by a client at runtime.
+@dataclass(frozen=True)
+class Config:
+    """Validated node settings: one field per node parameter (its declaration in the field's metadata,
+    see :data:`PARAMETERS`), then ``drive``, loaded from ``drive_file``."""
+
+    joints: tuple[str, ...] = parameter(
+        [], "joint names to buffer, identify and feed forward, in this order (empty: the names of the first "
+        "joint_states message)", parse=_joint_names)
+    system: str = parameter(
+        "emps", "inverse dynamic model: emps | joint | friction-only | tx40-j2 | tx40 | urdf:PATH (a URDF file)",
+        parse=lambda value, where: check_system(str(value)))
+    friction_model: str = parameter("coulomb", "default friction model", choices=FRICTIONS, read_only=False)
+    asymmetric: bool = parameter(False, "default: separate parameters for v > 0 and v < 0", read_only=False)
+    solver: str = parameter("ls", "default solver", choices=SOLVERS, read_only=False)
+    seed: int = parameter(0, "default RNG seed of stochastic solvers", read_only=False)
+    consistent: bool = parameter(
+        False, "robot systems (tx40, urdf:PATH): every identification estimates physically consistent parameters "
+        "(frictionid identify --consistent)", read_only=False)
+    prior_weight: float = parameter(
+        0.0, "with consistent: weight of the log-det pull toward the URDF inertials (identify --prior urdf "
+        "--prior-weight); 0 = no prior", low=0.0, read_only=False)
+    input_executor: str = parameter(
+        "events", "executor of the input callbacks: events (rclpy EventsExecutor, lighter) | single_threaded "
+        "(SingleThreadedExecutor: latency measured from middleware receipt)", choices=("events", "single_threaded"))
+    identification_worker: str = parameter(
+        "process", "where identifications run: process (a child process: the input callbacks keep the GIL) | "
+        "thread", choices=("process", "thread"))
+    buffer_seconds: float = parameter(30.0, "length of the joint-state ring buffer", unit="s", low=0.0,
+                                      exclusive=True)
+    max_rate_hz: float = parameter(
+        1000.0, "highest expected joint_states rate; sizes the ring buffer (capacity = buffer_seconds * "
+        "max_rate_hz samples)", unit="Hz", low=0.0, exclusive=True)
+    window_seconds: float = parameter(0.0, "default identification window; 0 = the whole buffer", unit="s",
+                                      low=0.0, read_only=False)
+    min_samples: int = parameter(200, "fewest joint-state samples an identification accepts", low=0,
+                                 read_only=False)
+    max_missing_pct: float = parameter(5.0, "refuse a window whose stamps show more than this share of lost "
+                                       "samples", unit="%", low=0.0, read_only=False)
+    filter_cutoff_hz: float = parameter(0.0, "Butterworth cut-off on position; 0 = the system's default",
+                                        unit="Hz", low=0.0)
+    decimation: int = parameter(0, "keep 1 sample of n after the anti-alias filter; 0 = the system's default",
+                                low=0)
+    drive_file: str = parameter(
+        "", "drive model between joint_states and the model's joints (gear ratios, coupling, effort units, "
+        "friction on joints or motors): a YAML file or a bundled name (tx40); read at start; empty = none "
+        "(joint-side data in N·m)")
+    joint_states_topic: str = parameter("joint_states", "sensor_msgs/JointState input topic")
+    qos: str = parameter("sensor_data", "QoS of the input topics: sensor_data (best effort) | reliable",
+                         choices=("sensor_data", "reliable"))
+    qos_depth: int = parameter(100, "history depth of the input subscriptions", unit="messages", low=1,
+                               high=100_000)
+    effort_topic: str = parameter("", "separate effort topic; empty = the JointState effort field")
+    effort_topic_type: str = parameter("joint_state", "type of effort_topic",
+                                       choices=("joint_state", "float64_multi_array"))
+    velocity_source: str = parameter(
+        "measured", "feed-forward velocity: measured (joint_states velocity, else finite difference of "
+        "positions) | reference (reference_topic)", choices=("measured", "reference"))
+    reference_topic: str = parameter("reference_joint_states", "desired/reference sensor_msgs/JointState topic "
+                                     "(velocity_source = reference)")
+    feedforward_rate_hz: float = parameter(0.0, "feed-forward publish rate; 0 = on every velocity-source message",
+                                           unit="Hz", low=0.0)
+    smoothing_eps: float = parameter(0.01, "sign smoothing tanh(v/eps) of the feed-forward; 0 = sign(v)",
+                                     unit="rad/s | m/s", low=0.0, read_only=False)
+    results_file: Path = parameter(
+        "~/.ros/frictionid/parameters.json", "JSON file of the active parameters: written after each "
+        "identification, read at start", parse=_absolute_path)
+    results_dir: Path = parameter("", "the only folder ~/save and ~/load may use; empty = the folder of "
+                                  "results_file", parse=_absolute_path)
+    max_budget: int = parameter(1000, "largest budget a request may ask for", unit="generations | cost calls",
+                                low=1)
+    max_population: int = parameter(200, "largest population a request may ask for", low=1)
+    max_window_seconds: float = parameter(60.0, "longest data window of an identification", unit="s", low=0.0,
+                                          exclusive=True)
+    max_wall_s: float = parameter(120.0, "wall time after which an identification is stopped", unit="s",
+                                  low=0.0, exclusive=True)
+    worker_nice: int = parameter(19, "niceness of the identification worker process (19: the feed-forward path "
+                                 "gets the CPU first)", low=0, high=19)
+    realtime_priority: int | str = parameter(
+        "auto", "scheduling of the input/feed-forward thread, as ros2_control runs its loop: auto (SCHED_FIFO 10 "
+        "if the OS allows, else normal) | off | a SCHED_FIFO priority 1..99 (refused by the OS: normal "
+        "scheduling and a warning); a string or an integer", dynamic_typing=True, constraints="auto, off or 0..99",
+        parse=parse_priority)
+    diagnostics_period_s: float = parameter(1.0, "period of /diagnostics", unit="s", low=0.0, exclusive=True)
+    known_rigid_body: bool = parameter(
+        False, "robot systems (tx40, urdf:PATH): keep the base parameters at the model's values (the controller's "
+        "rigid-body model) and identify friction and offsets only")
+    online_period_s: float = parameter(
+        0.0, "online re-identification: every this long, identify the last online_window_s and activate the "
+        "result only if the safety gate accepts it; 0 = off (~/load is then not gated either)", unit="s", low=0.0)
+    online_window_s: float = parameter(10.0, "data window of an online re-identification", unit="s", low=0.0,
+                                       exclusive=True)
+    online_holdout: float = parameter(0.25, "share of the online window held back (its newest samples) for the "
+                                      "safety gate", low=0.0, high=1.0, exclusive=True)
+    gate_max_abs: float = parameter(1000.0, "the safety gate refuses a parameter larger than this in magnitude",
+                                    unit="SI units", low=0.0, exclusive=True)
+    feedforward_max: float = parameter(0.0, "clamp of the feed-forward per joint; 0 = none", unit="N·m | N",
+                                       low=0.0)
+    feedforward_ramp_s: float = parameter(0.0, "new parameters blend in over this long (feed-forward rate "
+                                          "limit); 0 = at once", unit="s", low=0.0)
+    drive: Drive | None  # loaded from drive_file at start
+
+    @property
+    def solve(self) -> SolveOptions:
+        """The defaults of ~/identify: friction_model, asymmetric, solver, seed."""
+        return solve_options("parameter", friction_model=self.friction_model, asymmetric=self.asymmetric,
+                             solver=self.solver, seed=self.seed)
+
+    @property
+    def capacity(self) -> int:
+        """Ring-buffer capacity [samples]."""
+        return int(math.ceil(self.buffer_seconds * self.max_rate_hz)) + 1
+
+
+# name → declaration, in the order of Config (and of the YAML file and the docs).
+PARAMETERS: dict[str, Parameter] = {f.name: f.metadata["parameter"] for f in fields(Config) if f.metadata}
+
+
+def make_config(values: dict) -> Config:
+    """Validate raw parameter values (name → value; missing or None: the default) into a :class:`Config`."""
+    settings = {name: p.config_value(name, p.default if values.get(name) is None else values[name])
+                for name, p in PARAMETERS.items()}
+    # The checks across parameters; each parameter's own are in its declaration.
+    if settings["window_seconds"] > settings["max_window_seconds"]:
+        raise FrictionIdError(f"parameter 'window_seconds' = {settings['window_seconds']} s is over the limit "
+                              f"max_window_seconds = {settings['max_window_seconds']} s")
+    samples = settings["buffer_seconds"] * settings["max_rate_hz"]
+    if samples > 50_000_000:
+        raise FrictionIdError(f"buffer_seconds * max_rate_hz = {samples:.0f} samples is too large (max 5e7)")
+    if settings["velocity_source"] == "reference" and not settings["reference_topic"]:
         raise FrictionIdError("velocity_source 'reference' needs a reference_topic")
-    if not float(v["prior_weight"]) >= 0.0:
-        raise FrictionIdError(f"parameter 'prior_weight' must be >= 0, got {v['prior_weight']}")
-    system = check_system(str(v["system"]))
-    if bool(v["consistent"]) and not _robot_system(system):
-        raise FrictionIdError(f"parameter 'consistent' needs a robot system (tx40, urdf:PATH); system is '{system}'")
-    results_file = Path(os.path.expanduser(str(v["results_file"]))).absolute()
-    return Config(
-        joints=joints,
-        system=system,
-        solve=solve_options("parameter", friction_model=str(v["friction_model"]), asymmetric=bool(v["asymmetric"]),
-                            solver=str(v["solver"]), seed=int(v["seed"])),
-        consistent=bool(v["consistent"]),
-        prior_weight=float(v["prior_weight"]),
-        input_executor=_choice("input_executor", v["input_executor"], EXECUTORS, "executor"),
-        identification_worker=_choice("identification_worker", v["identification_worker"], WORKERS, "worker"),
-        buffer_seconds=float(v["buffer_seconds"]),
-        max_rate_hz=float(v["max_rate_hz"]),
-        window_seconds=float(v["window_seconds"]),
-        min_samples=int(v["min_samples"]),
-        max_missing_pct=float(v["max_missing_pct"]),
-        filter_cutoff_hz=float(v["filter_cutoff_hz"]),
-        decimation=int(v["decimation"]),
-        drive=_drive(str(v["drive_file"])),
-        joint_states_topic=str(v["joint_states_topic"]),
-        qos=_choice("qos", v["qos"], QOS_CHOICES, "QoS profile"),
-        qos_depth=int(v["qos_depth"]),
-        effort_topic=str(v["effort_topic"]),
-        effort_topic_type=_choice("effort_topic_type", v["effort_topic_type"], EFFORT_TYPES, "effort topic type"),
-        velocity_source=_choice("velocity_source", v["velocity_source"], VELOCITY_SOURCES, "velocity source"),
-        reference_topic=str(v["reference_topic"]),
-        feedforward_rate_hz=float(v["feedforward_rate_hz"]),
-        smoothing_eps=float(v["smoothing_eps"]),
-        results_file=results_file,
-        results_dir=Path(os.path.expanduser(str(v["results_dir"]))).absolute() if v["results_dir"] else results_file.parent,
-        max_budget=int(v["max_budget"]),
-        max_population=int(v["max_population"]),
-        max_window_seconds=float(v["max_window_seconds"]),
-        max_wall_s=float(v["max_wall_s"]),
-        worker_nice=int(v["worker_nice"]),
-        diagnostics_period_s=float(v["diagnostics_period_s"]),
-        known_rigid_body=bool(v["known_rigid_body"]),
-        realtime_priority=parse_priority(v["realtime_priority"], "parameter 'realtime_priority'"),
-        online_period_s=float(v["online_period_s"]),
-        online_window_s=float(v["online_window_s"]),
-        online_holdout=float(v["online_holdout"]),
-        gate_max_abs=float(v["gate_max_abs"]),
-        feedforward_max=float(v["feedforward_max"]),
-        feedforward_ramp_s=float(v["feedforward_ramp_s"]),
-    )
+    if settings["consistent"] and not _robot_system(settings["system"]):
+        raise FrictionIdError(f"parameter 'consistent' needs a robot system (tx40, urdf:PATH); system is "
+                              f"'{settings['system']}'")
+    settings["results_dir"] = settings["results_dir"] or settings["results_file"].parent
+    config = Config(**settings, drive=_drive(settings["drive_file"]))
+    config.solve  # noqa: B018 - the core's validation of the identification defaults, as for a request
+    return config
 
 
 def preprocessing_override(system: str, cutoff_hz: float, decimation: int):
@@ -308,17 +307,3 @@ def preprocessing_override(system: str, cutoff_hz: float, decimation: int):
     if decimation > 0:
         changes["decimate"] = decimation
     return replace(base, **changes)
-
-
-def default_config_file() -> Path | None:
-    """``config/frictionid.yaml`` of the installed package (ament index) or of the source tree."""
-    try:
-        from ament_index_python.packages import get_package_share_directory
-
-        p = Path(get_package_share_directory("frictionid_ros")) / "config" / "frictionid.yaml"
-        if p.is_file():
-            return p
-    except Exception:  # not installed through colcon/ament: fall back to the source tree
-        pass
-    p = Path(__file__).resolve().parent.parent / "config" / "frictionid.yaml"
-    return p if p.is_file() else None

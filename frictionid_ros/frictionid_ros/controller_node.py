@@ -41,8 +41,7 @@ class ControllerNode(LoopNode):
 
     def __init__(self):
         super().__init__("frictionid_loop_controller")
-        from frictionid_core.loop.control import Controller, default_trajectory
-        from frictionid_core.loop.sim import load_robot
+        from frictionid_core.loop import Controller, default_trajectory, load_robot
 
         p = {name: self.declare_parameter(name, default).value for name, default in (
             ("robot", "tx40"), ("feedforward_enabled", False), ("joint_states_topic", "joint_states"),

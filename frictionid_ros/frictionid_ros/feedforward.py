@@ -18,9 +18,7 @@ import time
 
 import numpy as np
 
-from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import FrictionModel
-
+from frictionid_core import FrictionIdError, FrictionModel
 from frictionid_ros.store import JointParams
 
 

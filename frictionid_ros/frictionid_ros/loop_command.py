@@ -23,9 +23,7 @@ import time
 import warnings
 from pathlib import Path
 
-from frictionid_core.errors import FrictionIdError
-from frictionid_core.jsonfile import write_json
-
+from frictionid_core import FrictionIdError, write_json
 from frictionid_ros.realtime import AUTO_PRIORITY, realtime_priority
 
 DESCRIPTION = """\
@@ -80,7 +78,7 @@ def handler(args) -> int:
     t0 = time.monotonic()
     result, record, phases = run(args)
     write_json(args.json, result)
-    from frictionid_core.loop.evaluate import median_ratio, plot
+    from frictionid_core.loop import median_ratio, plot
 
     if args.plots:
         plot(record, phases, args.plots)
@@ -105,7 +103,6 @@ def handler(args) -> int:
 def ros_env(domain: int) -> dict:
     """The environment of a loop process: ``domain``, discovery on this host, these packages first."""
     import frictionid_core
-
     import frictionid_ros
 
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
@@ -136,7 +133,7 @@ def _die_with_parent() -> None:
         import ctypes
 
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)
-    except Exception:  # noqa: BLE001 - not Linux: the processes are stopped by Processes.stop
+    except Exception:  # not Linux: the processes are stopped by Processes.stop
         pass
 
 
@@ -149,7 +146,8 @@ class Processes:
 
     def start(self, name: str, module: str, *args: str) -> None:
         with open(self.work / f"{name}.out", "w") as out, open(self.work / f"{name}.err", "w") as err:
-            self.procs[name] = subprocess.Popen([*self.prefix, sys.executable, "-m", module, *args], env=self.env, stdout=out,
+            self.procs[name] = subprocess.Popen([*self.prefix, sys.executable, "-m", module, *args], env=self.env,
+                                                stdout=out,
                                                 stderr=err, cwd=self.work, preexec_fn=_die_with_parent)
 
     def check(self) -> None:
@@ -197,7 +195,7 @@ class Client:
         while not self._stop.is_set() and self.ctx.ok():
             try:
                 self.executor.spin_once(timeout_sec=0.05)
-            except Exception:  # noqa: BLE001 - shutting down
+            except Exception:  # shutting down
                 return
 
     def _on_diag(self, arr) -> None:
@@ -278,10 +276,9 @@ def offer_bad_parameters(client: Client, results_file: Path) -> bool:
 def run(args) -> tuple[dict, dict, dict]:
     """The loop's phases → (the JSON figures, the controller's record, the phases' stamps)."""
     import numpy as np
-
-    from frictionid_core.loop.evaluate import summarize
-    from frictionid_core.loop.sim import load_robot
     from frictionid_interfaces.srv import Identify
+
+    from frictionid_core.loop import load_robot, summarize
 
     robot = load_robot(args.robot)
     work = Path(tempfile.mkdtemp(prefix="frictionid-loop-"))

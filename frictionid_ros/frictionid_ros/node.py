@@ -43,32 +43,30 @@ import sys
 import time
 import traceback
 import warnings
-from dataclasses import replace
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, pulled in by rosidl on some versions
     from diagnostic_msgs.msg import DiagnosticArray
     from frictionid_interfaces.msg import IdentifiedParameters
     from frictionid_interfaces.srv import Identify, ParametersFile
-    from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+    from rcl_interfaces.msg import SetParametersResult
     from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.lifecycle import LifecycleNode, TransitionCallbackReturn
     from rclpy.node import Node
-    from rclpy.parameter import Parameter
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray, MultiArrayDimension
     from std_srvs.srv import Trigger
 
-from frictionid_core.errors import FrictionIdError
-
-from frictionid_ros import config as cfgmod
+from frictionid_core import FrictionIdError
 from frictionid_ros.action import IdentifyActionServer
 from frictionid_ros.buffer import NS
+from frictionid_ros.config import NODE_NAME
 from frictionid_ros.inputs import Inputs
 from frictionid_ros.messages import diagnostic_array, parameters_msg
 from frictionid_ros.online import Online
+from frictionid_ros.parameters import changed_config, declare_parameters
 from frictionid_ros.realtime import schedule_this_thread
 from frictionid_ros.runner import make_input_executor, run
 from frictionid_ros.service import IdentifyService
@@ -87,7 +85,7 @@ def _guarded(fn):
     def wrapper(self, *args):
         try:
             return fn(self, *args)
-        except Exception as exc:  # noqa: BLE001 - the node must stay alive
+        except Exception as exc:  # the node must stay alive
             key = (fn.__name__, type(exc).__name__, str(exc))
             # once per distinct error, not at 1 kHz; none when closing (a publish may fail)
             if self.context.ok() and self._entities and key not in self._logged_errors:
@@ -108,8 +106,8 @@ class FrictionIdNode(LifecycleNode):
     start unconfigured with the lifecycle services, else configure and activate at once."""
 
     def __init__(self, *, context=None, lifecycle: bool = False):
-        super().__init__(cfgmod.NODE_NAME, context=context, enable_communication_interface=lifecycle)
-        self.cfg = cfg = self._declare_parameters()
+        super().__init__(NODE_NAME, context=context, enable_communication_interface=lifecycle)
+        self.cfg = cfg = declare_parameters(self)
         self._log = self.get_logger()
         self._logged_errors: set = set()
         self._ff_on = False  # publish the feed-forward (lifecycle state active)
@@ -207,12 +205,14 @@ class FrictionIdNode(LifecycleNode):
 
         self.identify_service = IdentifyService(lambda: self.cfg, self.inputs, self.active, self.topics, self._worker,
                                                 self._log)
-        self.online = Online(lambda: self.cfg, self.identify_service, self.active, lambda: self.inputs.joints, self._log)
+        self.online = Online(lambda: self.cfg, self.identify_service, self.active, lambda: self.inputs.joints,
+                             self._log)
         if cfg.online_period_s > 0.0:  # re-identification behind the safety gate (:mod:`.online`)
             self._keep(self.destroy_timer, self.create_timer(cfg.online_period_s, self._on_online,
                                                              callback_group=MutuallyExclusiveCallbackGroup()))
         # Deep request queues: a burst of calls is answered (most of them "busy"), not dropped by DDS.
-        qos_srv = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=SERVICE_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
+        qos_srv = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=SERVICE_DEPTH,
+                             reliability=ReliabilityPolicy.RELIABLE)
         admin, identify = MutuallyExclusiveCallbackGroup(), ReentrantCallbackGroup()
         for typ, name, callback, group in ((Identify, "~/identify", self._on_identify, identify),
                                            (Trigger, "~/reset", self._on_reset, admin),
@@ -261,34 +261,14 @@ class FrictionIdNode(LifecycleNode):
         self._entities.append((destroy, entity))
         return entity
 
-    def _declare_parameters(self) -> cfgmod.Config:
-        values = {}
-        for name, (default, desc, ro) in cfgmod.PARAMETERS.items():
-            d = ParameterDescriptor(description=desc, read_only=ro, dynamic_typing=name in cfgmod.DYNAMIC_PARAMETERS)
-            try:
-                if isinstance(default, list):
-                    p = self.declare_parameter(name, Parameter.Type.STRING_ARRAY, d)
-                else:
-                    p = self.declare_parameter(name, default, d)
-            except Exception as exc:  # e.g. InvalidParameterTypeException for "30" where 30.0 is expected
-                raise FrictionIdError(f"parameter '{name}': {exc} (default {default!r}: {type(default).__name__})") from None
-            values[name] = p.value
-        return cfgmod.make_config(values)
-
     def _on_set_parameters(self, params) -> SetParametersResult:
-        values = {n: self.get_parameter(n).value for n in cfgmod.PARAMETERS}
-        values.update({p.name: p.value for p in params})
         try:
-            cfg = cfgmod.make_config(values)
+            self.cfg = changed_config(self, self.cfg, params)
         except FrictionIdError as exc:
             return SetParametersResult(successful=False, reason=str(exc))
-        self.cfg = replace(
-            self.cfg, solve=cfg.solve, window_seconds=cfg.window_seconds, min_samples=cfg.min_samples,
-            max_missing_pct=cfg.max_missing_pct, smoothing_eps=cfg.smoothing_eps, consistent=cfg.consistent,
-            prior_weight=cfg.prior_weight)
         inputs = getattr(self, "inputs", None)
         if inputs is not None and inputs.ff is not None:
-            inputs.ff.eps = cfg.smoothing_eps
+            inputs.ff.eps = self.cfg.smoothing_eps
         return SetParametersResult(successful=True)
 
     # ------------------------------------------------------------------ inputs and feed-forward

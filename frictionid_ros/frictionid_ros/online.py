@@ -15,9 +15,8 @@ from __future__ import annotations
 import math
 import time
 
-from frictionid_core.errors import FrictionIdError
-from frictionid_core.loop.gate import Decision, screen
-
+from frictionid_core import FrictionIdError
+from frictionid_core.loop import Decision, screen
 from frictionid_ros.request import Job
 from frictionid_ros.store import Results, read_results, split_identification
 from frictionid_ros.window import Selection

@@ -14,7 +14,7 @@ import os
 import subprocess
 import threading
 
-from frictionid_core.errors import FrictionIdError
+from frictionid_core import FrictionIdError
 
 AUTO_PRIORITY = 10  # SCHED_FIFO priority of "auto" (ros2_control's realtime thread default is 50; below it)
 # Fast DDS threads that receive the joint states (shared memory and UDP listeners, thread names set by

@@ -26,7 +26,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from frictionid_core.errors import FrictionIdError, InputError
+from frictionid_core import FrictionIdError, InputError
 
 NS = 1_000_000_000
 DESCRIPTION = ("Publish a bag's JointState (and effort) topic with rclpy, re-stamped to now "
@@ -83,7 +83,7 @@ def _ros1_to_cdr(msg, msgtype: str) -> bytes:
     """A ROS 1 message (rosbags object) as ROS 2 CDR, through rclpy's own types."""
     from rclpy.serialization import serialize_message
 
-    from frictionid_core.io.bag import JOINT_STATE
+    from frictionid_core.io import JOINT_STATE
 
     if msgtype == JOINT_STATE:
         from sensor_msgs.msg import JointState
@@ -109,7 +109,7 @@ def load_stream(bag: str | Path, *, topic: str | None = None, effort_topic: str 
 
     ``duration`` [s] keeps only the messages of the first seconds of the JointState topic.
     """
-    from frictionid_core.io.bag import FLOAT_ARRAY, JOINT_STATE, joint_state_topic, open_reader, topic_listing
+    from frictionid_core.io import FLOAT_ARRAY, JOINT_STATE, joint_state_topic, open_reader, topic_listing
 
     path = Path(bag)
     if not path.exists():
@@ -178,7 +178,7 @@ def publish_stream(node, stream: Stream, *, rate: float = 1.0, loops: int = 1, q
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
-    from frictionid_core.io.bag import FLOAT_ARRAY, JOINT_STATE
+    from frictionid_core.io import FLOAT_ARRAY, JOINT_STATE
 
     if rate < 0:
         raise FrictionIdError(f"--rate must be >= 0, got {rate}")
@@ -265,8 +265,8 @@ def handler(args) -> int:
     import rclpy
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=max(1, args.depth),
-                     reliability=ReliabilityPolicy.RELIABLE if args.qos == "reliable" else ReliabilityPolicy.BEST_EFFORT)
+    reliability = ReliabilityPolicy.RELIABLE if args.qos == "reliable" else ReliabilityPolicy.BEST_EFFORT
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=max(1, args.depth), reliability=reliability)
     from rclpy.signals import SignalHandlerOptions
 
     # Our own signal handling: Ctrl-C / SIGTERM end the loop between two messages, cleanly

@@ -11,9 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.options import SolveOptions
-
+from frictionid_core import FrictionIdError, InputError, SolveOptions
 from frictionid_ros.buffer import NS, stamp_ns
 from frictionid_ros.config import Config, solve_options
 

@@ -14,7 +14,7 @@ with warnings.catch_warnings():
     import rclpy
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 
-from frictionid_core.errors import FrictionIdError
+from frictionid_core import FrictionIdError
 
 GIL_SWITCH_INTERVAL = 0.0005  # [s]
 SERVICE_THREADS = 6  # identify (service and action), cancel, reset/save/load, lifecycle, diagnostics
@@ -51,7 +51,7 @@ def make_input_executor(kind: str, log, context=None):
             from rclpy.experimental import EventsExecutor
 
             return EventsExecutor(context=context)
-        except Exception as exc:  # noqa: BLE001 - older rclpy: no EventsExecutor
+        except Exception as exc:  # older rclpy: no EventsExecutor
             log.warning(f"EventsExecutor unavailable ({type(exc).__name__}: {exc}); using SingleThreadedExecutor")
     return SingleThreadedExecutor(context=context)
 
@@ -65,7 +65,7 @@ def spin(executor, node) -> None:
             executor.spin_once(timeout_sec=0.1)
         except (KeyboardInterrupt, ExternalShutdownException):
             return
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             if not context.ok():
                 return
             node.get_logger().error(f"executor: {type(exc).__name__}: {exc}")

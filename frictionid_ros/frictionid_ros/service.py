@@ -8,8 +8,7 @@ import time
 import traceback
 from dataclasses import dataclass
 
-from frictionid_core.errors import FrictionIdError
-
+from frictionid_core import FrictionIdError
 from frictionid_ros.config import preprocessing_override
 from frictionid_ros.inputs import Inputs
 from frictionid_ros.request import Job, consistency_kwargs, consistency_text, parse_request, summary
@@ -176,8 +175,7 @@ class IdentifyService:
         kwargs["drive"] = cfg.drive  # read-only: the one of start-up
         kwargs.update(consistency_kwargs(cfg))
         if cfg.known_rigid_body:
-            from frictionid_core.systems import get_system
-            from frictionid_core.systems.robot import nominal_parameters
+            from frictionid_core.systems import get_system, nominal_parameters
 
             kwargs["fixed"] = nominal_parameters(get_system(cfg.system))
         reply = (self._worker.run(sel.series, kwargs, control) if self._worker is not None

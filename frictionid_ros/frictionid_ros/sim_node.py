@@ -5,8 +5,9 @@ ros2_control robot (:class:`frictionid_core.loop.sim.SimArm`).
 
 Publishes ``joint_states`` (sensor_msgs/JointState, sensor-data QoS) every step at ``rate_hz``:
 position, velocity, effort = the torque applied during the step [N·m | N], stamp = the simulated
-clock (wall clock at its start + simulated time: regular 1 ms steps, as a robot's clock). Takes ``/effort_controller/commands`` (std_msgs/Float64MultiArray, joint order of
-``joint_states``), held until the next one; the arm stands still until the first command.
+clock (wall clock at its start + simulated time: regular 1 ms steps, as a robot's clock). Takes
+``/effort_controller/commands`` (std_msgs/Float64MultiArray, joint order of ``joint_states``), held
+until the next one; the arm stands still until the first command.
 Parameter ``drift_start`` (set to true at runtime) starts the Coulomb drift: +``drift_fraction``
 of Fc and Fs over ``drift_s`` seconds. Steps run in a thread of their own at absolute times.
 """
@@ -26,8 +27,7 @@ with warnings.catch_warnings():
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
-from frictionid_core.errors import FrictionIdError
-
+from frictionid_core import FrictionIdError
 from frictionid_ros.loop_node import SENSOR, LoopNode, run_node
 
 CATCH_UP_S = 0.05  # a step later than this restarts the schedule instead of racing to catch up [s]
@@ -38,8 +38,7 @@ class SimNode(LoopNode):
 
     def __init__(self):
         super().__init__("frictionid_sim")
-        from frictionid_core.loop.control import default_trajectory
-        from frictionid_core.loop.sim import SimArm, hidden_friction, load_robot
+        from frictionid_core.loop import SimArm, default_trajectory, hidden_friction, load_robot
 
         p = {name: self.declare_parameter(name, default).value for name, default in (
             ("robot", "tx40"), ("rate_hz", 1000.0), ("drift_fraction", 0.3), ("drift_s", 60.0),
@@ -77,8 +76,8 @@ class SimNode(LoopNode):
 
     def _loop(self) -> None:
         """Step at absolute times; stamp = the simulated clock (wall clock of the first step's
-        scheduled time + sim time: a message never leaves before its stamp), regular like a robot's; a step later than CATCH_UP_S shifts that clock instead of
-        racing (the data then shows a gap of that length)."""
+        scheduled time + sim time: a message never leaves before its stamp), regular like a robot's; a step
+        later than CATCH_UP_S shifts that clock instead of racing (the data then shows a gap of that length)."""
         msg = JointState(name=list(self.robot.joints))
         sim, period = self.sim, self.period
         nxt = time.monotonic()
@@ -102,7 +101,7 @@ class SimNode(LoopNode):
             msg.effort = sim.tau.tolist()
             try:
                 self._pub.publish(msg)
-            except Exception:  # noqa: BLE001 - the context is shutting down
+            except Exception:  # the context is shutting down
                 return
 
     def close(self) -> None:

@@ -25,10 +25,7 @@ import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
-from frictionid_core.drive import friction_rows
-from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import get_model
-from frictionid_core.jsonfile import YAML_SUFFIXES, read_json, write_json
+from frictionid_core import YAML_SUFFIXES, FrictionIdError, friction_rows, get_model, read_json, write_json
 
 FORMAT = "frictionid_ros/1"
 

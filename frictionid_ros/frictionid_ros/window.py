@@ -7,11 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from frictionid_core.errors import InputError
-from frictionid_core.io.align import align_effort
-from frictionid_core.io.checks import MIN_SAMPLES, check_series, stamp_gaps
-from frictionid_core.timeseries import JointSeries
-
+from frictionid_core import InputError, JointSeries
+from frictionid_core.io import MIN_SAMPLES, align_effort, check_series, stamp_gaps
 from frictionid_ros.buffer import NO_EFFORT, NO_POSITION, NO_VELOCITY, NS, JointRing
 from frictionid_ros.config import Config
 from frictionid_ros.request import Job
@@ -79,7 +76,8 @@ def window_series(job: Job, cfg: Config, ring: JointRing | None, topic: str,
     if gaps.gaps:
         if gaps.missing_pct > cfg.max_missing_pct:
             raise InputError(f"gaps in the stamps of the joint states {what}: {gaps}, more than max_missing_pct = "
-                             f"{cfg.max_missing_pct:g} %; check the input QoS (qos, qos_depth) and the publisher's timing")
+                             f"{cfg.max_missing_pct:g} %; check the input QoS (qos, qos_depth) and the publisher's "
+                             "timing")
         notes.append(f"joint states {what}: {gaps}")
     return Selection(series, origin + round(series.t[0] * NS), origin + round(series.t[-1] * NS), notes)
 

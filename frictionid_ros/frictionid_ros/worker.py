@@ -134,8 +134,7 @@ def run_identification(series, kwargs: dict, progress=None) -> tuple:
 
     ``progress``: the optimiser's hook (see :func:`frictionid_core.identification.identify`); it
     cancels the run by raising :class:`Cancelled`."""
-    from frictionid_core.errors import FrictionIdError
-    from frictionid_core.identification import identify
+    from frictionid_core import FrictionIdError, identify
 
     kwargs = dict(kwargs)
     gate, candidate = kwargs.pop("review", None), kwargs.pop("candidate", None)
@@ -144,7 +143,7 @@ def run_identification(series, kwargs: dict, progress=None) -> tuple:
         if gate is not None:  # judged here too: the prediction of the held-back slice is CPU work
             from dataclasses import asdict
 
-            from frictionid_core.loop.gate import review
+            from frictionid_core.loop import review
 
             result["review"] = asdict(review(gate["current"], result, gate["holdout"], gate["max_abs"]))
         return ("ok", result)
@@ -162,7 +161,7 @@ def checked_result(reply: tuple, log_crash) -> dict:
     """The result dict of a :func:`run_identification` reply; FrictionIdError for an error, a crash
     (whose full text goes to ``log_crash``) or non-finite parameters; :class:`Cancelled` for a
     cancelled run."""
-    from frictionid_core.errors import FrictionIdError
+    from frictionid_core import FrictionIdError
 
     status, payload = reply
     if status == "cancelled":
@@ -203,8 +202,7 @@ def _warm_up() -> None:
     """Import the pipeline and fit a tiny synthetic series once (first real call then ~ms)."""
     import numpy as np
 
-    from frictionid_core.identification import identify
-    from frictionid_core.timeseries import JointSeries
+    from frictionid_core import JointSeries, identify
 
     t = np.arange(2000) * 1e-3
     q = 0.1 * np.sin(2 * np.pi * t)
@@ -324,7 +322,6 @@ class WorkerProcess:
 
     def _start(self) -> subprocess.Popen:
         import frictionid_core
-
         import frictionid_ros
 
         paths = [str(Path(m.__file__).resolve().parents[1]) for m in (frictionid_ros, frictionid_core)]

@@ -8,7 +8,9 @@ import types
 import frictionid_core
 
 PUBLIC = {"load", "identify", "validate", "FrictionModel", "JointSeries", "FrictionIdError", "InputError",
-          "OptimError", "load_drive"}
+          "OptimError", "load_drive", "Drive", "friction_rows", "FRICTIONS", "get_model", "SolveOptions",
+          "check_choice", "read_json", "write_json", "YAML_SUFFIXES"}
+CONSTANTS = {"FRICTIONS", "YAML_SUFFIXES"}  # documented in the package docstring
 # Modules a bare ``import frictionid_core`` must not load (the CLI's --help must stay fast).
 HEAVY = ("numpy", "scipy", "numba", "sklearn", "skopt", "matplotlib", "rosbags", "pinocchio",
          "frictionid_core.optim", "frictionid_core.identification")
@@ -23,7 +25,9 @@ def test_all_lists_exactly_the_public_names():
 
 
 def test_every_public_name_has_a_docstring():
-    for name in frictionid_core.__all__:
+    for name in CONSTANTS:
+        assert f"``{name}``" in frictionid_core.__doc__, name
+    for name in set(frictionid_core.__all__) - CONSTANTS:
         obj = getattr(frictionid_core, name)
         doc = inspect.getdoc(obj)
         assert doc and len(doc.split()) >= 3, f"frictionid_core.{name} has no docstring"
@@ -31,16 +35,21 @@ def test_every_public_name_has_a_docstring():
 
 
 def test_public_names_are_the_library_objects():
-    from frictionid_core.drive import load_drive
+    from frictionid_core.drive import Drive, friction_rows, load_drive
     from frictionid_core.errors import FrictionIdError, InputError, OptimError
-    from frictionid_core.friction import FrictionModel
+    from frictionid_core.friction import FRICTIONS, FrictionModel, get_model
     from frictionid_core.identification import identify, validate
     from frictionid_core.io import load
+    from frictionid_core.jsonfile import YAML_SUFFIXES, read_json, write_json
+    from frictionid_core.options import SolveOptions, check_choice
     from frictionid_core.timeseries import JointSeries
 
     expected = {"load": load, "identify": identify, "validate": validate, "FrictionModel": FrictionModel,
                 "JointSeries": JointSeries, "FrictionIdError": FrictionIdError, "InputError": InputError,
-                "OptimError": OptimError, "load_drive": load_drive}
+                "OptimError": OptimError, "load_drive": load_drive, "Drive": Drive, "friction_rows": friction_rows,
+                "FRICTIONS": FRICTIONS, "get_model": get_model, "SolveOptions": SolveOptions,
+                "check_choice": check_choice, "read_json": read_json, "write_json": write_json,
+                "YAML_SUFFIXES": YAML_SUFFIXES}
     for name, obj in expected.items():
         assert getattr(frictionid_core, name) is obj, name
     # The function lives in the submodule frictionid_core.identification: no name clash.
@@ -75,3 +84,18 @@ def test_identify_is_the_function_after_its_module_is_imported_first():
                  "import frictionid_core as f\n"
                  "print(type(identify).__name__, type(f.identify).__name__, type(validate).__name__)")
     assert out == "function function function"
+
+
+def test_subpackage_faces_export_their_names():
+    """Every name in a subpackage's ``__all__`` is there (the lazily loaded ones of ``loop`` too), and
+    importing ``frictionid_core.loop`` loads none of its modules."""
+    loaded = _fresh("import sys, frictionid_core.loop\n"
+                    "print(sorted(m for m in sys.modules if m.startswith('frictionid_core.loop.') or m == 'numpy'))")
+    assert loaded == "[]"
+    import importlib
+
+    for package in ("io", "loop", "optim", "robots", "systems", "cli"):
+        module = importlib.import_module(f"frictionid_core.{package}")
+        assert module.__all__, package
+        for name in module.__all__:
+            assert getattr(module, name) is not None, f"frictionid_core.{package}.{name}"

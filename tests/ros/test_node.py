@@ -95,7 +95,8 @@ def identified(ros, node, stream):
     """Reset, replay 8 s of the bag into the node, identify; returns (response, replay stats)."""
     ros.reset()
     before = ros.received()
-    stats = replay.publish_stream(ros.node, stream, rate=REPLAY_RATE, qos=RELIABLE)  # kept until acknowledged: lost samples are resent
+    # reliable: kept until acknowledged, lost samples are resent
+    stats = replay.publish_stream(ros.node, stream, rate=REPLAY_RATE, qos=RELIABLE)
     assert stats["sent"] == len(stream) and stats["subscribers"] >= 1
     ros.wait_received(before + len(stream))
     start = stats["first_stamp_ns"]
@@ -113,14 +114,15 @@ def test_config_yaml_matches_declared_defaults():
     params = yaml.safe_load(YAML.read_text())["/**/frictionid"]["ros__parameters"]
     assert set(params) == set(PARAMETERS) - {"joints"}  # joints: [] cannot be written for rcl
     for name, value in params.items():
-        assert value == PARAMETERS[name][0], name
-        assert type(value) is type(PARAMETERS[name][0]), f"{name}: YAML type must match the declared type"
+        assert value == PARAMETERS[name].default, name
+        assert type(value) is type(PARAMETERS[name].default), f"{name}: YAML type must match the declared type"
 
 
 @pytest.mark.slow
 def test_unknown_system_is_a_clear_startup_error(workdir):
     # the shipped YAML (parsed by rcl) then an override: explicit --ros-args come last and win
-    for tag, system, needle in (("scara", "scara", "choose one of emps, joint, friction-only, tx40-j2, tx40, urdf:PATH"),
+    for tag, system, needle in (("scara", "scara", "choose one of emps, joint, friction-only, tx40-j2, tx40, "
+                                                   "urdf:PATH"),
                                 ("urdf", "urdf:/nowhere/robot.urdf", "no such URDF file '/nowhere/robot.urdf'")):
         proc = NodeProcess(workdir, ["--params-file", str(YAML), "--ros-args", "-p", f"system:={system}"], tag)
         rc = proc.proc.wait(30)
@@ -152,7 +154,8 @@ def test_identify_matches_offline(identified, offline, ros):
     assert r.samples >= 0.99 * stats["sent"]
     assert len(r.joints) == 1
     j = r.joints[0]
-    assert (j.joint_name, j.system_model, j.friction_model, j.solver, j.asymmetric) == ("emps", "emps", "coulomb", "ls", False)
+    assert (j.joint_name, j.system_model, j.friction_model, j.solver, j.asymmetric) == ("emps", "emps", "coulomb", "ls",
+                                                                                       False)
     assert list(j.param_names) == list(ref["params"])
     got = dict(zip(j.param_names, j.param_values))
     for name in ("M", "Fv", "Fc"):

@@ -30,7 +30,7 @@ with warnings.catch_warnings():
     from lifecycle_msgs.msg import Transition
     from lifecycle_msgs.srv import ChangeState, GetState
     from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-    from rcl_interfaces.srv import SetParameters
+    from rcl_interfaces.srv import DescribeParameters, SetParameters
     from std_srvs.srv import Trigger
 
 from frictionid_ros import replay
@@ -186,6 +186,14 @@ def test_path_and_limit_parameters_are_fixed_at_start(window, ros, node, workdir
     res = ros.call(SetParameters, "/frictionid/set_parameters",
                    SetParameters.Request(parameters=[Parameter(name="window_seconds", value=v)]))
     assert not res.results[0].successful and "max_window_seconds" in res.results[0].reason, res.results[0].reason
+    # below its declared range: refused by rclpy itself (the descriptor's range, as ros2 param describe shows it)
+    v = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=-1.0)
+    res = ros.call(SetParameters, "/frictionid/set_parameters",
+                   SetParameters.Request(parameters=[Parameter(name="window_seconds", value=v)]))
+    assert not res.results[0].successful and "out of range" in res.results[0].reason, res.results[0].reason
+    nice = ros.call(DescribeParameters, "/frictionid/describe_parameters",
+                    DescribeParameters.Request(names=["worker_nice"])).descriptors[0]
+    assert nice.read_only and [(r.from_value, r.to_value) for r in nice.integer_range] == [(0, 19)]
 
 
 # --------------------------------------------------------------------------- limits
@@ -195,7 +203,8 @@ def test_requests_over_a_limit_are_refused(window, ros, node):
     active = _active(ros)
     cases = [(dict(budget=2_000_000_000), "'budget' = 2000000000 is over the node's limit max_budget = 100000"),
              (dict(population=100_000), "'population' = 100000 is over the node's limit max_population = 200"),
-             (dict(window_seconds=3600.0), "window_seconds = 3600 s is over the node's limit max_window_seconds = 60 s"),
+             (dict(window_seconds=3600.0),
+              "window_seconds = 3600 s is over the node's limit max_window_seconds = 60 s"),
              (dict(window_start=_time(1 * NS), window_end=_time(7200 * NS)), "max_window_seconds = 60 s")]
     for fields, needle in cases:
         res = ros.identify(solver="de", **fields)

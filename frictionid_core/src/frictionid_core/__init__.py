@@ -12,12 +12,17 @@ The public API::
     metrics = fid.validate(fid.load("bags/emps_validation"), result.to_dict())
     tau = fid.FrictionModel("coulomb").torque([result.params["Fv"], result.params["Fc"]], [0.1, -0.1])
 
+Also public: the validated options of one identification (``SolveOptions``, ``check_choice``), the
+friction laws (``FRICTIONS``, ``get_model``), a drive (``Drive``, ``friction_rows``: who owns a result's
+friction parameters) and result files (``read_json``, ``write_json``, ``YAML_SUFFIXES``). Subpackages
+export their own names (``frictionid_core.io``, ``.systems``, ``.loop``, ``.optim``, ``.robots``, ``.cli``):
+a module that is not a package is private.
+
 Importing the package is light (the errors only): every other public name is loaded on first
 use (PEP 562), so ``import frictionid_core`` pulls in neither scipy nor numba nor an optimiser.
 """
 
-import importlib as _importlib
-
+from frictionid_core import _lazy
 from frictionid_core.errors import FrictionIdError, InputError, OptimError
 
 __version__ = "0.1.0"
@@ -26,25 +31,23 @@ __version__ = "0.1.0"
 _LAZY = {
     "load": "frictionid_core.io",
     "load_drive": "frictionid_core.drive",
+    "Drive": "frictionid_core.drive",
+    "friction_rows": "frictionid_core.drive",
     "identify": "frictionid_core.identification",
     "validate": "frictionid_core.identification",
     "FrictionModel": "frictionid_core.friction",
+    "FRICTIONS": "frictionid_core.friction",
+    "get_model": "frictionid_core.friction",
     "JointSeries": "frictionid_core.timeseries",
+    "SolveOptions": "frictionid_core.options",
+    "check_choice": "frictionid_core.options",
+    "read_json": "frictionid_core.jsonfile",
+    "write_json": "frictionid_core.jsonfile",
+    "YAML_SUFFIXES": "frictionid_core.jsonfile",
 }
 
-__all__ = ["FrictionIdError", "FrictionModel", "InputError", "JointSeries", "OptimError", "identify", "load",
-           "load_drive", "validate"]
+__all__ = ["FRICTIONS", "YAML_SUFFIXES", "Drive", "FrictionIdError", "FrictionModel", "InputError", "JointSeries",
+           "OptimError", "SolveOptions", "check_choice", "friction_rows", "get_model", "identify", "load",
+           "load_drive", "read_json", "validate", "write_json"]
 
-
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(_importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
-
+__getattr__, __dir__ = _lazy.lazy_names(__name__, _LAZY)

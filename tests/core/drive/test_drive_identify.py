@@ -234,7 +234,8 @@ def test_feedforward_of_motor_side_parameters_on_the_recorded_side():
     drive = Drive(**COUPLED2)
     log, truth = coupled_friction_log(drive)
     result = identify(log, system="friction-only", drive=drive,
-                      preprocessing=Preprocessing(filter="none", decimate=1, trim_start_s=0.002, trim_end_s=0.002, min_speed=0.0)).to_dict()
+                      preprocessing=Preprocessing(filter="none", decimate=1, trim_start_s=0.002, trim_end_s=0.002,
+                                                  min_speed=0.0)).to_dict()
     per = split_identification(result)
     assert sorted(per) == ["motor_1", "motor_2"] and per["motor_2"].params["Fc"] == pytest.approx(0.5, rel=2e-3)
     ff = FeedForward(["b", "a"], 0.0, drive)  # the node's joint order differs from the drive's
@@ -268,7 +269,7 @@ def test_feedforward_of_motor_side_parameters_on_the_recorded_side():
 def test_node_parameter_drive_file(tmp_path):
     from frictionid_ros.config import PARAMETERS, make_config
 
-    defaults = {name: default for name, (default, _, _) in PARAMETERS.items()}
+    defaults = {name: p.default for name, p in PARAMETERS.items()}
     assert make_config(defaults).drive is None
     assert make_config({**defaults, "drive_file": "tx40"}).drive == load_drive("tx40")
     (tmp_path / "bad.yaml").write_text("joints: [a]\nside: rotor\n")
@@ -294,7 +295,7 @@ def test_node_identifies_through_its_drive_and_feeds_motor_friction_forward(tmp_
     from frictionid_ros.store import ActiveParameters
 
     (tmp_path / "coupled2.yaml").write_text(json.dumps(COUPLED2))
-    values = {k: v[0] for k, v in PARAMETERS.items()}
+    values = {name: p.default for name, p in PARAMETERS.items()}
     values.update(joints=["a", "b"], system="friction-only", results_file=str(tmp_path / "p.json"),
                   drive_file=str(tmp_path / "coupled2.yaml"), identification_worker="thread", smoothing_eps=0.0,
                   filter_cutoff_hz=200.0, decimation=1)

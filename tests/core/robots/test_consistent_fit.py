@@ -195,7 +195,7 @@ def test_node_parameters_consistent_and_prior_weight(tx40_fits, tmp_path):
     from frictionid_ros.config import PARAMETERS, make_config
     from frictionid_ros.request import Job, consistency_kwargs, consistency_text, summary
 
-    values = {k: v[0] for k, v in PARAMETERS.items()}
+    values = {name: p.default for name, p in PARAMETERS.items()}
     values["results_file"] = str(tmp_path / "p.json")
     with pytest.raises(FrictionIdError, match="parameter 'consistent' needs a robot system.*'emps'"):
         make_config(dict(values, consistent=True))

@@ -1,4 +1,10 @@
-"""Loaders: every source becomes one :class:`~frictionid_core.timeseries.JointSeries`."""
+"""Loaders: every source becomes one :class:`~frictionid_core.timeseries.JointSeries`.
+
+Also public: the checks of a series (:func:`check_series`, :func:`stamp_gaps`, ``MIN_SAMPLES``), the
+alignment of a separate effort stream (:func:`align_effort`) and the bag helpers of other readers
+(:func:`open_reader`, :func:`joint_state_topic`, :func:`topic_listing`, the message type names
+``JOINT_STATE`` and ``FLOAT_ARRAY``). rosbags is imported when a bag is opened.
+"""
 
 from __future__ import annotations
 
@@ -6,13 +12,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from frictionid_core.errors import InputError
-from frictionid_core.io.checks import check_series
+from frictionid_core.io.align import align_effort
+from frictionid_core.io.bag import FLOAT_ARRAY, JOINT_STATE, joint_state_topic, open_reader, topic_listing
+from frictionid_core.io.checks import MIN_SAMPLES, check_series, stamp_gaps
 from frictionid_core.timeseries import JointSeries
 
 if TYPE_CHECKING:
     from frictionid_core.io.layout import Layout
 
-__all__ = ["load"]
+__all__ = ["FLOAT_ARRAY", "JOINT_STATE", "MIN_SAMPLES", "align_effort", "check_series", "joint_state_topic", "load",
+           "open_reader", "stamp_gaps", "topic_listing"]
 BAG_SUFFIXES = (".mcap", ".db3", ".bag")
 
 
@@ -66,7 +75,8 @@ def load(
 
         series = load_bag(path, topic=topic, effort_topic=effort_topic, extras=extras)
     else:
-        raise InputError(f"{path}: unknown format '{suffix}'; expected .mat, .csv, .mcap, .db3, .bag or a rosbag2 directory")
+        raise InputError(f"{path}: unknown format '{suffix}'; expected .mat, .csv, .mcap, .db3, .bag or a rosbag2 "
+                         "directory")
     if joints:
         series = series.select(joints)
     return check_series(series, strict_time=strict_time)

@@ -71,7 +71,7 @@ class _Methods(Mapping):
 
 METHODS: Mapping[str, Callable[..., OptimResult]] = _Methods()
 
-__all__ = ["METHODS", "POPULATION_METHODS", "OptimResult", "Problem", "minimize"]
+__all__ = ["METHODS", "POPULATION_METHODS", "SOLVERS", "OptimResult", "Problem", "minimize"]
 
 
 def __getattr__(name: str):

@@ -9,7 +9,8 @@
 """
 
 from frictionid_core.systems.registry import SYSTEM_NAMES, as_system, get_system, result_system
+from frictionid_core.systems.robot import nominal_parameters
 from frictionid_core.systems.system import RobotInfo, System, observe, parse_joint_map
 
-__all__ = ["SYSTEM_NAMES", "RobotInfo", "System", "as_system", "get_system", "observe", "parse_joint_map",
-           "result_system"]
+__all__ = ["SYSTEM_NAMES", "RobotInfo", "System", "as_system", "get_system", "nominal_parameters", "observe",
+           "parse_joint_map", "result_system"]
