@@ -16,15 +16,18 @@ from pathlib import Path
 from frictionid_core.drive import Drive, load_drive
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import FRICTIONS
+from frictionid_core.identification import IdentifyRequest, budget_field
 from frictionid_core.optim import SOLVERS
-from frictionid_core.options import SolveOptions, check_choice
+from frictionid_core.options import check_choice
 
 from frictionid_ros.realtime import parse_priority
 
 NODE_NAME = "frictionid"
 
-# ROS name → SolveOptions field, for the parameters and the ~/identify request (other names agree).
-CORE_NAMES = {"friction_model": "friction", "population": "pop"}
+# ROS name → IdentifyRequest field (dotted: nested), for the parameters and the ~/identify request (other
+# names agree; ``budget`` is solver.generations or solver.calls, by the solver).
+CORE_NAMES = {"friction_model": "friction", "solver": "solver.method", "seed": "solver.seed",
+              "population": "solver.pop"}
 
 QOS_CHOICES = ("sensor_data", "reliable")
 VELOCITY_SOURCES = ("measured", "reference")
@@ -113,7 +116,7 @@ class Config:
 
     joints: tuple[str, ...]
     system: str
-    solve: SolveOptions  # the defaults of ~/identify: friction_model, asymmetric, solver, seed
+    solve: IdentifyRequest  # the defaults of ~/identify: system, friction_model, asymmetric, solver, seed
     consistent: bool  # physically consistent parameters (robot systems)
     prior_weight: float  # with consistent: weight of the URDF prior; 0 = none
     input_executor: str
@@ -162,18 +165,23 @@ def _choice(name: str, value: str, choices, what: str = "") -> str:
     return check_choice(f"parameter '{name}'", value, choices, what or name)
 
 
-def solve_options(where: str, **fields) -> SolveOptions:
-    """:class:`SolveOptions` from ROS-named ``fields`` (friction_model, asymmetric, solver, seed, budget,
-    population), validated by the core; an error names the ROS field (``{where} 'friction_model': …``)."""
-    try:
-        return SolveOptions(**{CORE_NAMES.get(k, k): v for k, v in fields.items()})
-    except FrictionIdError as exc:
-        text = str(exc)
-        for ros in fields:
-            core = CORE_NAMES.get(ros, ros)
-            if text.startswith((core + ":", core + " ")):
-                raise FrictionIdError(f"{where} '{ros}'{text[len(core):]}") from None
-        raise FrictionIdError(f"{where}: {text}") from None
+def solve_options(where: str, base: IdentifyRequest | None = None, **fields) -> IdentifyRequest:
+    """``base`` (default: the core's defaults) with ROS-named ``fields`` (system, friction_model,
+    asymmetric, solver, seed, budget, population, …) over it, validated by the core's request
+    parser; an error names the ROS field (``{where} 'friction_model': …``)."""
+    values = base.to_dict() if base is not None else {}
+    names = {}
+    for ros, value in fields.items():
+        path = CORE_NAMES.get(ros, ros)
+        if ros == "budget":
+            path = "solver." + budget_field(fields.get("solver") or (values.get("solver") or {}).get("method", "ls"))
+        names[path] = ros
+        part, _, key = path.rpartition(".")
+        if part:
+            values[part] = {**(values.get(part) or {}), key: value}
+        else:
+            values[key] = value
+    return IdentifyRequest.from_dict(values, where=where, names=names)
 
 
 def check_system(name: str) -> str:
@@ -251,8 +259,8 @@ def make_config(values: dict) -> Config:
     return Config(
         joints=joints,
         system=system,
-        solve=solve_options("parameter", friction_model=str(v["friction_model"]), asymmetric=bool(v["asymmetric"]),
-                            solver=str(v["solver"]), seed=int(v["seed"])),
+        solve=solve_options("parameter", system=system, friction_model=str(v["friction_model"]),
+                            asymmetric=bool(v["asymmetric"]), solver=str(v["solver"]), seed=int(v["seed"])),
         consistent=bool(v["consistent"]),
         prior_weight=float(v["prior_weight"]),
         input_executor=_choice("input_executor", v["input_executor"], EXECUTORS, "executor"),
@@ -291,23 +299,6 @@ def make_config(values: dict) -> Config:
         feedforward_max=float(v["feedforward_max"]),
         feedforward_ramp_s=float(v["feedforward_ramp_s"]),
     )
-
-
-def preprocessing_override(system: str, cutoff_hz: float, decimation: int):
-    """The system's default pre-processing with the node's overrides, or None if none is set."""
-    if cutoff_hz <= 0.0 and decimation <= 0:
-        return None
-    from dataclasses import replace
-
-    from frictionid_core.systems import get_system
-
-    base = get_system(system).preprocessing
-    changes = {}
-    if cutoff_hz > 0.0:
-        changes["cutoff_hz"] = cutoff_hz
-    if decimation > 0:
-        changes["decimate"] = decimation
-    return replace(base, **changes)
 
 
 def default_config_file() -> Path | None:

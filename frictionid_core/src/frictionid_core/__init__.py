@@ -7,9 +7,9 @@ The public API::
     import frictionid_core as fid
 
     series = fid.load("bags/emps_estimation")                    # MAT, CSV, rosbag2, ROS 1 bag
-    result = fid.identify(series, system="emps", friction="coulomb", solver="ls")
-    # a motor-side log: fid.identify(log, system="tx40", drive=fid.load_drive("tx40"))
-    metrics = fid.validate(fid.load("bags/emps_validation"), result.to_dict())
+    result = fid.identify(series, fid.IdentifyRequest(system="emps", friction="coulomb", solver="ls"))
+    # a motor-side log: fid.IdentifyRequest(system="tx40", drive="tx40"); a saved one: fid.read_request("r.yaml")
+    metrics = fid.validate(fid.load("bags/emps_validation"), result)
     tau = fid.FrictionModel("coulomb").torque([result.params["Fv"], result.params["Fc"]], [0.1, -0.1])
 
 Importing the package is light (the errors only): every other public name is loaded on first
@@ -28,12 +28,18 @@ _LAZY = {
     "load_drive": "frictionid_core.drive",
     "identify": "frictionid_core.identification",
     "validate": "frictionid_core.identification",
+    "IdentifyRequest": "frictionid_core.identification",
+    "IdentifyResult": "frictionid_core.identification",
+    "SolverOptions": "frictionid_core.identification",
+    "PreprocessingOverrides": "frictionid_core.identification",
+    "read_request": "frictionid_core.identification",
     "FrictionModel": "frictionid_core.friction",
     "JointSeries": "frictionid_core.timeseries",
 }
 
-__all__ = ["FrictionIdError", "FrictionModel", "InputError", "JointSeries", "OptimError", "identify", "load",
-           "load_drive", "validate"]
+__all__ = ["FrictionIdError", "FrictionModel", "IdentifyRequest", "IdentifyResult", "InputError", "JointSeries",
+           "OptimError", "PreprocessingOverrides", "SolverOptions", "identify", "load", "load_drive", "read_request",
+           "validate"]
 
 
 def __getattr__(name: str):

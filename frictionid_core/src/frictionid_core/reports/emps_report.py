@@ -22,13 +22,13 @@ from frictionid_core.reports.html_page import PAGE_STYLE, friction_axes, html_ta
 
 def model_table(series) -> list[dict]:
     """Thesis Table 6.3: every friction model by local search (ls, or lm with variable projection)."""
-    from frictionid_core.identification import identify
+    from frictionid_core.identification import IdentifyRequest, SolverOptions, identify
 
     rows = []
     for m in all_models():
         solver = "ls" if m.is_linear else "lm"
-        res = identify(series, system="emps", friction=m.name, asymmetric=m.asymmetric, solver=solver,
-                       varpro=not m.is_linear)
+        res = identify(series, IdentifyRequest(friction=m.name, asymmetric=m.asymmetric,
+                                               solver=SolverOptions(solver, varpro=not m.is_linear)))
         rows.append({"model": m.label, "solver": solver + ("" if m.is_linear else "+varpro"), "params": res.params,
                      **{k: res.metrics[k] for k in ("relerr_pct", "r2", "rmse", "error_std")}, "result": res})
     worst = max(r["relerr_pct"] for r in rows)
