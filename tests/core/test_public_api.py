@@ -8,7 +8,8 @@ import types
 import frictionid_core
 
 PUBLIC = {"load", "identify", "validate", "FrictionModel", "JointSeries", "FrictionIdError", "InputError",
-          "OptimError", "load_drive"}
+          "OptimError", "load_drive", "IdentifyRequest", "IdentifyResult", "SolverOptions", "PreprocessingOverrides",
+          "read_request"}
 # Modules a bare ``import frictionid_core`` must not load (the CLI's --help must stay fast).
 HEAVY = ("numpy", "scipy", "numba", "sklearn", "skopt", "matplotlib", "rosbags", "pinocchio",
          "frictionid_core.optim", "frictionid_core.identification")
@@ -34,13 +35,23 @@ def test_public_names_are_the_library_objects():
     from frictionid_core.drive import load_drive
     from frictionid_core.errors import FrictionIdError, InputError, OptimError
     from frictionid_core.friction import FrictionModel
-    from frictionid_core.identification import identify, validate
+    from frictionid_core.identification import (
+        IdentifyRequest,
+        IdentifyResult,
+        PreprocessingOverrides,
+        SolverOptions,
+        identify,
+        read_request,
+        validate,
+    )
     from frictionid_core.io import load
     from frictionid_core.timeseries import JointSeries
 
     expected = {"load": load, "identify": identify, "validate": validate, "FrictionModel": FrictionModel,
                 "JointSeries": JointSeries, "FrictionIdError": FrictionIdError, "InputError": InputError,
-                "OptimError": OptimError, "load_drive": load_drive}
+                "OptimError": OptimError, "load_drive": load_drive, "IdentifyRequest": IdentifyRequest,
+                "IdentifyResult": IdentifyResult, "SolverOptions": SolverOptions,
+                "PreprocessingOverrides": PreprocessingOverrides, "read_request": read_request}
     for name, obj in expected.items():
         assert getattr(frictionid_core, name) is obj, name
     # The function lives in the submodule frictionid_core.identification: no name clash.

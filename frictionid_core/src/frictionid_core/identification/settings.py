@@ -108,6 +108,13 @@ class PreprocessingOverrides:
             except (FrictionIdError, TypeError) as exc:
                 raise FieldError(f"preprocessing.{name}", f": {exc}") from None
 
+    @classmethod
+    def from_settings(cls, settings, **changes) -> PreprocessingOverrides:
+        """Every setting of ``settings`` (a Preprocessing, e.g. a result's resolved one:
+        ``Preprocessing.from_dict(result["preprocessing"])``) with ``changes`` over them; its
+        settings left None take the system's default, not the data's choice."""
+        return cls(**{**{name: getattr(settings, name) for name in OVERRIDABLE}, **changes})
+
     def changes(self) -> dict:
         """{setting: value} of the settings given."""
         return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) is not None}

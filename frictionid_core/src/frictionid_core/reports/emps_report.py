@@ -102,6 +102,7 @@ def build_report(estimation: Path, validation: Path, out_dir: Path, study_dir: P
     """Compute everything, write the PNGs, ``report.json`` and ``report.html``; return the JSON dict."""
     from frictionid_core.ensemble import grey_black_ensemble
     from frictionid_core.io import load
+    from frictionid_core.identification import IdentifyRequest
     from frictionid_core.output_error import identify_output_error
     from frictionid_core.emps_simulation import EmpsSimulator, load_emps
 
@@ -125,7 +126,7 @@ def build_report(estimation: Path, validation: Path, out_dir: Path, study_dir: P
     # Output error: choose the model on estimation data only.
     oe = {}
     for friction, asym in (("coulomb", True), ("tustin", True)):
-        res = identify_output_error(estimation, friction=friction, asymmetric=asym)
+        res = identify_output_error(estimation, IdentifyRequest(friction=friction, asymmetric=asym, solver="lm"))
         oe[f"{friction}{'-asym' if asym else ''}"] = {"params": res.params,
                                                        "sim": sim_errors(friction, asym, res.params)}
     best_oe = min(oe, key=lambda k: oe[k]["sim"]["est_true"])
