@@ -21,7 +21,8 @@ def test_request_defaults_and_overrides(tmp_path):
     job = parse_request(Identify.Request(), cfg, ["a", "b"])
     assert job.joints == ["a", "b"] and job.window_seconds == 2.0 and not job.dry_run
     r = job.request
-    assert (r.friction, r.solver.method, r.solver.seed, r.asymmetric, r.joints) == ("tustin", "de", 7, False, ("a", "b"))
+    assert (r.friction, r.solver.method, r.solver.seed, r.asymmetric) == ("tustin", "de", 7, False)
+    assert r.joints == ("a", "b") and r.system == cfg.system
     job = parse_request(Identify.Request(joints=["b"], friction_model="coulomb", solver="ls", seed=3, asymmetric=True,
                                          window_start=stamp_time(T0), dry_run=True), cfg, ["a", "b"])
     r = job.request
@@ -57,3 +58,25 @@ def test_request_defaults_and_overrides(tmp_path):
 def test_request_errors_name_the_field(tmp_path, fields, needle):
     with pytest.raises(FrictionIdError, match=needle):
         parse_request(Identify.Request(**fields), node_config(tmp_path), ["a", "b"])
+
+
+def test_the_node_parameters_are_the_request_defaults(tmp_path):
+    """filter_cutoff_hz/decimation override the system's pre-processing, drive_file gives the drive's
+    keys, known_rigid_body holds the base parameters at the model's values (tx40)."""
+    from frictionid_core.identification import PreprocessingOverrides
+    from frictionid_core.systems import get_system
+    from frictionid_core.systems.robot import nominal_parameters
+
+    cfg = node_config(tmp_path, filter_cutoff_hz=25.0, decimation=4)
+    r = parse_request(Identify.Request(), cfg, ["a"]).request
+    assert r.preprocessing == PreprocessingOverrides(cutoff_hz=25.0, decimate=4) and r.drive is None
+    assert parse_request(Identify.Request(), node_config(tmp_path), ["a"]).request.preprocessing == \
+        PreprocessingOverrides()
+    from frictionid_ros.config import PARAMETERS, make_config
+
+    joints = [f"joint_{k}" for k in range(1, 7)]
+    cfg = make_config({**{k: v[0] for k, v in PARAMETERS.items()}, "joints": joints, "system": "tx40",
+                       "drive_file": "tx40", "known_rigid_body": True, "results_file": str(tmp_path / "p.json")})
+    r = parse_request(Identify.Request(), cfg, joints).request
+    assert r.drive == cfg.drive.to_dict() and r.drive["friction_on"] == "motor"
+    assert r.fixed == nominal_parameters(get_system("tx40")) and len(r.fixed) > 30

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -155,7 +156,7 @@ def test_compare_two_tx40_fits_with_truth(tx40_validation, tx40_fit, tmp_path, c
     ground-truth table, consistent with the differences."""
     chosen = Preprocessing.from_dict(tx40_fit["preprocessing"])
     lower = identify(tx40_validation, IdentifyRequest(
-        system="tx40", preprocessing=PreprocessingOverrides.from_settings(chosen, cutoff_hz=25.0))).to_dict()
+        system="tx40", preprocessing=replace(PreprocessingOverrides.from_settings(chosen), cutoff_hz=25.0))).to_dict()
     a, b = _write(tmp_path / "a.json", tx40_fit), _write(tmp_path / "b.json", lower)
     code = main(["compare", a, b, "--truth", str(BAGS / "tx40_truth.json"), "--json", str(tmp_path / "c.json")])
     text = capsys.readouterr().out

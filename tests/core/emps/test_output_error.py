@@ -1,9 +1,11 @@
 """Output-error identification of the EMPS (simulator inside the optimiser)."""
 
+import json
+
 import pytest
 
 from frictionid_core.emps_simulation import EmpsSimulator, load_emps
-from frictionid_core.identification import IdentifyRequest
+from frictionid_core.identification import IdentifyRequest, IdentifyResult
 from frictionid_core.output_error import identify_output_error
 from support.data import EMPS_ESTIMATION, EMPS_VALIDATION
 
@@ -21,6 +23,9 @@ def test_output_error_improves_the_simulated_position(oe_coulomb_asym):
     before = est.position_relerr(est.as_array(idm))[0]
     assert res.metrics["position_relerr_pct"] < before
     assert res.metrics["clock"] == "true"
+    d = res.to_dict()  # the output-error keys after those of every result, and the round trip
+    assert list(d)[-4:] == ["output_error", "idm", "idm_params", "request"] and d["optimizer"]["method"] == "lm"
+    assert IdentifyResult.from_dict(json.loads(json.dumps(d))) == res
 
 
 @pytest.mark.slow

@@ -109,11 +109,11 @@ class PreprocessingOverrides:
                 raise FieldError(f"preprocessing.{name}", f": {exc}") from None
 
     @classmethod
-    def from_settings(cls, settings, **changes) -> PreprocessingOverrides:
+    def from_settings(cls, settings) -> PreprocessingOverrides:
         """Every setting of ``settings`` (a Preprocessing, e.g. a result's resolved one:
-        ``Preprocessing.from_dict(result["preprocessing"])``) with ``changes`` over them; its
-        settings left None take the system's default, not the data's choice."""
-        return cls(**{**{name: getattr(settings, name) for name in OVERRIDABLE}, **changes})
+        ``Preprocessing.from_dict(result["preprocessing"])``); its settings left None take the
+        system's default, not the data's choice."""
+        return cls(**{name: getattr(settings, name) for name in OVERRIDABLE})
 
     def changes(self) -> dict:
         """{setting: value} of the settings given."""
