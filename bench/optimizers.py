@@ -437,10 +437,10 @@ def run_varpro(series, fr, asym, model, generations, seeds, warm_up: bool = True
         if warm_up:
             once(999)  # warm-up (JIT, caches)
     except TypeError as exc:
-        return {"available": False, "reason": f"identify(varpro=True) not supported: {exc}"}
+        return {"available": False, "reason": f"SolverOptions(varpro=True) not supported: {exc}"}
     except Exception as exc:  # noqa: BLE001 - e.g. OptimError "unknown option(s) ['varpro']"
         if "varpro" in str(exc):
-            return {"available": False, "reason": f"identify(varpro=True) not supported yet: {exc}"}
+            return {"available": False, "reason": f"SolverOptions(varpro=True) not supported yet: {exc}"}
         raise
     runs = [once(s) for s in seeds]
     return {"available": True, "runs": runs, "median_fun": median(r["fun"] for r in runs),

@@ -13,7 +13,7 @@ Protocols:
           generations, BO/DT 100 calls, random start (``warm_start=False``) — the protocol
           of Tables 6.17–6.19;
   varpro  only vs and δ searched, the 7 linear parameters solved in closed form per
-          candidate (``identify(varpro=True)``), same budgets, the closed-form start
+          candidate (``SolverOptions(varpro=True)``), same budgets, the closed-form start
           evaluated first (identify's default).
 
 Reported per algorithm: parameters mean ± std over the runs (Tables 6.17/6.18), wall time per
