@@ -45,6 +45,9 @@ def test_a_short_request_is_the_default_and_values_are_normalised():
     r = IdentifyRequest(solver="lm", joints=["a", "b"], window=[0, 2], bounds={"vs": [0, 1]}, prior="none")
     assert r.solver == SolverOptions("lm") and r.joints == ("a", "b") and r.window == (0.0, 2.0)
     assert r.bounds == {"vs": (0.0, 1.0)} and r.prior is None
+    plain = r.to_dict()
+    plain["bounds"]["vs"][0] = -1.0  # a copy: the request stays as it was
+    assert r.bounds == {"vs": (0.0, 1.0)}
     assert SolverOptions("de", pop=0, generations=0) == SolverOptions("de")  # 0: the method's default
 
 
@@ -69,6 +72,7 @@ def test_a_short_request_is_the_default_and_values_are_normalised():
     (dict(prior_weight=-1.0), r"^request field 'prior_weight' must be >= 0, got -1.0"),
     (dict(consistent=True), r"^request field 'consistent': needs a robot system .* system 'emps' has none"),
     (dict(system="tx40", prior="urdf"), r"^request field 'prior': applies to the consistent fit only"),
+    (dict(system="tx40", consistent=True, prior="cad"), r"^request field 'prior': unknown prior 'cad'; choose one of urdf"),
 ])
 def test_a_bad_value_is_refused_on_creation_naming_its_field(fields, message):
     with pytest.raises(FrictionIdError, match=message):

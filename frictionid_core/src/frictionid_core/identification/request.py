@@ -12,6 +12,7 @@ node's worker process.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
@@ -93,7 +94,10 @@ class IdentifyRequest:
         set_ = object.__setattr__
         for name in ("consistent", "stribeck_order"):
             set_(self, name, flag(name, getattr(self, name)))
-        set_(self, "prior", choice("prior", None if self.prior == "none" else self.prior, (None, "urdf"), "prior"))
+        if self.prior == "none":
+            set_(self, "prior", None)
+        if self.prior is not None:
+            choice("prior", self.prior, ("urdf",), "prior")
         weight = number("prior_weight", self.prior_weight)
         if not 0.0 <= weight < math.inf:
             raise FieldError("prior_weight", f" must be >= 0, got {weight}")
@@ -123,7 +127,7 @@ class IdentifyRequest:
 
     def to_dict(self) -> dict:
         """Plain values (YAML/JSON), read back by :meth:`from_dict`."""
-        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out = {f.name: copy.deepcopy(getattr(self, f.name)) for f in fields(self)}
         out.update(joints=None if self.joints is None else list(self.joints), solver=self.solver.to_dict(),
                    preprocessing=self.preprocessing.to_dict(), window=window_record(self.window),
                    bounds={k: list(v) for k, v in self.bounds.items()})
@@ -179,7 +183,7 @@ def _drive(drive) -> str | dict | None:
             drive_from_dict(dict(drive))
         except FrictionIdError as exc:
             raise FieldError("drive", f": {exc}") from None
-        return dict(drive)
+        return copy.deepcopy(dict(drive))
     raise FieldError("drive", f" must be a drive file, a bundled drive name or the drive's keys, got {drive!r}")
 
 
