@@ -72,7 +72,7 @@ def test_a_short_request_is_the_default_and_values_are_normalised():
     (dict(prior_weight=-1.0), r"^request field 'prior_weight' must be >= 0, got -1.0"),
     (dict(consistent=True), r"^request field 'consistent': needs a robot system .* system 'emps' has none"),
     (dict(system="tx40", prior="urdf"), r"^request field 'prior': applies to the consistent fit only"),
-    (dict(system="tx40", consistent=True, prior="cad"), r"^request field 'prior': unknown prior 'cad'; choose one of urdf"),
+    (dict(system="tx40", consistent=True, prior="cad"), r"^request field 'prior': unknown prior 'cad'; choose"),
 ])
 def test_a_bad_value_is_refused_on_creation_naming_its_field(fields, message):
     with pytest.raises(FrictionIdError, match=message):
