@@ -84,14 +84,15 @@ def threads(n: int | None):
 # ----------------------------------------------------------------------------- ours
 def run_ours(system: str, model, seed: int, best_cost: dict) -> dict:
     """One seed of every frictionid method on ``model`` (the optimiser's own wall time)."""
-    from frictionid_core.identification import solve_model
+    from frictionid_core.identification import SolverOptions, solve_model
 
     pop, gens = BUDGET[system]
     varpro = system == "tx40"
     out = {}
 
     def once(method: str, **kw) -> dict:
-        x, res = solve_model(model, method, seed=seed, varpro=kw.pop("varpro", varpro), warm_start=False, **kw)
+        options = SolverOptions(method, seed, varpro=kw.pop("varpro", varpro), warm_start=False, **kw)
+        x, res = solve_model(model, options)
         fun = float(model.batch_cost(x[None])[0])
         best_cost[system] = min(best_cost.get(system, np.inf), fun)
         return {"seed": seed, "fun": fun, "wall_s": res.wall_s, "nfev": res.nfev,
@@ -121,11 +122,11 @@ def run_simulation(sim, seed: int) -> dict:
 
 
 def run_surrogates(model, ls_cost: float, seed: int) -> dict:
-    from frictionid_core.identification import solve_model
+    from frictionid_core.identification import SolverOptions, solve_model
 
     out = {}
     for method in ("bo", "dt"):
-        x, res = solve_model(model, method, seed=seed, calls=SURROGATE_CALLS)
+        x, res = solve_model(model, SolverOptions(method, seed, calls=SURROGATE_CALLS))
         out[method] = {"seed": seed, "fun": float(res.fun), "wall_s": res.wall_s, "nfev": res.nfev,
                        "ls_cost": ls_cost}
     return out
@@ -256,7 +257,7 @@ def main(argv=None) -> int:
     with_tx40 = not (a.quick or a.no_tx40)
     out_path = a.out or RESULTS / ("contention_quick.json" if a.quick else "contention.json")
 
-    from frictionid_core.identification import build_model, identify
+    from frictionid_core.identification import IdentifyRequest, build_model, identify
     from frictionid_core.io import load
     from frictionid_core.parallel import busy_cpus
     from frictionid_core.emps_simulation import EmpsSimulator
@@ -265,7 +266,7 @@ def main(argv=None) -> int:
     emps = load(str(EMPS_BAG))
     models = {"emps": build_model(emps, "emps", "tustin", True)}
     coulomb = build_model(emps, "emps", "coulomb", False)
-    ls_cost = float(identify(emps, friction="coulomb", solver="ls").metrics["cost"])
+    ls_cost = float(identify(emps, IdentifyRequest(friction="coulomb", solver="ls")).metrics["cost"])
     if with_tx40:
         models["tx40"] = build_model(load(str(TX40_BAG)), "tx40", "stribeck", False)
     sim = EmpsSimulator(EMPS_BAG, "tustin", True)

@@ -26,7 +26,7 @@ implementation gets one untimed warm-up run per algorithm first. Wall times are 
 seeds measured around the optimiser call (process start, imports and data loading excluded).
 
 Also: "time to quality" (C* = best final cost of any run on the model; the variable-projection
-``solve_model(model, "lm", varpro=True)`` path vs mealpy DE) and, in full mode, bo/dt with
+``solve_model(model, SolverOptions("lm", varpro=True))`` path vs mealpy DE) and, in full mode, bo/dt with
 100 calls (first 3 seeds). Results: bench/results/optimizers.{json,txt} (quick: optimizers_quick;
 --seeds N other than 5: optimizers_Nseeds). A two-sided Mann-Whitney U p-value tells whether
 our final costs and mealpy's differ at all.
@@ -422,13 +422,13 @@ class MealpyPeer:
 
 # ----------------------------------------------------------------------------- varpro, bo, dt
 def run_varpro(series, fr, asym, model, generations, seeds, warm_up: bool = True) -> dict:
-    from frictionid_core.identification import solve_model
+    from frictionid_core.identification import SolverOptions, solve_model
 
     def once(seed):
         # Same footing as the peers: the prebuilt model's cost; the clock covers the whole
         # variable-projection solve (closed-form start sample + lm on vs/delta).
         t0 = time.perf_counter()
-        x, opt = solve_model(model, "lm", seed=seed, varpro=True)
+        x, opt = solve_model(model, SolverOptions("lm", seed, varpro=True))
         wall = time.perf_counter() - t0
         return {"seed": seed, "fun": float(model.batch_cost(x[None])[0]), "wall_s": wall,
                 "optimizer_wall_s": opt.wall_s, "nfev": opt.nfev, "x": x.tolist()}
@@ -437,10 +437,10 @@ def run_varpro(series, fr, asym, model, generations, seeds, warm_up: bool = True
         if warm_up:
             once(999)  # warm-up (JIT, caches)
     except TypeError as exc:
-        return {"available": False, "reason": f"identify(varpro=True) not supported: {exc}"}
+        return {"available": False, "reason": f"SolverOptions(varpro=True) not supported: {exc}"}
     except Exception as exc:  # noqa: BLE001 - e.g. OptimError "unknown option(s) ['varpro']"
         if "varpro" in str(exc):
-            return {"available": False, "reason": f"identify(varpro=True) not supported yet: {exc}"}
+            return {"available": False, "reason": f"SolverOptions(varpro=True) not supported yet: {exc}"}
         raise
     runs = [once(s) for s in seeds]
     return {"available": True, "runs": runs, "median_fun": median(r["fun"] for r in runs),

@@ -20,7 +20,7 @@ from tx40_real import SPLIT_S, prepare
 
 from frictionid_core.cli import build_parser
 from frictionid_core.cli._common import drive_option, load_sources
-from frictionid_core.identification import build_model, model_metrics, solve_model
+from frictionid_core.identification import SolverOptions, build_model, model_metrics, solve_model
 from frictionid_core.robots.consistent_fit import consistent_fit
 from frictionid_core.systems import as_system
 
@@ -32,7 +32,7 @@ def main() -> int:
                               "--system", "tx40"])
     sources, system = load_sources(args), as_system("tx40", None, drive_option(args))
     model = build_model([s.window(None, SPLIT_S) for s in sources], system, "stribeck", False)
-    x, _ = solve_model(model, "hybrid", varpro=True, seed=0)
+    x, _ = solve_model(model, SolverOptions("hybrid", varpro=True))
     vmodel = build_model([s.window(SPLIT_S, None) for s in sources], system, "stribeck", False,
                          model.obs.preprocessing)
     lines = ["real TX40 stribeck hybrid (seed 0), fit 0–6.3 s, validate 6.3 s–end; cost = Σ residual² on the fit rows"]

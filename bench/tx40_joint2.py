@@ -13,7 +13,7 @@ Protocols:
           generations, BO/DT 100 calls, random start (``warm_start=False``) — the protocol
           of Tables 6.17–6.19;
   varpro  only vs and δ searched, the 7 linear parameters solved in closed form per
-          candidate (``identify(varpro=True)``), same budgets, the closed-form start
+          candidate (``SolverOptions(varpro=True)``), same budgets, the closed-form start
           evaluated first (identify's default).
 
 Reported per algorithm: parameters mean ± std over the runs (Tables 6.17/6.18), wall time per
@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from frictionid_core.identification import identify, validate
+from frictionid_core.identification import IdentifyRequest, SolverOptions, identify, validate
 from frictionid_core.io import load
 from frictionid_core.robots.synth import expected_parameters
 
@@ -68,8 +68,8 @@ def run(algorithms, protocols, runs, bags: Path, slow_runs: int | None = None) -
         for alg in algorithms:
             rows = []
             for seed in range(slow_runs if alg == "bo" and slow_runs is not None else runs):
-                r = identify(est, system="tx40-j2", friction="stribeck", solver=alg, seed=seed,
-                             varpro=(protocol == "varpro"), warm_start=(protocol == "varpro")).to_dict()
+                solver = SolverOptions(alg, seed, varpro=protocol == "varpro", warm_start=protocol == "varpro")
+                r = identify(est, IdentifyRequest(system="tx40-j2", friction="stribeck", solver=solver)).to_dict()
                 rows.append({"params": r["params"], "wall_s": r["wall_s"], "relerr_est": r["metrics"]["relerr_pct"],
                              "relerr_val": validate(val, r)["relerr_pct"]})
                 if not floor_done:
@@ -92,8 +92,8 @@ def run(algorithms, protocols, runs, bags: Path, slow_runs: int | None = None) -
     times = []
     for seed in range(3):
         t0 = time.perf_counter()
-        identify(est, system="tx40-j2", friction="stribeck", solver="de", seed=seed, warm_start=False,
-                 pop=50, generations=100)
+        solver = SolverOptions("de", seed, pop=50, generations=100, warm_start=False)
+        identify(est, IdentifyRequest(system="tx40-j2", friction="stribeck", solver=solver))
         times.append(time.perf_counter() - t0)
     out["de_50x100_wall_s"] = {"runs": times, "median": float(np.median(times)), "thesis": 171.16}
     return out

@@ -18,7 +18,7 @@ import numpy as np
 
 from _results import publish
 
-from frictionid_core.identification import build_model, identify, model_metrics
+from frictionid_core.identification import IdentifyRequest, SolverOptions, build_model, identify, model_metrics
 from frictionid_core.io import load
 from frictionid_core.preprocess import Preprocessing
 from frictionid_core.robots.consistent_fit import consistent_fit
@@ -30,7 +30,8 @@ ROOT = Path(__file__).resolve().parents[1]
 def main() -> int:
     est, val = load(ROOT / "bags" / "tx40_excitation"), load(ROOT / "bags" / "tx40_validation")
     t0 = time.perf_counter()
-    r = identify(est, system="tx40", friction="stribeck", solver="hybrid", pop=10, generations=3, seed=0).to_dict()
+    solver = SolverOptions("hybrid", pop=10, generations=3)
+    r = identify(est, IdentifyRequest(system="tx40", friction="stribeck", solver=solver)).to_dict()
     lines = [f"synthetic TX40 stribeck hybrid (DE 10 × 3 + lm, seed 0; {time.perf_counter() - t0:.0f} s); "
              "relative error % on the fit / on tx40_validation"]
     pre = Preprocessing.from_dict(r["preprocessing"])

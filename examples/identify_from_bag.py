@@ -17,7 +17,7 @@ BAG = Path(__file__).resolve().parents[1] / "bags" / "emps_estimation"
 
 def main(argv: list[str]) -> int:
     series = fid.load(BAG)  # /joint_states: position (m) and effort (N) of the single joint
-    result = fid.identify(series, system="emps", friction="coulomb", solver="ls")
+    result = fid.identify(series, fid.IdentifyRequest(system="emps", friction="coulomb", solver="ls"))
     print(f"{result.system} · {result.friction} · solver {result.solver} · {result.metrics['samples']} samples")
     for name, value in result.params.items():
         print(f"{name:<8}{value:>12.6g}  ± {result.std[name]:.3g}")

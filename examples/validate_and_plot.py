@@ -24,9 +24,10 @@ BAGS = Path(__file__).resolve().parents[1] / "bags"
 
 def main(argv: list[str]) -> int:
     out = Path(argv[0]) if argv else Path.cwd()
-    result = fid.identify(fid.load(BAGS / "emps_estimation"), system="emps", friction="coulomb", solver="ls")
+    request = fid.IdentifyRequest(system="emps", friction="coulomb", solver="ls")
+    result = fid.identify(fid.load(BAGS / "emps_estimation"), request)
     validation = fid.load(BAGS / "emps_validation")
-    metrics = fid.validate(validation, result.to_dict())
+    metrics = fid.validate(validation, result)
     print(f"relative error: estimation {result.metrics['relerr_pct']:.5g} %, "
           f"validation {metrics['relerr_pct']:.5g} %")
 

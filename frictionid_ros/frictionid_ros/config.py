@@ -17,14 +17,16 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from frictionid_core import FRICTIONS, Drive, FrictionIdError, SolveOptions, check_choice, load_drive
+from frictionid_core import FRICTIONS, Drive, FrictionIdError, IdentifyRequest, budget_field, check_choice, load_drive
 from frictionid_core.optim import SOLVERS
 from frictionid_ros.realtime import parse_priority
 
 NODE_NAME = "frictionid"
 
-# ROS name → SolveOptions field, for the parameters and the ~/identify request (other names agree).
-CORE_NAMES = {"friction_model": "friction", "population": "pop"}
+# ROS name → IdentifyRequest field (dotted: nested), for the parameters and the ~/identify request (other
+# names agree; ``budget`` is solver.generations or solver.calls, by the solver).
+CORE_NAMES = {"friction_model": "friction", "solver": "solver.method", "seed": "solver.seed",
+              "population": "solver.pop"}
 
 @dataclass(frozen=True)
 class Parameter:
@@ -96,18 +98,23 @@ def parameter(default, description: str, **declaration) -> Any:
     return field(metadata={"parameter": Parameter(default, description, **declaration)})
 
 
-def solve_options(where: str, **fields) -> SolveOptions:
-    """:class:`SolveOptions` from ROS-named ``fields`` (friction_model, asymmetric, solver, seed, budget,
-    population), validated by the core; an error names the ROS field (``{where} 'friction_model': …``)."""
-    try:
-        return SolveOptions(**{CORE_NAMES.get(k, k): v for k, v in fields.items()})
-    except FrictionIdError as exc:
-        text = str(exc)
-        for ros in fields:
-            core = CORE_NAMES.get(ros, ros)
-            if text.startswith((core + ":", core + " ")):
-                raise FrictionIdError(f"{where} '{ros}'{text[len(core):]}") from None
-        raise FrictionIdError(f"{where}: {text}") from None
+def solve_options(where: str, base: IdentifyRequest | None = None, **fields) -> IdentifyRequest:
+    """``base`` (default: the core's defaults) with ROS-named ``fields`` (system, friction_model,
+    asymmetric, solver, seed, budget, population, …) over it, validated by the core's request
+    parser; an error names the ROS field (``{where} 'friction_model': …``)."""
+    values = base.to_dict() if base is not None else {}
+    names = {}
+    for ros, value in fields.items():
+        path = CORE_NAMES.get(ros, ros)
+        if ros == "budget":
+            path = "solver." + budget_field(fields.get("solver") or (values.get("solver") or {}).get("method", "ls"))
+        names[path] = ros
+        part, _, key = path.rpartition(".")
+        if part:
+            values[part] = {**(values.get(part) or {}), key: value}
+        else:
+            values[key] = value
+    return IdentifyRequest.from_dict(values, where=where, names=names)
 
 
 def check_system(name: str) -> str:
@@ -255,10 +262,10 @@ class Config:
     drive: Drive | None  # loaded from drive_file at start
 
     @property
-    def solve(self) -> SolveOptions:
-        """The defaults of ~/identify: friction_model, asymmetric, solver, seed."""
-        return solve_options("parameter", friction_model=self.friction_model, asymmetric=self.asymmetric,
-                             solver=self.solver, seed=self.seed)
+    def solve(self) -> IdentifyRequest:
+        """The defaults of ~/identify: system, friction_model, asymmetric, solver, seed."""
+        return solve_options("parameter", system=self.system, friction_model=self.friction_model,
+                             asymmetric=self.asymmetric, solver=self.solver, seed=self.seed)
 
     @property
     def capacity(self) -> int:
@@ -290,20 +297,3 @@ def make_config(values: dict) -> Config:
     config = Config(**settings, drive=_drive(settings["drive_file"]))
     config.solve  # noqa: B018 - the core's validation of the identification defaults, as for a request
     return config
-
-
-def preprocessing_override(system: str, cutoff_hz: float, decimation: int):
-    """The system's default pre-processing with the node's overrides, or None if none is set."""
-    if cutoff_hz <= 0.0 and decimation <= 0:
-        return None
-    from dataclasses import replace
-
-    from frictionid_core.systems import get_system
-
-    base = get_system(system).preprocessing
-    changes = {}
-    if cutoff_hz > 0.0:
-        changes["cutoff_hz"] = cutoff_hz
-    if decimation > 0:
-        changes["decimate"] = decimation
-    return replace(base, **changes)

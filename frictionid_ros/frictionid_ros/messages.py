@@ -35,7 +35,7 @@ def joint_friction(p: JointParams) -> JointFriction:
 
 def parameters_msg(results: Results, joints: list[str]) -> IdentifiedParameters:
     """``results`` as an IdentifiedParameters: its joints in the order of ``joints``, then the
-    others; shared parameters from ``results.last`` (the core's identification dict)."""
+    others; shared parameters from ``results.last`` (the core's IdentifyResult)."""
     msg = IdentifiedParameters()
     msg.shared_param_names, msg.shared_param_values, msg.shared_param_std = shared_parameters(results.last)
     msg.header.stamp = to_time(results.stamp_ns)

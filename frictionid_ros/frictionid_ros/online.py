@@ -17,10 +17,10 @@ import time
 
 from frictionid_core import FrictionIdError
 from frictionid_core.loop import Decision, screen
-from frictionid_ros.request import Job
+from frictionid_ros.request import Job, node_request
 from frictionid_ros.store import Results, read_results, split_identification
 from frictionid_ros.window import Selection
-from frictionid_ros.worker import Cancelled, JobControl
+from frictionid_ros.worker import Cancelled, Gate, JobControl
 
 
 def split(series, holdout: float):
@@ -43,7 +43,9 @@ class Online:
         self.last_note = "no review yet"
 
     def _job(self, seconds: float) -> Job:
-        return Job(list(self._joints()), self._settings().solve, window_seconds=seconds, dry_run=True)
+        """A dry run of the node's own identification on the last ``seconds`` of the buffer."""
+        joints = list(self._joints())
+        return Job(joints, node_request(self._settings(), joints, "parameter"), window_seconds=seconds, dry_run=True)
 
     def tick(self) -> Decision | None:
         """One re-identification and its review; None when skipped (busy, too little data, failed)."""
@@ -52,14 +54,14 @@ class Online:
             if not free:
                 return self._skip("an identification is running")
             try:
-                sel = self._service.window(self._job(cfg.online_window_s))
+                job = self._job(cfg.online_window_s)
+                sel = self._service.window(job)
                 fit, held = split(sel.series, cfg.online_holdout)
-                review_args = {"current": self._active.results.last, "holdout": held, "max_abs": cfg.gate_max_abs}
-                result, _ = self._service.run_job(self._job(cfg.online_window_s), JobControl(),
-                                                  Selection(fit, sel.start_ns, sel.end_ns, sel.notes), review_args)
+                gate = Gate(self._active.results.last, held, cfg.gate_max_abs)
+                result, decision, _ = self._service.run_job(job, JobControl(),
+                                                            Selection(fit, sel.start_ns, sel.end_ns, sel.notes), gate)
             except (FrictionIdError, Cancelled) as exc:
                 return self._skip(str(exc))
-            decision = Decision(**result.pop("review"))
             if decision.accepted:
                 stamp = time.time_ns()
                 self._active.activate(Results(split_identification(result, stamp), result, sel.start_ns,
@@ -72,14 +74,14 @@ class Online:
         cfg = self._settings()
         try:
             loaded = read_results(path)
-            if not loaded.last or "params" not in loaded.last:
+            if loaded.last is None:
                 raise FrictionIdError(f"{path}: no complete identification result to judge")
             decision = screen(loaded.last, cfg.gate_max_abs)
             if decision is None:  # the predictions run in the worker (they would take the GIL here)
                 job = self._job(cfg.online_window_s * cfg.online_holdout)
                 sel = self._service.window(job)
-                gate = {"current": self._active.results.last, "holdout": sel.series, "max_abs": cfg.gate_max_abs}
-                decision = Decision(**self._service.run_job(job, JobControl(), sel, gate, loaded.last)[0]["review"])
+                gate = Gate(self._active.results.last, sel.series, cfg.gate_max_abs, candidate=loaded.last)
+                decision = self._service.run_job(job, JobControl(), sel, gate)[1]
         except (FrictionIdError, Cancelled) as exc:
             return False, f"not loaded: {exc}"
         decision = self._record(decision, f"load {path}")

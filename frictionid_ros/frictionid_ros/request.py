@@ -1,17 +1,18 @@
 """The ``~/identify`` request validated into a :class:`Job`, and the answer's text (no ROS import).
 
-:func:`parse_request` reads the fields of a ``frictionid_interfaces/srv/Identify`` request;
-empty strings and zeros take the node's defaults (:attr:`Config.solve`, ``window_seconds``).
+:func:`parse_request` reads the fields of a ``frictionid_interfaces/srv/Identify`` request into
+the core's :class:`~frictionid_core.identification.IdentifyRequest` (:func:`node_request`: the
+node's parameters are its defaults; empty strings and zeros in the request take them).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from frictionid_core import FrictionIdError, InputError, SolveOptions
+from frictionid_core import FrictionIdError, IdentifyRequest, IdentifyResult, InputError, PreprocessingOverrides
 from frictionid_ros.buffer import NS, stamp_ns
 from frictionid_ros.config import Config, solve_options
 
@@ -22,7 +23,7 @@ class Job:
 
     Attributes:
         joints: joints to identify, a subset of the buffered ones.
-        options: friction model, solver, seed (resolved) and budgets.
+        request: what the core identifies (its joints are ``joints``).
         window_seconds: the last ``window_seconds`` of the buffer [s]; 0 with a stamp range,
             or for the whole buffer.
         start_ns, end_ns: stamp range [ns since the epoch]; 0 = open bound.
@@ -30,20 +31,31 @@ class Job:
     """
 
     joints: list[str]
-    options: SolveOptions
+    request: IdentifyRequest
     window_seconds: float = 0.0
     start_ns: int = 0
     end_ns: int = 0
     dry_run: bool = False
 
-    def identify_kwargs(self, system: str, preprocessing=None) -> dict:
-        """Keywords of :func:`frictionid_core.identification.identify` for this job."""
-        o = self.options
-        kwargs = dict(system=system, friction=o.friction, asymmetric=o.asymmetric, solver=o.solver, seed=o.seed,
-                      **o.solver_options())
-        if preprocessing is not None:
-            kwargs["preprocessing"] = preprocessing
-        return kwargs
+
+def node_request(cfg: Config, joints: list[str], where: str = "request field", **fields) -> IdentifyRequest:
+    """The identification of ``joints`` the node runs: its parameters (``cfg.solve``: system,
+    friction_model, asymmetric, solver, seed; ``consistent`` and ``prior_weight``;
+    ``filter_cutoff_hz``/``decimation`` over the system's pre-processing; ``drive_file``;
+    ``known_rigid_body``: the base parameters held at the model's values) with the ROS-named
+    ``fields`` of a request over them; an error names the field (``{where} 'friction_model': …``)."""
+    fixed = {}
+    if cfg.known_rigid_body:
+        from frictionid_core.systems import get_system, nominal_parameters
+
+        fixed = nominal_parameters(get_system(cfg.system))
+    prior = cfg.consistent and cfg.prior_weight > 0.0
+    overrides = {k: v for k, v in (("cutoff_hz", cfg.filter_cutoff_hz), ("decimate", cfg.decimation)) if v > 0}
+    drive = cfg.drive.to_dict() if cfg.drive is not None else None
+    base = replace(cfg.solve, joints=tuple(joints) or None, drive=drive,
+                   preprocessing=PreprocessingOverrides(**overrides), fixed=fixed, consistent=cfg.consistent,
+                   prior="urdf" if prior else None, prior_weight=cfg.prior_weight if prior else 1.0)
+    return solve_options(where, base, **fields)
 
 
 def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
@@ -65,11 +77,12 @@ def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
     if len(set(joints)) != len(joints):
         raise InputError(f"duplicated joint names in {joints}")
     default = cfg.solve
-    seed = int(req.seed) if req.seed > 0 else default.seed if req.seed == 0 else \
+    seed = int(req.seed) if req.seed > 0 else default.solver.seed if req.seed == 0 else \
         int(np.random.SeedSequence().entropy % 2**63)
-    options = solve_options("request field", friction_model=req.friction_model or default.friction,
-                            asymmetric=bool(req.asymmetric or default.asymmetric), solver=req.solver or default.solver,
-                            seed=seed, budget=int(req.budget), population=int(req.population))
+    fields = dict(asymmetric=bool(req.asymmetric or default.asymmetric), seed=seed, budget=int(req.budget),
+                  population=int(req.population))
+    fields.update((k, v) for k, v in (("friction_model", req.friction_model), ("solver", req.solver)) if v)
+    request = node_request(cfg, joints, "request field", **fields)
     ws = float(req.window_seconds)
     start, end = stamp_ns(req.window_start), stamp_ns(req.window_end)
     if not math.isfinite(ws) or ws < 0.0:
@@ -85,33 +98,23 @@ def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
                          f"{cfg.max_window_seconds:g} s")
     if ws == 0.0 and not (start or end):
         ws = cfg.window_seconds
-    return Job(joints, options, ws, start, end, bool(req.dry_run))
+    return Job(joints, request, ws, start, end, bool(req.dry_run))
 
 
-def consistency_kwargs(cfg: Config) -> dict:
-    """Keywords of :func:`frictionid_core.identification.identify` for the node's ``consistent`` and
-    ``prior_weight`` parameters ({} when not consistent)."""
-    if not cfg.consistent:
-        return {}
-    if cfg.prior_weight > 0.0:
-        return dict(consistent=True, prior="urdf", prior_weight=cfg.prior_weight)
-    return dict(consistent=True)
-
-
-def consistency_text(result: dict) -> str:
+def consistency_text(result: IdentifyResult) -> str:
     """``FEASIBLE (…)`` of a consistent identification (its ``consistency`` block), else ""."""
-    c = result.get("consistency")
+    c = result.consistency
     if not c:
         return ""
     return (f"{'FEASIBLE' if c['feasible'] else 'NOT FEASIBLE'} (SDP {c['sdp_wall_s']:.2f} s, prior {c['prior']}"
             f"{' W=%g' % c['prior_weight'] if c['prior'] != 'none' else ''}, cost +{c['cost_increase_pct']:.3g} %)")
 
 
-def summary(job: Job, result: dict, samples: int, seconds: float) -> str:
+def summary(job: Job, result: IdentifyResult, samples: int, seconds: float) -> str:
     """One line on an identification: model, solver, window, duration [s], consistency and parameters."""
-    d = result
-    consistency = consistency_text(d)
-    return (f"identified {d['system']}/{d['friction']}{'-asym' if d['asymmetric'] else ''} with {d['solver']} "
+    r = result
+    consistency = consistency_text(r)
+    return (f"identified {r.system}/{r.friction}{'-asym' if r.asymmetric else ''} with {r.solver} "
             f"on {samples} samples of {job.joints} in {seconds:.2f} s"
             + (f"; consistency: {consistency}" if consistency else "") + ": "
-            + ", ".join(f"{k}={v:.6g}" for k, v in d["params"].items()))
+            + ", ".join(f"{k}={v:.6g}" for k, v in r.params.items()))

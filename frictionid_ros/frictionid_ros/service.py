@@ -7,14 +7,18 @@ import threading
 import time
 import traceback
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from frictionid_core import FrictionIdError
-from frictionid_ros.config import preprocessing_override
 from frictionid_ros.inputs import Inputs
-from frictionid_ros.request import Job, consistency_kwargs, consistency_text, parse_request, summary
+from frictionid_ros.request import Job, consistency_text, parse_request, summary
 from frictionid_ros.store import ActiveParameters, Results, split_identification
 from frictionid_ros.window import Selection, window_series
-from frictionid_ros.worker import Cancelled, JobControl, WorkerProcess, checked_result, run_identification
+from frictionid_ros.worker import Cancelled, Gate, JobControl, WorkerProcess, checked_result, run_identification
+
+if TYPE_CHECKING:
+    from frictionid_core import IdentifyResult
+    from frictionid_core.loop import Decision
 
 WAIT_PERIOD_S = 0.05  # how often a waiting request checks the wall time and calls on_wait [s]
 
@@ -50,8 +54,6 @@ class IdentifyService:
         self._active = active
         self._topics = topics
         self._worker = worker
-        cfg = settings()
-        self._pre = preprocessing_override(cfg.system, cfg.filter_cutoff_hz, cfg.decimation)  # read-only parameters
         self._log = log
         self.stopping = threading.Event()
         self._busy = threading.Lock()
@@ -146,12 +148,12 @@ class IdentifyService:
                 return self._record(False, str(exc))
             self._log.error("identification crashed:\n" + "".join(traceback.format_exception(exc)))
             return self._record(False, f"identification failed: {type(exc).__name__}: {exc}")
-        d, sel = box["result"]
+        result, _, sel = box["result"]
         stamp = time.time_ns()
         n = len(sel.series)
-        identified = Results(split_identification(d, stamp), d, sel.start_ns, sel.end_ns, n, stamp)
-        text = summary(job, d, n, time.monotonic() - control.t_start)
-        self.last_consistency = consistency_text(d)
+        identified = Results(split_identification(result, stamp), result, sel.start_ns, sel.end_ns, n, stamp)
+        text = summary(job, result, n, time.monotonic() - control.t_start)
+        self.last_consistency = consistency_text(result)
         text += " (dry run: active parameters unchanged)" if job.dry_run else self._active.activate(identified)
         if sel.notes:
             text += "; notes: " + "; ".join(sel.notes)
@@ -163,24 +165,15 @@ class IdentifyService:
         return window_series(job, self._settings(), inputs.ring, self._topics["joint_states"], inputs.effort_ring,
                              self._topics.get("effort", ""))
 
-    def run_job(self, job: Job, control: JobControl, sel: Selection | None = None, review: dict | None = None,
-                candidate: dict | None = None) -> tuple[dict, Selection]:
-        """Identify the job's window (or ``sel``'s series): (the core's result dict, the window);
-        ``review``: judge the result by the safety gate as well, ``candidate``: judge this one
-        instead of identifying (:func:`.worker.run_identification`: in the worker)."""
-        cfg = self._settings()
+    def run_job(self, job: Job, control: JobControl, sel: Selection | None = None, gate: Gate | None = None
+                ) -> tuple[IdentifyResult, Decision | None, Selection]:
+        """Identify the job's window (or ``sel``'s series): (the core's result, the safety gate's
+        decision with a ``gate``, else None, the window); with ``gate.candidate`` that result is
+        judged instead of identifying one (:func:`.worker.run_identification`: in the worker)."""
         sel = sel or self.window(job)
-        kwargs = job.identify_kwargs(cfg.system, self._pre)
-        kwargs.update({k: v for k, v in (("review", review), ("candidate", candidate)) if v is not None})
-        kwargs["drive"] = cfg.drive  # read-only: the one of start-up
-        kwargs.update(consistency_kwargs(cfg))
-        if cfg.known_rigid_body:
-            from frictionid_core.systems import get_system, nominal_parameters
-
-            kwargs["fixed"] = nominal_parameters(get_system(cfg.system))
-        reply = (self._worker.run(sel.series, kwargs, control) if self._worker is not None
-                 else run_identification(sel.series, kwargs, control.report))
-        return checked_result(reply, self._log.error), sel
+        reply = (self._worker.run(sel.series, job.request, control, gate) if self._worker is not None
+                 else run_identification(sel.series, job.request, control.report, gate))
+        return *checked_result(reply, self._log.error), sel
 
     def _record(self, ok: bool, message: str, identified: Results | None = None, cancelled: bool = False) -> Answer:
         self.last_ok, self.last_status = ok, message

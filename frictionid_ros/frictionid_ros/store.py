@@ -1,6 +1,6 @@
 """Active parameters per joint and the results file (no ROS import).
 
-The results file is JSON: the last identification exactly as ``Identification.to_dict()``
+The results file is JSON: the last identification exactly as ``IdentifyResult.to_dict()``
 (system, friction, asymmetric, solver, source, joints, params, std, metrics, wall_s), plus
 
 * ``per_joint``: {joint: {system, friction, asymmetric, solver, params, std, metrics, samples,
@@ -25,9 +25,11 @@ import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
-from frictionid_core import YAML_SUFFIXES, FrictionIdError, friction_rows, get_model, read_json, write_json
+from frictionid_core import YAML_SUFFIXES, FrictionIdError, IdentifyResult, get_model, read_json, write_json
 
 FORMAT = "frictionid_ros/1"
+# Keys of the results file around the last identification's.
+_FILE_KEYS = ("format", "per_joint", "window_start_ns", "window_end_ns", "window_samples", "stamp_ns")
 
 
 @dataclass
@@ -59,22 +61,18 @@ class JointParams:
         return d
 
 
-def split_identification(result: dict, stamp_ns: int = 0) -> dict[str, JointParams]:
-    """Per-joint parameters of an ``Identification.to_dict()``.
+def split_identification(result: IdentifyResult, stamp_ns: int = 0) -> dict[str, JointParams]:
+    """Per-joint parameters of an identification.
 
     With several joints, names ``<joint>/<name>`` go to their joint; unprefixed (shared, e.g.
     rigid-body) parameters stay only in the top-level ``params``. With one joint every
     parameter belongs to it. Metrics are those of the whole fit; ``samples`` is per joint.
     Under a drive with friction on the motors the parameters are per motor (``motor_<k>``).
     """
-    try:
-        joints = friction_rows(result)
-        params, std = dict(result["params"]), dict(result.get("std") or {})
-        system, friction = str(result["system"]), str(result["friction"])
-        asym, solver = bool(result["asymmetric"]), str(result.get("solver", ""))
-    except (KeyError, TypeError) as exc:
-        raise FrictionIdError(f"identification result lacks {exc}") from None
-    metrics = {k: float(v) for k, v in (result.get("metrics") or {}).items() if isinstance(v, (int, float))}
+    joints = result.friction_rows()
+    params, std = dict(result.params), dict(result.std)
+    system, friction, asym, solver = result.system, result.friction, bool(result.asymmetric), result.solver
+    metrics = {k: float(v) for k, v in result.metrics.items() if isinstance(v, (int, float))}
     total = int(metrics.get("samples", 0))
     out = {}
     for j in joints:
@@ -91,28 +89,28 @@ def split_identification(result: dict, stamp_ns: int = 0) -> dict[str, JointPara
 
 
 
-def shared_parameters(result: dict | None) -> tuple[list[str], list[float], list[float]]:
-    """(names, values, std) of the parameters of an ``Identification.to_dict()`` that belong to
-    no single joint (unprefixed names of a several-joint result: the robot's base parameters)."""
-    if not result or len(result.get("joints") or []) < 2:
+def shared_parameters(result: IdentifyResult | None) -> tuple[list[str], list[float], list[float]]:
+    """(names, values, std) of the parameters of an identification that belong to no single joint
+    (unprefixed names of a several-joint result: the robot's base parameters)."""
+    if result is None or len(result.joints) < 2:
         return [], [], []
-    std = result.get("std") or {}
-    names = [k for k in result.get("params", {}) if "/" not in k]
-    return names, [float(result["params"][k]) for k in names], [float(std.get(k, float("nan"))) for k in names]
+    names = [k for k in result.params if "/" not in k]
+    return (names, [float(result.params[k]) for k in names],
+            [float(result.std.get(k, float("nan"))) for k in names])
 
 @dataclass
 class Results:
     """What the results file holds: the active parameters and the last identification."""
 
     per_joint: dict[str, JointParams] = field(default_factory=dict)
-    last: dict | None = None
+    last: IdentifyResult | None = None
     window_start_ns: int = 0
     window_end_ns: int = 0
     window_samples: int = 0
     stamp_ns: int = 0
 
     def to_dict(self) -> dict:
-        d = dict(self.last or {})
+        d = self.last.to_dict() if self.last is not None else {}
         d.update(format=FORMAT, window_start_ns=int(self.window_start_ns), window_end_ns=int(self.window_end_ns),
                  window_samples=int(self.window_samples), stamp_ns=int(self.stamp_ns),
                  per_joint={j: p.to_dict() for j, p in self.per_joint.items()})
@@ -196,8 +194,10 @@ def read_results(path: Path) -> Results:
                     {k: float(v) for k, v in (d.get("std") or {}).items()},
                     {k: float(v) for k, v in (d.get("metrics") or {}).items()},
                     int(d.get("samples", 0)), int(d.get("stamp_ns", 0)))
-        else:
-            per_joint = split_identification(data, int(data.get("stamp_ns", 0)))
+        rest = {k: v for k, v in data.items() if k not in _FILE_KEYS}
+        last = IdentifyResult.from_dict(rest, str(path)) if rest or "per_joint" not in data else None
+        if "per_joint" not in data:
+            per_joint = split_identification(last, int(data.get("stamp_ns", 0)))
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise FrictionIdError(f"{path}: malformed parameters ({type(exc).__name__}: {exc})") from None
     for p in per_joint.values():
@@ -207,9 +207,7 @@ def read_results(path: Path) -> Results:
             raise FrictionIdError(f"{path}: {exc}") from None
         if not all(math.isfinite(x) for x in vec):
             raise FrictionIdError(f"{path}: joint '{p.joint}' has non-finite friction parameters")
-    last = {k: v for k, v in data.items()
-            if k not in ("format", "per_joint", "window_start_ns", "window_end_ns", "window_samples", "stamp_ns")}
-    return Results(per_joint, last or None, int(data.get("window_start_ns", 0)), int(data.get("window_end_ns", 0)),
+    return Results(per_joint, last, int(data.get("window_start_ns", 0)), int(data.get("window_end_ns", 0)),
                    int(data.get("window_samples", 0)), int(data.get("stamp_ns", 0)))
 
 

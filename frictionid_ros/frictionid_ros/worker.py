@@ -10,10 +10,11 @@ takes every core from the feed-forward path.
 
 Protocol on the child's stdin/stdout, both ways: the pickle's length and its number of out-of-band
 buffers (8-byte little-endian each), the pickle (protocol 5), then each buffer as its length and bytes.
-Node → child: ``("job", id, series, kwargs)``, ``("cancel", id)``. Child → node: ``("ready", pid)``
-once, then per job any number of ``("progress", generation, evaluations, best_cost)`` (at most
-every PROGRESS_PERIOD_S) and one reply: ``("ok", Identification.to_dict())``, ``("error", message)``
-for a FrictionIdError, ``("cancelled", message)`` or ``("crash", message)`` for anything else.
+Node → child: ``("job", id, series, request, gate)`` (an IdentifyRequest; a :class:`Gate` or None),
+``("cancel", id)``. Child → node: ``("ready", pid)`` once, then per job any number of
+``("progress", generation, evaluations, best_cost)`` (at most every PROGRESS_PERIOD_S) and one
+reply: ``("ok", (IdentifyResult, the gate's Decision or None))``, ``("error", message)`` for a
+FrictionIdError, ``("cancelled", message)`` or ``("crash", message)`` for anything else.
 A cancelled job stops at the optimiser's next generation or cost call; a child that has not
 answered CANCEL_GRACE_S after a cancel is killed and replaced. The child exits when its stdin
 closes, and at once if the node dies (PR_SET_PDEATHSIG).
@@ -32,7 +33,13 @@ import sys
 import threading
 import time
 import traceback
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from frictionid_core import IdentifyRequest, IdentifyResult
+    from frictionid_core.loop import Decision
 
 _LENGTH = struct.Struct("<Q")  # an out-of-band buffer's length
 _FRAME = struct.Struct("<QQ")  # a message's pickle length and number of out-of-band buffers
@@ -43,6 +50,18 @@ THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"
 
 class Cancelled(Exception):
     """Raised inside an identification (from its progress hook) to stop it."""
+
+
+@dataclass(frozen=True)
+class Gate:
+    """A review by the safety gate (:func:`frictionid_core.loop.gate.review`) of an identification:
+    ``candidate`` (None: the identification's own result) against ``current`` (None: no active
+    set) on the held-back series ``holdout``; ``max_abs``: largest parameter magnitude accepted."""
+
+    current: IdentifyResult | None
+    holdout: object  # JointSeries
+    max_abs: float
+    candidate: IdentifyResult | None = None
 
 
 class JobControl:
@@ -125,42 +144,39 @@ def _recv(stream):
     return pickle.loads(data, buffers=buffers)
 
 
-def run_identification(series, kwargs: dict, progress=None) -> tuple:
-    """One identification → ("ok", result dict) | ("error" | "cancelled" | "crash", message).
+def run_identification(series, request: IdentifyRequest, progress=None, gate: Gate | None = None) -> tuple:
+    """One identification → ("ok", (result, decision)) | ("error" | "cancelled" | "crash", message).
 
-    ``kwargs["review"]`` = {current, holdout, max_abs}: the result is also judged by the safety
-    gate (:func:`frictionid_core.loop.gate.review`); the decision's fields are in ``result["review"]``.
-    ``kwargs["candidate"]``: judge this result (an ``Identification.to_dict()``) instead of identifying.
-
-    ``progress``: the optimiser's hook (see :func:`frictionid_core.identification.identify`); it
-    cancels the run by raising :class:`Cancelled`."""
+    ``gate``: the result (or ``gate.candidate``, judged instead of identifying) is also judged by
+    the safety gate; the decision is None without one. ``progress``: the optimiser's hook (see
+    :func:`frictionid_core.identification.identify`); it cancels the run by raising :class:`Cancelled`."""
     from frictionid_core import FrictionIdError, identify
 
-    kwargs = dict(kwargs)
-    gate, candidate = kwargs.pop("review", None), kwargs.pop("candidate", None)
     try:
-        result = dict(candidate) if candidate is not None else identify(series, progress=progress, **kwargs).to_dict()
+        if gate is not None and gate.candidate is not None:
+            result = gate.candidate
+        else:
+            result = identify(series, request, progress=progress)
+        decision = None
         if gate is not None:  # judged here too: the prediction of the held-back slice is CPU work
-            from dataclasses import asdict
-
             from frictionid_core.loop import review
 
-            result["review"] = asdict(review(gate["current"], result, gate["holdout"], gate["max_abs"]))
-        return ("ok", result)
+            decision = review(gate.current, result, gate.holdout, gate.max_abs)
+        return ("ok", (result, decision))
     except Cancelled as exc:
         return ("cancelled", str(exc))
     except FrictionIdError as exc:
         return ("error", str(exc))
     except ImportError as exc:
-        return ("error", f"solver '{kwargs.get('solver')}' is unavailable ({type(exc).__name__}: {exc})")
+        return ("error", f"solver '{request.solver.method}' is unavailable ({type(exc).__name__}: {exc})")
     except Exception as exc:  # noqa: BLE001 - reported to the caller, never kills the worker
         return ("crash", f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}")
 
 
-def checked_result(reply: tuple, log_crash) -> dict:
-    """The result dict of a :func:`run_identification` reply; FrictionIdError for an error, a crash
-    (whose full text goes to ``log_crash``) or non-finite parameters; :class:`Cancelled` for a
-    cancelled run."""
+def checked_result(reply: tuple, log_crash) -> tuple[IdentifyResult, Decision | None]:
+    """(the result, the gate's decision or None) of a :func:`run_identification` reply;
+    FrictionIdError for an error, a crash (whose full text goes to ``log_crash``) or non-finite
+    parameters; :class:`Cancelled` for a cancelled run."""
     from frictionid_core import FrictionIdError
 
     status, payload = reply
@@ -171,7 +187,7 @@ def checked_result(reply: tuple, log_crash) -> dict:
     if status == "crash":
         log_crash(f"identification crashed: {payload}")
         raise FrictionIdError(f"identification failed: {payload.splitlines()[0]}")
-    bad = [k for k, v in payload["params"].items() if not math.isfinite(v)]
+    bad = [k for k, v in payload[0].params.items() if not math.isfinite(v)]
     if bad:
         raise FrictionIdError(f"identification failed: non-finite parameter(s) {bad}")
     return payload
@@ -202,12 +218,12 @@ def _warm_up() -> None:
     """Import the pipeline and fit a tiny synthetic series once (first real call then ~ms)."""
     import numpy as np
 
-    from frictionid_core import JointSeries, identify
+    from frictionid_core import IdentifyRequest, JointSeries, identify
 
     t = np.arange(2000) * 1e-3
     q = 0.1 * np.sin(2 * np.pi * t)
     v = np.gradient(q, t)
-    identify(JointSeries(t, ["w"], q, 2.0 * v + 0.5 * np.sign(v)), system="friction-only")
+    identify(JointSeries(t, ["w"], q, 2.0 * v + 0.5 * np.sign(v)), IdentifyRequest(system="friction-only"))
 
 
 class _Child:
@@ -236,7 +252,7 @@ class _Child:
             job = self.jobs.get()
             if job is None:
                 return 0
-            job_id, series, kwargs = job
+            job_id, series, request, gate = job
             last = [0.0]
 
             def progress(generation, evaluations, best_cost):
@@ -248,7 +264,7 @@ class _Child:
                     _send(self.out, ("progress", generation, evaluations, best_cost))
 
             reply = (("cancelled", "cancelled") if job_id in self.cancelled
-                     else run_identification(series, kwargs, progress))
+                     else run_identification(series, request, progress, gate))
             self.cancelled.discard(job_id)
             try:
                 _send(self.out, reply)
@@ -289,8 +305,8 @@ def main() -> int:
 
 
 class _Job:
-    def __init__(self, job_id: int, series, kwargs: dict, control: JobControl):
-        self.id, self.series, self.kwargs, self.control = job_id, series, kwargs, control
+    def __init__(self, job_id: int, series, request: IdentifyRequest, gate: Gate | None, control: JobControl):
+        self.id, self.series, self.request, self.gate, self.control = job_id, series, request, gate, control
         self.reply: tuple | None = None
         self.done = threading.Event()
         self.sent = False  # written to the child (under WorkerProcess._lock)
@@ -349,7 +365,7 @@ class WorkerProcess:
                     if job.control.cancelled:
                         job.reply = ("cancelled", job.control.reason)
                         continue
-                    _send(proc.stdin, ("job", job.id, job.series, job.kwargs))
+                    _send(proc.stdin, ("job", job.id, job.series, job.request, job.gate))
                     job.sent, self._running = True, job
                 while True:
                     msg = _recv(proc.stdout)
@@ -387,8 +403,10 @@ class WorkerProcess:
         if proc is not None and proc.poll() is None:
             proc.kill()
 
-    def run(self, series, kwargs: dict, control: JobControl | None = None) -> tuple:
-        """Identify in the child; returns its reply (see the module docstring).
+    def run(self, series, request: IdentifyRequest, control: JobControl | None = None, gate: Gate | None = None
+            ) -> tuple:
+        """Identify ``request`` on ``series`` in the child (with ``gate``: also judge the result by the
+        safety gate, see :func:`run_identification`); returns its reply (see the module docstring).
 
         ``control``: receives the progress; its :meth:`~JobControl.cancel` stops the job, killing
         the child if it has not stopped within CANCEL_GRACE_S.
@@ -397,7 +415,7 @@ class WorkerProcess:
         if self._closed:
             return ("error", "node shutting down")
         self._ids += 1
-        job = _Job(self._ids, series, kwargs, control)
+        job = _Job(self._ids, series, request, gate, control)
         self._jobs.put(job)
         control.on_cancel(lambda: self._interrupt(job))
         while not job.done.wait(0.05):

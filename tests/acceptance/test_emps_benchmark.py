@@ -15,7 +15,7 @@ import scipy.io
 
 from frictionid_core.cli import main
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.identification import identify, validate
+from frictionid_core.identification import IdentifyRequest, identify, validate
 from frictionid_core.linear import least_squares
 from support.data import EMPS_ESTIMATION, EMPS_VALIDATION
 
@@ -46,7 +46,7 @@ def check_asymmetric(params, metrics):
 # ------------------------------------------------------------------ library API
 @pytest.fixture(scope="module")
 def coulomb(emps_estimation):
-    return identify(emps_estimation, system="emps", friction="coulomb", solver="ls")
+    return identify(emps_estimation, IdentifyRequest(system="emps", friction="coulomb", solver="ls"))
 
 
 def test_emps_coulomb_ls(coulomb):
@@ -57,7 +57,7 @@ def test_emps_coulomb_ls(coulomb):
 
 
 def test_emps_asymmetric_coulomb_ls(emps_estimation):
-    r = identify(emps_estimation, system="emps", friction="coulomb", asymmetric=True, solver="ls")
+    r = identify(emps_estimation, IdentifyRequest(system="emps", friction="coulomb", asymmetric=True, solver="ls"))
     check_asymmetric(r.params, r.metrics)
     assert set(r.std) == set(REF_ASYM)
 
@@ -70,7 +70,7 @@ def test_emps_cross_test_on_validation(coulomb, emps_validation):
 
 
 def test_emps_validation_data_give_different_estimates(coulomb, emps_validation):
-    r = identify(emps_validation, system="emps", friction="coulomb", solver="ls")
+    r = identify(emps_validation, IdentifyRequest(system="emps", friction="coulomb", solver="ls"))
     assert r.params["M"] != pytest.approx(coulomb.params["M"], rel=1e-4)
     # Same physical axis: the mass agrees within a few %.
     assert r.params["M"] == pytest.approx(coulomb.params["M"], rel=0.05)
@@ -137,7 +137,7 @@ def test_mat_file_gives_the_bag_figures(emps_estimation, tmp_path):
 
 # ------------------------------------------------------------------ synthetic data
 def test_synthetic_coulomb_parameters_recovered(synthetic):
-    r = identify(synthetic(M=50.0, Fv=120.0, Fc=8.0, offset=2.0), system="emps", friction="coulomb")
+    r = identify(synthetic(M=50.0, Fv=120.0, Fc=8.0, offset=2.0), IdentifyRequest(system="emps", friction="coulomb"))
     # Noise-free data; the residual error (~1 % relerr) comes from the protocol itself: the
     # untrimmed last samples (one-sided differences, filter edges) and sign(q̇) at reversals.
     assert r.params["M"] == pytest.approx(50.0, rel=0.005)
@@ -148,7 +148,7 @@ def test_synthetic_coulomb_parameters_recovered(synthetic):
 
 def test_synthetic_asymmetric_absorbs_the_offset(synthetic):
     # τ = Fc·sign(v) + offset is Fc_pos = Fc + offset for v > 0 and Fc_neg = Fc − offset for v < 0.
-    r = identify(synthetic(Fc=20.0, offset=-3.0), system="emps", friction="coulomb", asymmetric=True)
+    r = identify(synthetic(Fc=20.0, offset=-3.0), IdentifyRequest(system="emps", friction="coulomb", asymmetric=True))
     assert r.params["Fc_pos"] == pytest.approx(17.0, rel=0.01)
     assert r.params["Fc_neg"] == pytest.approx(23.0, rel=0.01)
     assert r.params["Fv_pos"] == pytest.approx(200.0, rel=0.01)

@@ -63,10 +63,10 @@ def _printed_table(stdout: str) -> np.ndarray:
 
 
 def test_feedforward_torque_matches_the_node(emps_estimation, tmp_path):
-    from frictionid_core import identify
+    from frictionid_core import IdentifyRequest, identify
 
     path = tmp_path / "emps_coulomb.json"  # what 'frictionid identify --json' writes
-    path.write_text(json.dumps(identify(emps_estimation, system="emps", friction="coulomb").to_dict()))
+    path.write_text(json.dumps(identify(emps_estimation, IdentifyRequest(system="emps", friction="coulomb")).to_dict()))
     stdout = run_example("feedforward_torque.py", path, tmp_path, "--eps", "0.01")
     table = _printed_table(stdout)
     v = np.array([-0.2, -0.05, -0.01, 0.0, 0.01, 0.05, 0.2])  # the script's default velocities

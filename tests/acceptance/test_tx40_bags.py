@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from frictionid_core.errors import InputError
-from frictionid_core.identification import build_model, identify
+from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides, SolverOptions, build_model, identify
 from frictionid_core.io import load
 from frictionid_core.preprocess import Preprocessing
 from frictionid_core.robots.compare import compare, noise_floor
@@ -40,7 +40,8 @@ def test_thesis_joint2_model_recovers_the_truth(j2_bags):
     0.55 Hz motion) cannot follow the Stribeck dip crossed at 4.8 rad/s² (δ +74 %): the fit's vs asks
     for 500 Hz, and the identification refits there."""
     est, val = j2_bags
-    r = identify(est, system="tx40-j2", friction="stribeck", solver="de", varpro=True, seed=0).to_dict()
+    r = identify(est, IdentifyRequest(system="tx40-j2", friction="stribeck", solver=SolverOptions("de", varpro=True))
+                 ).to_dict()
     assert r["preprocessing"]["decimate"] == 2 and r["preprocessing"]["dip"].startswith("joint_2: its friction dip")
     exp = expected_parameters(TRUTH["tx40_j2_excitation"], "tx40-j2")
     for name, tol in (("ZZ", 0.02), ("MX", 0.02), ("Fv", 0.02), ("Fc", 0.02), ("Fs", 0.02), ("vs", 0.10),
@@ -57,12 +58,13 @@ def test_hybrid_dip_refit_polishes_and_finds_the_full_search_optimum(j2_bags):
     from frictionid_core.identification import solve_model
 
     est, _ = j2_bags
-    r = identify(est, system="tx40-j2", friction="stribeck", solver="hybrid", varpro=True, seed=0).to_dict()
+    hybrid = SolverOptions("hybrid", varpro=True)
+    r = identify(est, IdentifyRequest(system="tx40-j2", friction="stribeck", solver=hybrid)).to_dict()
     assert r["preprocessing"]["decimate"] == 2 and "dip" in r["preprocessing"]
     assert r["optimizer"]["method"] == "hybrid" and "; dip refit at the finer rates: lm from this point [lm:" in \
         r["optimizer"]["message"]
     model = build_model(est, "tx40-j2", "stribeck", False, Preprocessing.from_dict(r["preprocessing"]))
-    x, _ = solve_model(model, "hybrid", varpro=True, seed=0)
+    x, _ = solve_model(model, hybrid)
     full = float(model.batch_cost(x[None])[0])
     assert r["metrics"]["cost"] == pytest.approx(full, rel=1e-6)
 
@@ -72,8 +74,8 @@ def test_a_decimation_too_coarse_for_the_dip_is_a_warning(j2_bags):
     crossed at 4.81 rad/s²) needs 6 × 4.81/(π·0.053) = 175 Hz of anti-alias band, i.e. decimation
     2; the rates the user set are kept and the warning says which to use."""
     est, _ = j2_bags
-    r = identify(est, system="tx40-j2", friction="stribeck", solver="lm", varpro=True,
-                 preprocessing=Preprocessing(decimate=18)).to_dict()
+    r = identify(est, IdentifyRequest(system="tx40-j2", friction="stribeck", solver=SolverOptions("lm", varpro=True),
+                                      preprocessing=PreprocessingOverrides(decimate=18))).to_dict()
     assert r["preprocessing"]["decimate"] == 18 and "dip" not in r["preprocessing"]
     dip = [w for w in r["warnings"] if "friction dip" in w]
     assert len(dip) == 1 and dip[0].startswith("joint_2: its friction dip (vs 0.05") and "--decimate 2 " in dip[0]
@@ -131,7 +133,8 @@ def test_full_robot_friction_within_5_percent_with_variable_projection():
     bag's 15 s of plateaus make that possible: σ(δ of joint 2) is 2.1 % here, 9.5 % on the former
     20 s Fourier-only bag (bench/tx40_stribeck_information.py bounds it)."""
     est = load(BAGS / "tx40_excitation")
-    r = identify(est, system="tx40", friction="stribeck", solver="hybrid", pop=10, generations=3, seed=0).to_dict()
+    r = identify(est, IdentifyRequest(system="tx40", friction="stribeck",
+                                      solver=SolverOptions("hybrid", pop=10, generations=3))).to_dict()
     assert r["varpro"] is True
     exp = expected_parameters(TRUTH["tx40_excitation"], "tx40")
     model = build_model(est, "tx40", "stribeck", False, Preprocessing.from_dict(r["preprocessing"]))

@@ -8,8 +8,9 @@ import types
 import frictionid_core
 
 PUBLIC = {"load", "identify", "validate", "FrictionModel", "JointSeries", "FrictionIdError", "InputError",
-          "OptimError", "load_drive", "Drive", "friction_rows", "FRICTIONS", "get_model", "SolveOptions",
-          "check_choice", "read_json", "write_json", "YAML_SUFFIXES"}
+          "OptimError", "load_drive", "Drive", "friction_rows", "FRICTIONS", "get_model", "check_choice",
+          "read_json", "write_json", "YAML_SUFFIXES", "IdentifyRequest", "IdentifyResult", "SolverOptions",
+          "PreprocessingOverrides", "read_request", "budget_field"}
 CONSTANTS = {"FRICTIONS", "YAML_SUFFIXES"}  # documented in the package docstring
 # Modules a bare ``import frictionid_core`` must not load (the CLI's --help must stay fast).
 HEAVY = ("numpy", "scipy", "numba", "sklearn", "skopt", "matplotlib", "rosbags", "pinocchio",
@@ -38,18 +39,29 @@ def test_public_names_are_the_library_objects():
     from frictionid_core.drive import Drive, friction_rows, load_drive
     from frictionid_core.errors import FrictionIdError, InputError, OptimError
     from frictionid_core.friction import FRICTIONS, FrictionModel, get_model
-    from frictionid_core.identification import identify, validate
+    from frictionid_core.identification import (
+        IdentifyRequest,
+        IdentifyResult,
+        PreprocessingOverrides,
+        SolverOptions,
+        budget_field,
+        identify,
+        read_request,
+        validate,
+    )
     from frictionid_core.io import load
     from frictionid_core.jsonfile import YAML_SUFFIXES, read_json, write_json
-    from frictionid_core.options import SolveOptions, check_choice
+    from frictionid_core.options import check_choice
     from frictionid_core.timeseries import JointSeries
 
     expected = {"load": load, "identify": identify, "validate": validate, "FrictionModel": FrictionModel,
                 "JointSeries": JointSeries, "FrictionIdError": FrictionIdError, "InputError": InputError,
                 "OptimError": OptimError, "load_drive": load_drive, "Drive": Drive, "friction_rows": friction_rows,
-                "FRICTIONS": FRICTIONS, "get_model": get_model, "SolveOptions": SolveOptions,
-                "check_choice": check_choice, "read_json": read_json, "write_json": write_json,
-                "YAML_SUFFIXES": YAML_SUFFIXES}
+                "FRICTIONS": FRICTIONS, "get_model": get_model, "check_choice": check_choice, "read_json": read_json,
+                "write_json": write_json, "YAML_SUFFIXES": YAML_SUFFIXES, "IdentifyRequest": IdentifyRequest,
+                "IdentifyResult": IdentifyResult, "SolverOptions": SolverOptions,
+                "PreprocessingOverrides": PreprocessingOverrides, "read_request": read_request,
+                "budget_field": budget_field}
     for name, obj in expected.items():
         assert getattr(frictionid_core, name) is obj, name
     # The function lives in the submodule frictionid_core.identification: no name clash.

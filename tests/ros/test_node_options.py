@@ -32,7 +32,7 @@ with warnings.catch_warnings():
     from std_msgs.msg import Float64MultiArray
 
 from frictionid_core.friction import get_model
-from frictionid_core.identification import identify
+from frictionid_core.identification import IdentifyRequest, identify
 from frictionid_core.io import load
 from frictionid_ros import replay
 
@@ -157,7 +157,7 @@ def test_full_tx40_robot_from_a_replayed_bag(ros, workdir):
         assert res.success, res.message
         r = res.result
         assert r.samples >= 0.99 * stats["sent"], (r.samples, stats["sent"])
-        ref = identify(load(bag).slice(0, r.samples), system="tx40", friction="coulomb").to_dict()
+        ref = identify(load(bag).slice(0, r.samples), IdentifyRequest(system="tx40", friction="coulomb")).to_dict()
         shared = dict(zip(r.shared_param_names, r.shared_param_values))
         assert list(shared) == [k for k in ref["params"] if "/" not in k] and len(shared) == 40
         for name, value in ref["params"].items():

@@ -11,6 +11,7 @@ with warnings.catch_warnings():
     from frictionid_interfaces.srv import Identify
 
 from frictionid_core.errors import FrictionIdError
+from frictionid_core.identification import IdentifyRequest, SolverOptions
 from frictionid_ros.request import parse_request
 from support.node_parts import NS, T0, node_config, stamp_time
 
@@ -19,16 +20,21 @@ def test_request_defaults_and_overrides(tmp_path):
     cfg = node_config(tmp_path, friction_model="tustin", solver="de", seed=7, window_seconds=2.0)
     job = parse_request(Identify.Request(), cfg, ["a", "b"])
     assert job.joints == ["a", "b"] and job.window_seconds == 2.0 and not job.dry_run
-    o = job.options
-    assert (o.friction, o.solver, o.seed, o.asymmetric) == ("tustin", "de", 7, False)
+    r = job.request
+    assert (r.friction, r.solver.method, r.solver.seed, r.asymmetric) == ("tustin", "de", 7, False)
+    assert r.joints == ("a", "b") and r.system == cfg.system
     job = parse_request(Identify.Request(joints=["b"], friction_model="coulomb", solver="ls", seed=3, asymmetric=True,
                                          window_start=stamp_time(T0), dry_run=True), cfg, ["a", "b"])
-    assert (job.joints, job.options.friction, job.options.seed, job.options.asymmetric) == (["b"], "coulomb", 3, True)
+    r = job.request
+    assert (job.joints, r.friction, r.solver.method, r.solver.seed, r.asymmetric) == (["b"], "coulomb", "ls", 3, True)
     assert (job.window_seconds, job.start_ns, job.end_ns, job.dry_run) == (0.0, T0, 0, True)
-    kwargs = parse_request(Identify.Request(budget=50, population=20), cfg, ["a"]).identify_kwargs("tx40")
-    assert kwargs == dict(system="tx40", friction="tustin", asymmetric=False, solver="de", seed=7, generations=50,
-                          pop=20)
-    seeds = {parse_request(Identify.Request(seed=-1), cfg, ["a"]).options.seed for _ in range(3)}
+    # the node's system and settings, the request's budgets in the solver's units
+    r = parse_request(Identify.Request(budget=50, population=20), cfg, ["a"]).request
+    assert r == IdentifyRequest(system=cfg.system, joints=["a"], friction="tustin",
+                                solver=SolverOptions("de", 7, pop=20, generations=50))
+    r = parse_request(Identify.Request(budget=50, solver="lm"), cfg, ["a"]).request
+    assert (r.solver.calls, r.solver.generations) == (50, None)
+    seeds = {parse_request(Identify.Request(seed=-1), cfg, ["a"]).request.solver.seed for _ in range(3)}
     assert len(seeds) == 3 and min(seeds) >= 0  # negative: a fresh random seed each time
 
 
@@ -52,3 +58,25 @@ def test_request_defaults_and_overrides(tmp_path):
 def test_request_errors_name_the_field(tmp_path, fields, needle):
     with pytest.raises(FrictionIdError, match=needle):
         parse_request(Identify.Request(**fields), node_config(tmp_path), ["a", "b"])
+
+
+def test_the_node_parameters_are_the_request_defaults(tmp_path):
+    """filter_cutoff_hz/decimation override the system's pre-processing, drive_file gives the drive's
+    keys, known_rigid_body holds the base parameters at the model's values (tx40)."""
+    from frictionid_core.identification import PreprocessingOverrides
+    from frictionid_core.systems import get_system
+    from frictionid_core.systems.robot import nominal_parameters
+
+    cfg = node_config(tmp_path, filter_cutoff_hz=25.0, decimation=4)
+    r = parse_request(Identify.Request(), cfg, ["a"]).request
+    assert r.preprocessing == PreprocessingOverrides(cutoff_hz=25.0, decimate=4) and r.drive is None
+    assert parse_request(Identify.Request(), node_config(tmp_path), ["a"]).request.preprocessing == \
+        PreprocessingOverrides()
+    from frictionid_ros.config import PARAMETERS, make_config
+
+    joints = [f"joint_{k}" for k in range(1, 7)]
+    cfg = make_config({**{k: v.default for k, v in PARAMETERS.items()}, "joints": joints, "system": "tx40",
+                       "drive_file": "tx40", "known_rigid_body": True, "results_file": str(tmp_path / "p.json")})
+    r = parse_request(Identify.Request(), cfg, joints).request
+    assert r.drive == cfg.drive.to_dict() and r.drive["friction_on"] == "motor"
+    assert r.fixed == nominal_parameters(get_system("tx40")) and len(r.fixed) > 30

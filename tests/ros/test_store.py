@@ -12,6 +12,7 @@ with warnings.catch_warnings():
     from frictionid_interfaces.srv import Identify
 
 from frictionid_core.errors import FrictionIdError
+from frictionid_core.identification import IdentifyResult
 from frictionid_ros.service import IdentifyService
 from frictionid_ros.store import (
     ActiveParameters,
@@ -88,12 +89,14 @@ def test_the_node_overwrites_only_its_own_files(tmp_path):
 
 def test_results_file_round_trip_and_plain_identify_json(tmp_path):
     d = identification_dict(["a", "b"], {"a/Fv": 1.0, "a/Fc": 0.5, "b/Fv": 2.0, "b/Fc": 0.25, "a/offset": 0.0, "b/offset": 0.1})
-    per = split_identification(d, stamp_ns=7)
+    last = IdentifyResult.from_dict(d)
+    per = split_identification(last, stamp_ns=7)
     assert per["b"].params == {"Fv": 2.0, "Fc": 0.25, "offset": 0.1} and per["a"].samples == 100
-    path = write_results(tmp_path / "sub" / "p.json", Results(per, d, 1, 2, 300, 7))
+    path = write_results(tmp_path / "sub" / "p.json", Results(per, last, 1, 2, 300, 7))
     back = read_results(path)
     assert back.per_joint["b"].params == per["b"].params and back.window_samples == 300
-    assert json.loads(path.read_text())["params"] == d["params"]  # Identification.to_dict() schema on top
+    assert json.loads(path.read_text())["params"] == d["params"]  # IdentifyResult.to_dict() schema on top
+    assert back.last == last
     plain = tmp_path / "plain.json"
     plain.write_text(json.dumps(d))
     assert read_results(plain).per_joint["a"].params["Fc"] == 0.5

@@ -7,12 +7,13 @@ The public API::
     import frictionid_core as fid
 
     series = fid.load("bags/emps_estimation")                    # MAT, CSV, rosbag2, ROS 1 bag
-    result = fid.identify(series, system="emps", friction="coulomb", solver="ls")
-    # a motor-side log: fid.identify(log, system="tx40", drive=fid.load_drive("tx40"))
-    metrics = fid.validate(fid.load("bags/emps_validation"), result.to_dict())
+    result = fid.identify(series, fid.IdentifyRequest(system="emps", friction="coulomb", solver="ls"))
+    # a motor-side log: fid.IdentifyRequest(system="tx40", drive="tx40"); a saved one: fid.read_request("r.yaml")
+    metrics = fid.validate(fid.load("bags/emps_validation"), result)
     tau = fid.FrictionModel("coulomb").torque([result.params["Fv"], result.params["Fc"]], [0.1, -0.1])
 
-Also public: the validated options of one identification (``SolveOptions``, ``check_choice``), the
+Also public: the parts of a request (``SolverOptions``, ``PreprocessingOverrides``, ``budget_field``,
+``check_choice``), the
 friction laws (``FRICTIONS``, ``get_model``), a drive (``Drive``, ``friction_rows``: who owns a result's
 friction parameters) and result files (``read_json``, ``write_json``, ``YAML_SUFFIXES``). Subpackages
 export their own names (``frictionid_core.io``, ``.systems``, ``.loop``, ``.optim``, ``.robots``, ``.cli``):
@@ -35,19 +36,25 @@ _LAZY = {
     "friction_rows": "frictionid_core.drive",
     "identify": "frictionid_core.identification",
     "validate": "frictionid_core.identification",
+    "IdentifyRequest": "frictionid_core.identification",
+    "IdentifyResult": "frictionid_core.identification",
+    "SolverOptions": "frictionid_core.identification",
+    "PreprocessingOverrides": "frictionid_core.identification",
+    "read_request": "frictionid_core.identification",
     "FrictionModel": "frictionid_core.friction",
     "FRICTIONS": "frictionid_core.friction",
     "get_model": "frictionid_core.friction",
     "JointSeries": "frictionid_core.timeseries",
-    "SolveOptions": "frictionid_core.options",
+    "budget_field": "frictionid_core.identification",
     "check_choice": "frictionid_core.options",
     "read_json": "frictionid_core.jsonfile",
     "write_json": "frictionid_core.jsonfile",
     "YAML_SUFFIXES": "frictionid_core.jsonfile",
 }
 
-__all__ = ["FRICTIONS", "YAML_SUFFIXES", "Drive", "FrictionIdError", "FrictionModel", "InputError", "JointSeries",
-           "OptimError", "SolveOptions", "check_choice", "friction_rows", "get_model", "identify", "load",
-           "load_drive", "read_json", "validate", "write_json"]
+__all__ = ["FRICTIONS", "YAML_SUFFIXES", "Drive", "FrictionIdError", "FrictionModel", "IdentifyRequest",
+           "IdentifyResult", "InputError", "JointSeries", "OptimError", "PreprocessingOverrides", "SolverOptions",
+           "budget_field", "check_choice", "friction_rows", "get_model", "identify", "load", "load_drive",
+           "read_json", "read_request", "validate", "write_json"]
 
 __getattr__, __dir__ = _lazy.lazy_names(__name__, _LAZY)

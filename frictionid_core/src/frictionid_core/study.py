@@ -80,17 +80,18 @@ def _simulator(path: str, friction: str, asymmetric: bool, clock: str):
 
 def run_one(spec: RunSpec) -> dict:
     """Identify with ``spec`` and evaluate; returns one JSON-ready record."""
-    from frictionid_core.identification import identify, validate
+    from frictionid_core.identification import IdentifyRequest, SolverOptions, identify, validate
 
     t0 = time.perf_counter()
-    res = identify(_series(spec.estimation), system="emps", friction=spec.friction, asymmetric=spec.asymmetric,
-                   solver=spec.algorithm, seed=spec.seed, warm_start=False, pop=spec.pop, generations=spec.generations)
+    solver = SolverOptions(spec.algorithm, spec.seed, pop=spec.pop, generations=spec.generations, warm_start=False)
+    res = identify(_series(spec.estimation), IdentifyRequest(friction=spec.friction, asymmetric=spec.asymmetric,
+                                                             solver=solver))
     record = asdict(spec) | {"key": spec.key, "params": res.params, "cost": res.metrics["cost"],
                              "osa_est_pct": res.metrics["relerr_pct"],
-                             "osa_val_pct": validate(_series(spec.validation), res.to_dict())["relerr_pct"],
+                             "osa_val_pct": validate(_series(spec.validation), res)["relerr_pct"],
                              "identify_s": res.wall_s,
-                             "history_fmin": res.extra["optimizer"]["history_fmin"],
-                             "history_dist_mean": res.extra["optimizer"]["history_dist_mean"]}
+                             "history_fmin": res.optimizer["history_fmin"],
+                             "history_dist_mean": res.optimizer["history_dist_mean"]}
     for clock in ("true", "benchmark"):
         for tag, path in (("est", spec.estimation), ("val", spec.validation)):
             sim = _simulator(path, spec.friction, spec.asymmetric, clock)

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from frictionid_core.cli import main
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.identification import identify
+from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides, identify
 from frictionid_core.io import load
 from frictionid_core.preprocess import Preprocessing
 from frictionid_core.robots.compare import compare_fits
@@ -25,8 +26,8 @@ def _write(path, data) -> str:
 @pytest.fixture(scope="module")
 def emps_fits(emps_estimation):
     """EMPS Coulomb by least squares (the demo) and Tustin by lm on the bundled estimation bag."""
-    coulomb = identify(emps_estimation, system="emps", friction="coulomb", solver="ls").to_dict()
-    tustin = identify(emps_estimation, system="emps", friction="tustin", solver="lm").to_dict()
+    coulomb = identify(emps_estimation, IdentifyRequest(system="emps", friction="coulomb", solver="ls")).to_dict()
+    tustin = identify(emps_estimation, IdentifyRequest(system="emps", friction="tustin", solver="lm")).to_dict()
     return coulomb, tustin
 
 
@@ -93,7 +94,7 @@ def test_compare_with_truth_keeps_its_output(tmp_path, capsys):
     """One fit + --truth (+ --validation): the ground-truth table, the summary lines and the noise-floor line
     as before, and the JSON keys parameters / summary / validation."""
     series = load(BAGS / "tx40_j2_excitation", joints=["joint_2"])
-    r = _write(tmp_path / "r.json", identify(series, system="tx40-j2", friction="coulomb", solver="ls").to_dict())
+    r = _write(tmp_path / "r.json", identify(series, IdentifyRequest(system="tx40-j2")).to_dict())
     truth = str(BAGS / "tx40_truth.json")
     code = main(["compare", r, "--truth", truth, "--validation", str(BAGS / "tx40_j2_validation"),
                  "--json", str(tmp_path / "c.json")])
@@ -145,7 +146,7 @@ def tx40_validation():
 @pytest.fixture(scope="module")
 def tx40_fit(tx40_validation):
     """A quick least-squares Coulomb fit of the full TX40 on the bundled validation bag."""
-    return identify(tx40_validation, system="tx40", friction="coulomb", solver="ls").to_dict()
+    return identify(tx40_validation, IdentifyRequest(system="tx40", friction="coulomb", solver="ls")).to_dict()
 
 
 @pytest.mark.slow
@@ -153,13 +154,9 @@ def test_compare_two_tx40_fits_with_truth(tx40_validation, tx40_fit, tmp_path, c
     """The TX40 fitted with the position cut-off chosen from its data and with a 25 Hz one (the other
     settings as chosen): the cut-off is the one setting listed; with --truth each fit gets its own
     ground-truth table, consistent with the differences."""
-    from dataclasses import replace
-
-    from frictionid_core.preprocess import Preprocessing
-
     chosen = Preprocessing.from_dict(tx40_fit["preprocessing"])
-    lower = identify(tx40_validation, system="tx40", friction="coulomb", solver="ls",
-                     preprocessing=replace(chosen, cutoff_hz=25.0)).to_dict()
+    lower = identify(tx40_validation, IdentifyRequest(
+        system="tx40", preprocessing=replace(PreprocessingOverrides.from_settings(chosen), cutoff_hz=25.0))).to_dict()
     a, b = _write(tmp_path / "a.json", tx40_fit), _write(tmp_path / "b.json", lower)
     code = main(["compare", a, b, "--truth", str(BAGS / "tx40_truth.json"), "--json", str(tmp_path / "c.json")])
     text = capsys.readouterr().out
@@ -195,8 +192,9 @@ def test_report_measured_friction_is_the_identified_law_on_noise_free_data(tmp_p
     from frictionid_core.reports.result_report import build_fit_report, joint_traces
 
     est, val = emps_like(), emps_like(n=2500, joint="emps")
-    settings = Preprocessing(cutoff_hz=100.0, order=4, decimate=1, trim_start_s=0.05, trim_end_s=0.05, min_speed=0.0)
-    result = identify(est, system="emps", friction="coulomb", solver="ls", preprocessing=settings).to_dict()
+    settings = PreprocessingOverrides(cutoff_hz=100.0, decimate=1, trim_start_s=0.05, trim_end_s=0.05, min_speed=0.0,
+                                      metric="recorded")
+    result = identify(est, IdentifyRequest(system="emps", preprocessing=settings)).to_dict()
     (trace,), friction = joint_traces(val, result)
     law = friction.torque(trace.friction_params, trace.velocity)
     assert np.max(np.abs(trace.friction - law)) < 0.05
@@ -217,7 +215,7 @@ def test_report_rows_left_out_by_the_system_are_not_shown(tmp_path):
     from frictionid_core.reports.result_report import joint_traces
 
     series = load(BAGS / "tx40_j2_validation", joints=["joint_2"])
-    result = identify(series, system="tx40-j2", friction="coulomb", solver="ls").to_dict()
+    result = identify(series, IdentifyRequest(system="tx40-j2", friction="coulomb", solver="ls")).to_dict()
     (trace,), _ = joint_traces(series, result)
     assert trace.excluded > 0
     assert np.min(np.abs(trace.velocity)) >= result["preprocessing"]["min_speed"]["joint_2"]
@@ -271,7 +269,7 @@ def test_report_cli_errors_in_one_line(tmp_path, capsys):
 def test_report_refuses_a_result_missing_parameters(emps_estimation, tmp_path):
     from frictionid_core.reports.result_report import build_fit_report
 
-    result = identify(emps_estimation, system="emps", friction="coulomb", solver="ls").to_dict()
+    result = identify(emps_estimation, IdentifyRequest(system="emps", friction="coulomb", solver="ls")).to_dict()
     del result["params"]["Fc"]
     with pytest.raises(FrictionIdError, match=r"lacks parameter\(s\) \['Fc'\]"):
         build_fit_report(result, [("estimation", emps_estimation)], tmp_path)

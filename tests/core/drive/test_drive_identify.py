@@ -16,10 +16,10 @@ import pytest
 from frictionid_core.cli import main
 from frictionid_core.drive import Drive, friction_rows, load_drive
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.identification import identify, validate
+from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides, identify, validate
 from frictionid_core.io.csv import save_csv
 from frictionid_core.preprocess import Preprocessing
-from frictionid_core.systems import get_system, observe
+from frictionid_core.systems import as_system, get_system, observe
 from frictionid_core.timeseries import JointSeries
 
 TX40_N = np.array([32.0, 32.0, 45.0, -48.0, 45.0, 32.0])
@@ -29,6 +29,8 @@ GEARED = dict(joints=["axis"], side="motor", gear_ratio=[50.0], effort_scale=[2e
 # two joints, motor 2 also turns with joint 1 (C = [[1, 0], [0.5, 1]])
 COUPLED2 = dict(joints=["a", "b"], side="motor", gear_ratio=[10.0, 20.0], coupling=[[1, 0, 10.0]],
                 effort_scale=[0.5, 0.25], friction_on="motor", name="coupled2")
+# Noise-free, unfiltered: every row kept, only the filter transients' 2 ms trimmed.
+UNFILTERED = PreprocessingOverrides(filter="none", decimate=1, trim_start_s=0.002, trim_end_s=0.002, min_speed=0.0)
 
 
 # --------------------------------------------------------------------------------- TX40
@@ -119,8 +121,8 @@ def test_tx40_without_motor_friction_is_clearly_worse(tx40_logs, tx40_fit):
     from frictionid_core.io import load
 
     coupled, _ = tx40_fit
-    joint_side = identify(load(tx40_logs / "est"), system="tx40",
-                          drive=replace(load_drive("tx40"), friction_on="joint"))
+    joint_side = identify(load(tx40_logs / "est"),
+                          IdentifyRequest(system="tx40", drive={**load_drive("tx40").to_dict(), "friction_on": "joint"}))
     assert min(v for n, v in joint_side.params.items() if n.endswith(".Ia")) < 0
     assert min(v for n, v in coupled["params"].items() if n.endswith(".Ia")) > 0
     assert joint_side.metrics["relerr_pct"] > 10 * coupled["metrics"]["relerr_pct"]
@@ -132,7 +134,7 @@ def test_motor_side_rows_need_the_robots_joints():
         get_system("tx40", drive=drive)
     assert "drive 'other' joints" in str(e.value) and "model's joints" in str(e.value)
     with pytest.raises(FrictionIdError) as e:  # a robot system built without the drive
-        identify(JointSeries([0, 1], ["x"], [0, 0], [0, 0]), system=get_system("tx40"), drive=load_drive("tx40"))
+        as_system(get_system("tx40"), None, load_drive("tx40"))
     assert "built for another drive" in str(e.value)
 
 
@@ -153,14 +155,14 @@ def test_one_joint_gearbox_and_mA_log_through_the_cli(tmp_path, synthetic, capsy
     assert main(["identify", str(tmp_path / "run.csv"), "--system", "emps", "--drive", str(tmp_path / "geared.yaml"),
                  "--json", str(tmp_path / "r.json")]) == 0
     r = json.loads((tmp_path / "r.json").read_text())
-    plain = identify(joint_side, system="emps")
+    plain = identify(joint_side, IdentifyRequest(system="emps"))
     assert r["drive"]["name"] == "geared" and set(r["params"]) == set(truth)
     for name, value in plain.params.items():  # up to the round-off of q = q_m/50 + 0.1, twice differentiated
         assert r["params"][name] == pytest.approx(value, rel=1e-6), name
     for name in ("M", "Fv", "Fc"):  # the protocol's own error on noise-free data (see test_emps_ls)
         assert r["params"][name] == pytest.approx(truth[name], rel=0.01), name
     # one motor: C = 1, friction on the motor or on the joint is the same model
-    assert identify(log, system="emps", drive=replace(drive, friction_on="joint")).params == \
+    assert identify(log, IdentifyRequest(system="emps", drive={**GEARED, "friction_on": "joint"})).params == \
         pytest.approx(r["params"], rel=1e-12)
     assert main(["validate", str(tmp_path / "run.csv"), "--params", str(tmp_path / "r.json"),
                  "--json", str(tmp_path / "v.json")]) == 0
@@ -204,7 +206,7 @@ def test_friction_on_coupled_motors_is_recovered_and_rows_map_back_to_joints():
     drive = Drive(**COUPLED2)
     log, truth = coupled_friction_log(drive)
     settings = Preprocessing(filter="none", decimate=1, trim_start_s=0.002, trim_end_s=0.002, min_speed=0.0)
-    r = identify(log, system="friction-only", drive=drive, preprocessing=settings)
+    r = identify(log, IdentifyRequest(system="friction-only", drive=COUPLED2, preprocessing=UNFILTERED))
     assert set(r.params) == set(truth)
     for name, value in truth.items():
         # noise-free and unfiltered: only the central differences of a sine (1e-6 relative) and the
@@ -217,8 +219,9 @@ def test_friction_on_coupled_motors_is_recovered_and_rows_map_back_to_joints():
     np.testing.assert_allclose(motor.joint_torques(motor.y), joint.y, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(motor.velocity[:, 1], joint.velocity[:, 1] + 0.5 * joint.velocity[:, 0], rtol=1e-12)
     # friction on the joints cannot express it
-    assert identify(log, system="friction-only", drive=replace(drive, friction_on="joint"),
-                    preprocessing=settings).metrics["relerr_pct"] > 10 * max(r.metrics["relerr_pct"], 0.1)
+    on_joints = IdentifyRequest(system="friction-only", drive={**COUPLED2, "friction_on": "joint"},
+                                preprocessing=UNFILTERED)
+    assert identify(log, on_joints).metrics["relerr_pct"] > 10 * max(r.metrics["relerr_pct"], 0.1)
     # validate rebuilds system, drive and rows from the result
     d = r.to_dict()
     assert validate(log, d)["relerr_pct"] == pytest.approx(r.metrics["relerr_pct"], rel=1e-9)
@@ -233,9 +236,7 @@ def test_feedforward_of_motor_side_parameters_on_the_recorded_side():
 
     drive = Drive(**COUPLED2)
     log, truth = coupled_friction_log(drive)
-    result = identify(log, system="friction-only", drive=drive,
-                      preprocessing=Preprocessing(filter="none", decimate=1, trim_start_s=0.002, trim_end_s=0.002,
-                                                  min_speed=0.0)).to_dict()
+    result = identify(log, IdentifyRequest(system="friction-only", drive=COUPLED2, preprocessing=UNFILTERED))
     per = split_identification(result)
     assert sorted(per) == ["motor_1", "motor_2"] and per["motor_2"].params["Fc"] == pytest.approx(0.5, rel=2e-3)
     ff = FeedForward(["b", "a"], 0.0, drive)  # the node's joint order differs from the drive's
@@ -314,7 +315,7 @@ def test_node_identifies_through_its_drive_and_feeds_motor_friction_forward(tmp_
     answer = service.handle(Identify.Request())
     assert answer.ok, answer.message
     result = answer.identified
-    assert sorted(result.per_joint) == ["motor_1", "motor_2"] and result.last["drive"]["name"] == "coupled2"
+    assert sorted(result.per_joint) == ["motor_1", "motor_2"] and result.last.drive["name"] == "coupled2"
     for m in ("motor_1", "motor_2"):  # noise-free; 200 Hz filter, 1 kHz: within 1 %
         for n in ("Fv", "Fc"):
             assert result.per_joint[m].params[n] == pytest.approx(truth[f"{m}/{n}"], rel=0.01), (m, n)

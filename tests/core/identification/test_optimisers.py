@@ -2,13 +2,14 @@
 global methods reaching the linear optimum, and the nesting rule."""
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from frictionid_core.cli import main
 from frictionid_core.friction import all_models
-from frictionid_core.identification import build_model, identify
+from frictionid_core.identification import IdentifyRequest, SolverOptions, build_model, identify
 from support.data import EMPS_ESTIMATION
 
 MODELS = [(m.name, m.asymmetric) for m in all_models()]
@@ -16,7 +17,7 @@ MODELS = [(m.name, m.asymmetric) for m in all_models()]
 
 @pytest.fixture(scope="module")
 def coulomb_ls(emps_estimation):
-    return identify(emps_estimation, friction="coulomb", solver="ls")
+    return identify(emps_estimation, IdentifyRequest(friction="coulomb", solver="ls"))
 
 
 @pytest.mark.parametrize("friction,asym", MODELS)
@@ -53,10 +54,10 @@ def test_global_methods_reach_the_ls_optimum_on_coulomb(emps_estimation, coulomb
     The GA needs a per-gene mutation rate of 0.2: with the thesis's 0.02 it stalls 0.5–70 %
     above the optimum (8 seeds), since only mutation and the blended cut gene create new values.
     """
-    res = identify(emps_estimation, friction="coulomb", solver=solver, seed=1, **options)
+    res = identify(emps_estimation, IdentifyRequest(solver=SolverOptions(solver, seed=1, options=options)))
     assert res.metrics["cost"] <= coulomb_ls.metrics["cost"] * 1.001
-    assert res.extra["optimizer"]["nfev"] >= 50 + 99 * 48  # 50 × 100 (ga does not re-evaluate its 2 elites)
-    assert len(res.extra["optimizer"]["history_fmin"]) == 100
+    assert res.optimizer["nfev"] >= 50 + 99 * 48  # 50 × 100 (ga does not re-evaluate its 2 elites)
+    assert len(res.optimizer["history_fmin"]) == 100
 
 
 @pytest.mark.parametrize("solver", ["bo", "dt"])
@@ -65,33 +66,35 @@ def test_surrogates_start_from_the_least_squares_optimum_of_a_linear_model(emps_
     optimum, so no result is worse than ``ls`` (4.08 %; before, 100 calls ended at 8.19 % / 14.9 %).
     Tolerance 1e-9 relative: the start is solved by normal equations, ``ls`` by QR; they differ
     by ~cond²·eps ≈ 1e-13 in the parameters and the cost only to second order around its minimum."""
-    res = identify(emps_estimation, friction="coulomb", solver=solver, seed=3, calls=12, n_initial_points=10)
+    surrogate = SolverOptions(solver, seed=3, calls=12, options={"n_initial_points": 10})
+    res = identify(emps_estimation, IdentifyRequest(friction="coulomb", solver=surrogate))
     ls_cost = coulomb_ls.metrics["cost"]
-    assert res.extra["optimizer"]["history_fmin"][0] <= ls_cost * (1 + 1e-9)
+    assert res.optimizer["history_fmin"][0] <= ls_cost * (1 + 1e-9)
     assert res.metrics["cost"] <= ls_cost * (1 + 1e-9)
     assert res.metrics["relerr_pct"] == pytest.approx(coulomb_ls.metrics["relerr_pct"], rel=1e-9)
-    cold = identify(emps_estimation, friction="coulomb", solver=solver, seed=3, calls=12, n_initial_points=10,
-                    warm_start=False)
+    cold = identify(emps_estimation, IdentifyRequest(friction="coulomb", solver=replace(surrogate, warm_start=False)))
     assert cold.metrics["cost"] > 1.5 * ls_cost  # 12 random-ish calls do not find it by chance
 
 
 def test_tustin_asymmetric_by_local_search_beats_the_thesis(emps_estimation, coulomb_ls):
     """Thesis Table 6.3: Tustin-asymmetric OSA relative error 3.0276 %; ours ≤ 3.03 %, and never
     worse than the nested linear model (Coulomb-asymmetric, 3.1117 %)."""
-    res = identify(emps_estimation, friction="tustin", asymmetric=True, solver="lm", varpro=True)
+    res = identify(emps_estimation, IdentifyRequest(friction="tustin", asymmetric=True,
+                                                    solver=SolverOptions("lm", varpro=True)))
     assert res.metrics["relerr_pct"] <= 3.03
-    nested = identify(emps_estimation, friction="coulomb", asymmetric=True, solver="ls")
+    nested = identify(emps_estimation, IdentifyRequest(friction="coulomb", asymmetric=True, solver="ls"))
     assert res.metrics["cost"] <= nested.metrics["cost"]
     assert np.isfinite(list(res.std.values())).all()
 
 
 @pytest.mark.parametrize("friction", ["threlfall", "tustin", "stribeck"])
 @pytest.mark.parametrize("asym", [False, True])
-@pytest.mark.parametrize("solver,options", [("lm", {}), ("hybrid", {"pop": 20, "generations": 20})])
-def test_nonlinear_models_never_worse_than_the_nested_linear_optimum(emps_estimation, friction, asym, solver, options):
+@pytest.mark.parametrize("solver", [SolverOptions("lm", varpro=True), SolverOptions("hybrid", pop=20, generations=20,
+                                                                                    varpro=True)])
+def test_nonlinear_models_never_worse_than_the_nested_linear_optimum(emps_estimation, friction, asym, solver):
     """Tustin, Stribeck and Threlfall contain Coulomb (vs, v0 → 0): a worse cost is a bug."""
-    nested = identify(emps_estimation, friction="coulomb", asymmetric=asym, solver="ls")
-    res = identify(emps_estimation, friction=friction, asymmetric=asym, solver=solver, varpro=True, seed=0, **options)
+    nested = identify(emps_estimation, IdentifyRequest(friction="coulomb", asymmetric=asym, solver="ls"))
+    res = identify(emps_estimation, IdentifyRequest(friction=friction, asymmetric=asym, solver=solver))
     assert res.metrics["cost"] <= nested.metrics["cost"] * (1 + 1e-9)
 
 
@@ -102,15 +105,15 @@ def test_global_search_over_all_parameters_never_worse_than_the_nested_linear_op
     """The thesis protocol (every parameter searched, no variable projection) at a budget far
     too small to find the nested optimum alone: the closed-form start in the first population
     keeps the result at or below the nested Coulomb cost."""
-    nested = identify(emps_estimation, friction="coulomb", asymmetric=asym, solver="ls")
-    res = identify(emps_estimation, friction=friction, asymmetric=asym, solver=solver, varpro=False, seed=0,
-                   pop=10, generations=3)
-    assert res.extra["optimizer"]["nfev"] <= 30
+    nested = identify(emps_estimation, IdentifyRequest(friction="coulomb", asymmetric=asym, solver="ls"))
+    warm = IdentifyRequest(friction=friction, asymmetric=asym,
+                           solver=SolverOptions(solver, varpro=False, pop=10, generations=3))
+    res = identify(emps_estimation, warm)
+    assert res.optimizer["nfev"] <= 30
     assert res.metrics["cost"] <= nested.metrics["cost"] * (1 + 1e-9)
     # the thesis protocol (random start) at this budget ends far above it
-    cold = identify(emps_estimation, friction=friction, asymmetric=asym, solver=solver, varpro=False, seed=0,
-                    warm_start=False, pop=10, generations=3)
-    assert cold.extra["warm_start"] is False and res.extra["warm_start"] is True
+    cold = identify(emps_estimation, replace(warm, solver=replace(warm.solver, warm_start=False)))
+    assert cold.warm_start is False and res.warm_start is True
     assert cold.metrics["cost"] > 1.2 * nested.metrics["cost"]
 
 

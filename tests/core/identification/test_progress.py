@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from frictionid_core.identification import identify
+from frictionid_core.identification import IdentifyRequest, SolverOptions, identify
 
 
 class Stop(Exception):
@@ -15,20 +15,20 @@ class Stop(Exception):
 
 def test_population_method_reports_every_generation(synthetic):
     calls = []
-    res = identify(synthetic(), friction="tustin", solver="de", pop=12, generations=8, seed=3,
-                   progress=lambda *a: calls.append(a))
+    request = IdentifyRequest(friction="tustin", solver=SolverOptions("de", seed=3, pop=12, generations=8))
+    res = identify(synthetic(), request, progress=lambda *a: calls.append(a))
     gens, evals, best = (np.array(c) for c in zip(*calls))
     assert list(gens) == list(range(1, 9)) and list(evals) == [12 * g for g in range(1, 9)]
     assert np.all(np.diff(best) <= 0)  # best so far never worsens
-    opt = res.extra["optimizer"]
+    opt = res.optimizer
     assert best[-1] == opt["fun"] and list(best) == opt["history_fmin"]
 
 
 def test_call_methods_report_every_call(synthetic):
     calls = []
-    res = identify(synthetic(), friction="tustin", solver="lm", progress=lambda *a: calls.append(a))
+    res = identify(synthetic(), IdentifyRequest(friction="tustin", solver="lm"), progress=lambda *a: calls.append(a))
     assert {c[0] for c in calls} == {0}  # no generations
-    opt = res.extra["optimizer"]
+    opt = res.optimizer
     assert [c[1] for c in calls] == list(range(1, len(calls) + 1))
     assert [c[2] for c in calls] == opt["history_fmin"]  # one per logged call (lm's final re-evaluation is not)
     assert calls[-1][2] == pytest.approx(opt["fun"], rel=1e-9)
@@ -43,11 +43,12 @@ def test_an_exception_in_progress_ends_the_run(synthetic):
             raise Stop
 
     with pytest.raises(Stop):
-        identify(synthetic(), friction="tustin", solver="de", pop=12, generations=50, progress=stop_at_third)
+        identify(synthetic(), IdentifyRequest(friction="tustin", solver=SolverOptions("de", pop=12, generations=50)),
+                 progress=stop_at_third)
     assert seen == [1, 2, 3]
 
 
 def test_least_squares_has_no_progress(synthetic):
     calls = []
-    identify(synthetic(), solver="ls", progress=lambda *a: calls.append(a))
+    identify(synthetic(), IdentifyRequest(solver="ls"), progress=lambda *a: calls.append(a))
     assert calls == []

@@ -6,6 +6,7 @@ Synthetic data only (plus the bundled TX40 joint-2 bags for validate on a 6-join
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,7 +15,15 @@ from scipy.optimize import lsq_linear
 from frictionid_core.cli import main
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import FrictionModel
-from frictionid_core.identification import build_model, identify, model_from_result, validate
+from frictionid_core.identification import (
+    IdentifyRequest,
+    PreprocessingOverrides,
+    SolverOptions,
+    build_model,
+    identify,
+    model_from_result,
+    validate,
+)
 from frictionid_core.identification_model import box_quadratic
 from frictionid_core.io.csv import save_csv
 from frictionid_core.observation import concat_observations
@@ -26,7 +35,7 @@ from support.data import BAGS
 STRIBECK = {"Fv": 2.0, "Fc": 1.0, "Fs": 1.6, "vs": 0.05, "delta": 1.0}
 # A 100 Hz analysis rate (cut-off 100 Hz, decimation 10), at which the dip pipeline's own bias on
 # these slow reversals stays ≤ 2 %: the tests of fixed parameters are about the fixing, not the rates.
-DIP_RATES = Preprocessing(cutoff_hz=100.0, decimate=10)
+DIP_RATES = PreprocessingOverrides(cutoff_hz=100.0, decimate=10)
 EMPS_TRUE = {"M": 95.0, "Fv": 200.0, "Fc": 20.0, "offset": -3.0}
 
 
@@ -140,8 +149,8 @@ def test_several_sources_give_the_parameters_of_one_long_source():
     whole = friction_series(noise=0.05, source="whole", params={**STRIBECK, "Fs": STRIBECK["Fc"]})
     half = len(whole) // 2
     parts = [whole.slice(0, half), whole.slice(half, len(whole))]
-    one = identify(whole, system="friction-only", friction="coulomb")
-    two = identify(parts, system="friction-only", friction="coulomb")
+    one = identify(whole, IdentifyRequest(system="friction-only", friction="coulomb"))
+    two = identify(parts, IdentifyRequest(system="friction-only", friction="coulomb"))
     assert two.source == ["whole", "whole"] and one.source == "whole"
     for name in one.params:
         assert two.params[name] == pytest.approx(one.params[name], abs=2 * one.std[name]), name
@@ -154,11 +163,11 @@ def test_each_source_is_filtered_alone():
     a = friction_series(10.0, source="a")
     b = friction_series(10.0, phase=2.0, source="b")
     b.position = b.position + 1.0
-    stacked = identify([a, b], system="friction-only", friction="coulomb")
-    alone = identify(a, system="friction-only", friction="coulomb")
+    stacked = identify([a, b], IdentifyRequest(system="friction-only", friction="coulomb"))
+    alone = identify(a, IdentifyRequest(system="friction-only", friction="coulomb"))
     glued = JointSeries(np.arange(20000) * 1e-3, ["j1"], np.vstack([a.position, b.position]),
                         np.vstack([a.effort, b.effort]), source="glued")
-    single = identify(glued, system="friction-only", friction="coulomb")
+    single = identify(glued, IdentifyRequest(system="friction-only", friction="coulomb"))
     assert stacked.metrics["relerr_pct"] < 1.2 * alone.metrics["relerr_pct"] < single.metrics["relerr_pct"] / 2
     for name in ("Fv", "Fc", "offset"):
         assert stacked.params[name] == pytest.approx(alone.params[name], rel=0.05), name
@@ -168,7 +177,7 @@ def test_sources_with_other_joints_are_refused(capsys, tmp_path):
     a = friction_series(2.0, joints=("j1", "j2"), source="a")
     b = friction_series(2.0, joints=("j1", "j3"), source="b")
     with pytest.raises(InputError, match=r"^b: joints \['j1', 'j3'\] differ from those of a"):
-        identify([a, b], system="friction-only")
+        identify([a, b], IdentifyRequest(system="friction-only"))
     save_csv(a, tmp_path / "a.csv")
     save_csv(b, tmp_path / "b.csv")
     msg = fails(["identify", tmp_path / "a.csv", tmp_path / "b.csv", "--system", "friction-only"], capsys)
@@ -192,11 +201,11 @@ def test_fixed_linear_parameter_on_ls(synthetic):
     """offset fixed at its true value: the rest recovered, σ 0; fixed at a wrong value it holds
     and the others absorb the change (M, Fv untouched: the offset is orthogonal to them here)."""
     s = synthetic(**EMPS_TRUE)
-    exact = identify(s, fixed={"offset": -3.0})
-    assert exact.params["offset"] == -3.0 and exact.std["offset"] == 0.0 and exact.extra["fixed"] == {"offset": -3.0}
+    exact = identify(s, IdentifyRequest(fixed={"offset": -3.0}))
+    assert exact.params["offset"] == -3.0 and exact.std["offset"] == 0.0 and exact.fixed == {"offset": -3.0}
     for name in ("M", "Fv", "Fc"):
         assert exact.params[name] == pytest.approx(EMPS_TRUE[name], rel=0.01) and exact.std[name] > 0
-    wrong = identify(s, fixed={"offset": 0.0})
+    wrong = identify(s, IdentifyRequest(fixed={"offset": 0.0}))
     assert wrong.params["offset"] == 0.0 and wrong.metrics["relerr_pct"] > 1.5 * exact.metrics["relerr_pct"]
 
 
@@ -222,22 +231,23 @@ def test_fixed_dip_carrying_and_nonlinear_parameters_in_every_search(solver, var
     """Fc (it carries the dip) and vs (nonlinear) fixed at their truths on noisy data: they hold
     exactly, are never searched, have σ 0, and the others are recovered."""
     s = friction_series(noise=0.02)
-    r = identify(s, system="friction-only", friction="stribeck", solver=solver, varpro=varpro,
-                 fixed={"Fc": 1.0, "vs": 0.05}, pop=20, generations=40, preprocessing=DIP_RATES)
+    r = identify(s, IdentifyRequest(system="friction-only", friction="stribeck", fixed={"Fc": 1.0, "vs": 0.05},
+                                    preprocessing=DIP_RATES,
+                                    solver=SolverOptions(solver, varpro=varpro, pop=20, generations=40)))
     assert r.params["Fc"] == 1.0 and r.params["vs"] == 0.05 and r.std["Fc"] == r.std["vs"] == 0.0
-    searched = set(r.extra["optimizer"]["params"])
+    searched = set(r.optimizer["params"])
     assert searched == ({"delta"} if varpro else {"Fv", "Fs", "delta", "offset"})
     for name, tol in (("Fv", 0.03), ("Fs", 0.03), ("delta", 0.06)):  # 2 % pipeline bias on Fs (dip at the
         assert r.params[name] == pytest.approx(STRIBECK[name], rel=tol), name  # analysis rate)
-    assert r.extra["fixed"] == {"Fc": 1.0, "vs": 0.05}
+    assert r.fixed == {"Fc": 1.0, "vs": 0.05}
 
 
 def test_every_nonlinear_parameter_fixed_makes_ls_possible():
     s = friction_series()
     with pytest.raises(FrictionIdError, match=r"nonlinear parameter\(s\) \['vs', 'delta'\].*--fix"):
-        identify(s, system="friction-only", friction="stribeck")
-    r = identify(s, system="friction-only", friction="stribeck", fixed={"vs": 0.05, "delta": 1.0},
-                 preprocessing=DIP_RATES)
+        identify(s, IdentifyRequest(system="friction-only", friction="stribeck"))
+    r = identify(s, IdentifyRequest(system="friction-only", friction="stribeck", fixed={"vs": 0.05, "delta": 1.0},
+                                    preprocessing=DIP_RATES))
     for name in ("Fv", "Fc", "Fs"):
         assert r.params[name] == pytest.approx(STRIBECK[name], rel=0.03), name
 
@@ -310,27 +320,28 @@ def test_user_bounds_hold_under_variable_projection():
     default bounds (Fs ≥ 0) are not imposed on the closed-form parameters, the user's are, and the
     bounded fit is the best one with Fs = 0."""
     s = friction_series(params={**STRIBECK, "Fs": -0.5}, noise=0.02)
-    kw = dict(system="friction-only", friction="stribeck", solver="de", varpro=True, pop=20, generations=40,
-              preprocessing=DIP_RATES)
-    free = identify(s, **kw)
+    free_request = IdentifyRequest(system="friction-only", friction="stribeck", preprocessing=DIP_RATES,
+                                   solver=SolverOptions("de", varpro=True, pop=20, generations=40))
+    free = identify(s, free_request)
     assert free.params["Fs"] < -0.1
-    bounded = identify(s, bounds={"Fs": (0.0, 100.0)}, **kw)
-    assert bounded.params["Fs"] == 0.0 and bounded.extra["bounds"] == {"Fs": [0.0, 100.0]}
+    bounded_request = replace(free_request, bounds={"Fs": (0.0, 100.0)})
+    bounded = identify(s, bounded_request)
+    assert bounded.params["Fs"] == 0.0 and bounded.bounds == {"Fs": (0.0, 100.0)}
     assert bounded.metrics["cost"] > free.metrics["cost"]
     # The same bounds on a full search (every parameter searched) reach the same optimum.
-    full = identify(s, bounds={"Fs": (0.0, 100.0)}, **{**kw, "varpro": False, "generations": 150})
+    full = identify(s, replace(bounded_request, solver=replace(bounded_request.solver, varpro=False, generations=150)))
     assert full.params["Fs"] >= 0.0 and bounded.metrics["cost"] <= full.metrics["cost"] * (1 + 1e-6)
 
 
 def test_user_bounds_on_the_closed_form(synthetic):
     """ls with offset bounded away from its truth: held at the bound (σ NaN), the others re-fitted."""
     s = synthetic(**EMPS_TRUE)
-    r = identify(s, bounds={"offset": (-1.0, 1.0)})
+    r = identify(s, IdentifyRequest(bounds={"offset": (-1.0, 1.0)}))
     assert r.params["offset"] == -1.0 and np.isnan(r.std["offset"])
-    held = identify(s, fixed={"offset": -1.0})
+    held = identify(s, IdentifyRequest(fixed={"offset": -1.0}))
     for name in ("M", "Fv", "Fc"):
         assert r.params[name] == pytest.approx(held.params[name], rel=1e-9) and r.std[name] == held.std[name]
-    inside = identify(s, bounds={"offset": (-5.0, 5.0)})
+    inside = identify(s, IdentifyRequest(bounds={"offset": (-5.0, 5.0)}))
     assert inside.params == identify(s).params  # an inactive bound changes nothing
 
 
@@ -350,8 +361,8 @@ def test_validate_takes_joints_and_system_from_the_result(tmp_path, capsys):
 
 def test_validate_reuses_the_preprocessing_and_window(synthetic, tmp_path):
     s = synthetic(**EMPS_TRUE)
-    settings = Preprocessing(cutoff_hz=40.0, decimate=5, trim_start_s=0.010, trim_end_s=0.0)
-    r = identify(s, preprocessing=settings).to_dict()
+    settings = PreprocessingOverrides(cutoff_hz=40.0, decimate=5, trim_start_s=0.010, trim_end_s=0.0)
+    r = identify(s, IdentifyRequest(preprocessing=settings)).to_dict()
     r["preprocessing"]["chosen_from_data"] = False  # a report key beside the settings: ignored
     model, x = model_from_result(s, r)
     assert model.obs.n_samples == (len(s) - 10 + 4) // 5

@@ -4,12 +4,13 @@ and dynamics, and a short in-process loop (frictionid_core.loop)."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from frictionid_core.friction import get_model
-from frictionid_core.identification import identify
+from frictionid_core.identification import IdentifyRequest, IdentifyResult, identify
 from frictionid_core.loop.control import Controller, default_trajectory, friction_feedforward, run_loop
 from frictionid_core.loop.evaluate import median_ratio, summarize
 from frictionid_core.loop.gate import review
@@ -31,18 +32,16 @@ def _joint(seconds: float, seed: int) -> JointSeries:
 @pytest.fixture(scope="module")
 def fitted():
     """(identified result, held-back slice): friction-only fit on 4 s, a fresh 2 s slice."""
-    return identify(_joint(4.0, 1), system="friction-only").to_dict(), _joint(2.0, 2)
+    return identify(_joint(4.0, 1), IdentifyRequest(system="friction-only")), _joint(2.0, 2)
 
 
-def _with(result: dict, **params) -> dict:
-    out = dict(result)
-    out["params"] = {**result["params"], **params}
-    return out
+def _with(result: IdentifyResult, **params) -> IdentifyResult:
+    return replace(result, params={**result.params, **params})
 
 
 def test_gate_accepts_a_better_set_and_rejects_a_worse_one(fitted):
     good, held = fitted
-    assert good["params"]["Fc"] == pytest.approx(FC, abs=0.01)
+    assert good.params["Fc"] == pytest.approx(FC, abs=0.01)
     worse = _with(good, Fc=3.0 * FC)
     d = review(worse, good, held)
     assert d.accepted and d.candidate_rmse < d.current_rmse

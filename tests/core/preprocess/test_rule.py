@@ -14,7 +14,7 @@ import pytest
 from frictionid_core.cli import main
 from frictionid_core.diagnostics import parameter_warnings
 from frictionid_core.errors import InputError
-from frictionid_core.identification import identify, validate
+from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides, identify, validate
 from frictionid_core.io.csv import save_csv
 from frictionid_core.preprocess import Preprocessing, choose_preprocessing
 from frictionid_core.timeseries import JointSeries
@@ -96,7 +96,7 @@ def test_joint_system_recovers_each_joint_with_defaults(rate):
     """J, Fv, Fc of both joints within 1 % and the offsets within 0.01 N·m at every rate (σ of
     J is 0.02–0.15 %; the remaining bias is the forward–backward filter's passband ripple);
     metrics per joint, against the recorded effort, near the 0.02 N·m noise floor."""
-    r = identify(joint_log(rate), system="joint").to_dict()
+    r = identify(joint_log(rate), IdentifyRequest(system="joint")).to_dict()
     assert list(r["params"]) == ["a/J", "b/J", "a/Fv", "a/Fc", "b/Fv", "b/Fc", "a/offset", "b/offset"]
     for joint, truth in TRUE.items():
         for name in ("J", "Fv", "Fc"):
@@ -114,17 +114,18 @@ def test_joint_system_recovers_each_joint_with_defaults(rate):
 
 def test_recorded_velocity_is_used_when_asked():
     log = joint_log(500.0, velocity=True)
-    r = identify(log, system="joint", preprocessing=Preprocessing(velocity="recorded")).to_dict()
+    recorded = IdentifyRequest(system="joint", preprocessing=PreprocessingOverrides(velocity="recorded"))
+    r = identify(log, recorded).to_dict()
     assert r["preprocessing"]["velocity"] == "recorded" and r["preprocessing"]["overridden"] == ["velocity"]
     for joint, truth in TRUE.items():
         for name in ("J", "Fv", "Fc"):
             assert r["params"][f"{joint}/{name}"] == pytest.approx(truth[name], rel=0.02), (joint, name)
     with pytest.raises(InputError, match=r"log500: no recorded velocity \(field 'velocity'\)"):
-        identify(joint_log(500.0), system="joint", preprocessing=Preprocessing(velocity="recorded"))
+        identify(joint_log(500.0), recorded)
 
 
 def test_validate_reuses_the_resolved_settings_and_takes_metrics_per_joint():
-    r = identify(joint_log(500.0), system="joint").to_dict()
+    r = identify(joint_log(500.0), IdentifyRequest(system="joint")).to_dict()
     v = validate(joint_log(500.0, seed=1), r)
     assert set(v["per_joint"]) == {"a", "b"}
     assert v["relerr_pct"] == pytest.approx(r["metrics"]["relerr_pct"], rel=0.1)
@@ -134,7 +135,8 @@ def test_relerr_does_not_move_with_the_decimation():
     """Metrics against the recorded effort, predicted from the unfiltered columns: the same model
     scores the same at any analysis rate (on decimated filtered torque it did not)."""
     log = joint_log(500.0)
-    errs = [identify(log, system="joint", preprocessing=Preprocessing(decimate=n)).metrics["relerr_pct"]
+    errs = [identify(log, IdentifyRequest(system="joint", preprocessing=PreprocessingOverrides(decimate=n)))
+            .metrics["relerr_pct"]
             for n in (1, 5, 10)]
     assert max(errs) == pytest.approx(min(errs), rel=0.02)
 
@@ -169,13 +171,14 @@ def test_slow_joint2_defaults_give_zz_within_2_percent_without_a_flag(slow_joint
     seeds) and no warning; the former default cut-off of 50 Hz leaves q̈ 27 % position noise, ZZ
     about 40 % low, and now says so, naming the way out."""
     series, zz = slow_joint2
-    r = identify(series, system="tx40-j2").to_dict()
+    r = identify(series, IdentifyRequest(system="tx40-j2")).to_dict()
     p = r["preprocessing"]
     assert p["cutoff_hz"] == pytest.approx(4.0, abs=0.1) and p["decimate"] == 12
     assert r["params"]["ZZ"] == pytest.approx(zz, rel=0.02)
     assert p["qdd_noise_share"]["joint_2"] < 1e-4
     assert not [w for w in r["warnings"] if "noise-dominated" in w]
-    old = identify(series, system="tx40-j2", preprocessing=Preprocessing(cutoff_hz=50.0)).to_dict()
+    old = identify(series, IdentifyRequest(system="tx40-j2", preprocessing=PreprocessingOverrides(cutoff_hz=50.0))
+                   ).to_dict()
     assert old["params"]["ZZ"] < 0.7 * zz
     assert old["preprocessing"]["qdd_noise_share"]["joint_2"] == pytest.approx(0.27, abs=0.03)
     noisy = [w for w in old["warnings"] if "noise-dominated" in w]
@@ -204,7 +207,7 @@ def test_negative_viscous_friction_is_flagged_in_the_result():
     log = joint_log(500.0)
     qd = np.gradient(log.position, log.t, axis=0)
     log.effort = -0.5 * qd + 1.0 * np.sign(qd) + 0.02 * np.random.default_rng(4).standard_normal(qd.shape)
-    r = identify(log, system="friction-only").to_dict()
+    r = identify(log, IdentifyRequest(system="friction-only")).to_dict()
     assert r["params"]["a/Fv"] == pytest.approx(-0.5, rel=0.05)
     assert sum(w.startswith("a/Fv = -0.5") and "negative viscous" in w for w in r["warnings"]) == 1
 
@@ -215,7 +218,7 @@ def test_a_joint_moving_one_way_names_the_way_out():
     with pytest.raises(InputError, match=r"b moves in one direction only \(0 of \d+ used rows go the negative "
                                          r"way\): its offset and Coulomb friction cannot be told apart; fix one, "
                                          r"e.g. --fix b/offset=0"):
-        identify(log, system="joint")
+        identify(log, IdentifyRequest(system="joint"))
 
 
 def test_resampled_stamps_are_a_warning_with_counts():
@@ -223,7 +226,7 @@ def test_resampled_stamps_are_a_warning_with_counts():
     jitter = np.random.default_rng(5).uniform(-0.2, 0.2, len(log)) / 500.0
     jitter[[0, -1]] = 0.0
     log.t = log.t + jitter
-    r = identify(log, system="joint").to_dict()
+    r = identify(log, IdentifyRequest(system="joint")).to_dict()
     stamps = [w for w in r["warnings"] if "resampled" in w]
     assert len(stamps) == 1 and f"all {len(log)} samples resampled onto a uniform 500 Hz grid" in stamps[0]
     assert stamps[0] in r["notes"] and r["preprocessing"]["resampled_samples"] == len(log)
@@ -284,7 +287,7 @@ def test_emps_table_keeps_every_printed_digit(capsys):
 def test_results_with_trims_in_samples_still_validate(emps_estimation, emps_validation):
     """A result written before the trims were in seconds (49 samples, every row kept, metrics on
     the filtered force) validates as it did: the EMPS cross-test's 5.98245 %."""
-    r = identify(emps_estimation, system="emps").to_dict()
+    r = identify(emps_estimation, IdentifyRequest(system="emps")).to_dict()
     legacy = dict(r, preprocessing={"cutoff_hz": 100.0, "order": 4, "decimate": 10, "trim_start": 49, "trim_end": 0})
     assert validate(emps_validation, legacy)["relerr_pct"] == pytest.approx(5.98245, abs=5e-6)
     assert validate(emps_validation, r)["relerr_pct"] == pytest.approx(5.98245, abs=5e-6)

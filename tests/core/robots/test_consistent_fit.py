@@ -4,12 +4,13 @@ URDF, MuJoCo and YAML (issue 16), on the bundled synthetic TX40 bag and a synthe
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.identification import identify, validate
+from frictionid_core.identification import IdentifyRequest, identify, validate
 from frictionid_core.io import load
 from frictionid_core.robots import example_robot_data_dir, load_urdf
 from frictionid_core.robots.consistency_check import report_for_result, standard_from_record
@@ -28,8 +29,8 @@ def tx40_bag():
 @pytest.fixture(scope="module")
 def tx40_fits(tx40_bag):
     """Unconstrained and consistent Coulomb fits of the bag's 10 s Fourier period (true offsets 0)."""
-    kw = dict(system="tx40", friction="coulomb", window=(0.0, 10.0), fixed={"offset": 0.0})
-    return identify(tx40_bag, **kw).to_dict(), identify(tx40_bag, consistent=True, **kw).to_dict()
+    free = IdentifyRequest(system="tx40", friction="coulomb", window=(0.0, 10.0), fixed={"offset": 0.0})
+    return identify(tx40_bag, free).to_dict(), identify(tx40_bag, replace(free, consistent=True)).to_dict()
 
 
 def _within_sigma(a: dict, b: dict, std: dict, k: float = 3.0) -> list[str]:
@@ -58,20 +59,20 @@ def test_consistent_needs_a_robot_system():
     from frictionid_core.io import load as load_bag
 
     series = load_bag(BAGS / "emps_estimation")
-    with pytest.raises(FrictionIdError, match="--consistent needs a robot system .*'emps'"):
-        identify(series, system="emps", consistent=True)
-    with pytest.raises(FrictionIdError, match="add --consistent"):
-        identify(series, system="emps", prior="urdf")
-    with pytest.raises(FrictionIdError, match="--stribeck-order applies to the consistent fit only"):
-        identify(series, system="emps", stribeck_order=True)
+    with pytest.raises(FrictionIdError, match="request field 'consistent': needs a robot system .*'emps'"):
+        identify(series, IdentifyRequest(system="emps", consistent=True))
+    with pytest.raises(FrictionIdError, match="request field 'prior': applies to the consistent fit only"):
+        identify(series, IdentifyRequest(system="emps", prior="urdf"))
+    with pytest.raises(FrictionIdError, match="request field 'stribeck_order': applies to the consistent fit only"):
+        identify(series, IdentifyRequest(system="emps", stribeck_order=True))
 
 
 @pytest.fixture(scope="module")
 def short_fits(tx40_bag):
     """2 s of the bag (poorly exciting): unconstrained, and consistent with the URDF prior (W 100)."""
-    kw = dict(system="tx40", friction="coulomb", window=(4.0, 6.0), fixed={"offset": 0.0})
-    return identify(tx40_bag, **kw).to_dict(), identify(tx40_bag, consistent=True, prior="urdf", prior_weight=100.0,
-                                                        **kw).to_dict()
+    free = IdentifyRequest(system="tx40", friction="coulomb", window=(4.0, 6.0), fixed={"offset": 0.0})
+    consistent = replace(free, consistent=True, prior="urdf", prior_weight=100.0)
+    return identify(tx40_bag, free).to_dict(), identify(tx40_bag, consistent).to_dict()
 
 
 @pytest.mark.slow
@@ -180,8 +181,8 @@ def test_ur5_consistent_and_export(tmp_path, capsys):
     fric = {j: {"Fv": 2.0 + k, "Fc": 3.0 + 0.5 * k} for k, j in enumerate(ur5.joints)}
     series, _ = synthesize(ur5, fit_to_limits(ur5, traj), friction="coulomb", friction_params=fric, seed=3)
     system = f"urdf:{path}"
-    free = identify(series, system=system, friction="coulomb").to_dict()
-    cons = identify(series, system=system, friction="coulomb", consistent=True, prior="urdf").to_dict()
+    free = identify(series, IdentifyRequest(system=system, friction="coulomb")).to_dict()
+    cons = identify(series, IdentifyRequest(system=system, consistent=True, prior="urdf")).to_dict()
     assert report_for_result(cons, get_system(system))["feasible"]
     assert _within_sigma(free["params"], cons["params"], free["std"], 3.0) == []
     _check_export(cons, tmp_path, capsys)
@@ -191,9 +192,10 @@ def test_ur5_consistent_and_export(tmp_path, capsys):
 
 def test_node_parameters_consistent_and_prior_weight(tx40_fits, tmp_path):
     """The node's ``consistent``/``prior_weight`` parameters: refused on a system without bodies,
-    turned into identify() keywords, and the answer's text carries the consistency verdict."""
+    turned into the node's IdentifyRequest, and the answer's text carries the consistency verdict."""
+    from frictionid_core.identification import IdentifyResult
     from frictionid_ros.config import PARAMETERS, make_config
-    from frictionid_ros.request import Job, consistency_kwargs, consistency_text, summary
+    from frictionid_ros.request import Job, consistency_text, node_request, summary
 
     values = {name: p.default for name, p in PARAMETERS.items()}
     values["results_file"] = str(tmp_path / "p.json")
@@ -201,12 +203,15 @@ def test_node_parameters_consistent_and_prior_weight(tx40_fits, tmp_path):
         make_config(dict(values, consistent=True))
     with pytest.raises(FrictionIdError, match="'prior_weight' must be >= 0"):
         make_config(dict(values, prior_weight=-1.0))
-    assert consistency_kwargs(make_config(values)) == {}
+    assert not node_request(make_config(values), ["a"]).consistent
     cfg = make_config(dict(values, system="tx40", consistent=True))
-    assert consistency_kwargs(cfg) == {"consistent": True}
+    assert (node_request(cfg, []).consistent, node_request(cfg, []).prior) == (True, None)
     cfg = make_config(dict(values, system="tx40", consistent=True, prior_weight=10.0))
-    assert consistency_kwargs(cfg) == {"consistent": True, "prior": "urdf", "prior_weight": 10.0}
-    free, cons = tx40_fits
+    request = node_request(cfg, [])
+    assert (request.consistent, request.prior, request.prior_weight) == (True, "urdf", 10.0)
+    free, cons = (IdentifyResult.from_dict(r) for r in tx40_fits)
+    assert cons.to_dict() == tx40_fits[1] and list(tx40_fits[1])[17:20] == ["consistency", "standard_parameters",
+                                                                             "preprocessing"]
     assert consistency_text(free) == ""
-    text = summary(Job(list(cons["joints"]), cfg.solve), cons, 1000, 1.0)
+    text = summary(Job(cons.joints, node_request(cfg, cons.joints)), cons, 1000, 1.0)
     assert "; consistency: FEASIBLE (SDP " in text and "prior none" in text

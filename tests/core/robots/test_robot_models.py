@@ -177,14 +177,14 @@ def test_rank_deficient_motion_names_the_unidentifiable_parameters(tx40):
 @pytest.mark.slow
 def test_noise_free_full_robot_is_recovered_exactly(tx40):
     """Coulomb friction, no noise: the base parameters and friction come back (closed form)."""
-    from frictionid_core.identification import identify
+    from frictionid_core.identification import IdentifyRequest, identify
 
     rng = np.random.default_rng(3)
     traj = FourierTrajectory(list(tx40.joints), np.zeros(6), rng.uniform(-1, 1, (6, 4)), rng.uniform(-1, 1, (6, 4)),
                              2 * np.pi / 5, 5.0)
     series, truth = synthesize(tx40, fit_to_limits(tx40, traj), friction="coulomb", position_noise=0.0,
                                torque_noise=0.0, offsets={"joint_3": 0.3})
-    r = identify(series, system="tx40", friction="coulomb", solver="ls").to_dict()
+    r = identify(series, IdentifyRequest(system="tx40", friction="coulomb", solver="ls")).to_dict()
     exp = expected_parameters(truth, "tx40")
     for name, value in r["params"].items():
         assert value == pytest.approx(exp[name], rel=1e-3, abs=1e-4), name
@@ -291,7 +291,7 @@ def _parser():
 def test_cli_excite_synth_identify_compare(tmp_path, ur5_path, capsys):
     """excite → synth (renamed joints, asymmetric friction) → identify with a joint map → validate
     → compare."""
-    from frictionid_core.identification import identify, validate
+    from frictionid_core.identification import IdentifyRequest, identify, validate
     from frictionid_core.io import load
 
     parser, handlers = _parser()
@@ -311,10 +311,10 @@ def test_cli_excite_synth_identify_compare(tmp_path, ur5_path, capsys):
     series = load(tmp_path / "bag")
     assert series.joints == [f"a{k}" for k in range(6)]
     with pytest.raises(InputError, match="not in the model"):
-        identify(series, system=system, friction="coulomb", asymmetric=True)
+        identify(series, IdentifyRequest(system=system, friction="coulomb", asymmetric=True))
     joint_map = {f"a{k}": j for k, j in enumerate(load_urdf(ur5_path).joints)}
-    r = identify(series, system=system, joint_map=joint_map, friction="coulomb", asymmetric=True,
-                 solver="ls").to_dict()
+    r = identify(series, IdentifyRequest(system=system, joint_map=joint_map, friction="coulomb", asymmetric=True)
+                 ).to_dict()
     assert (r["system"], r["joint_map"]) == (system, joint_map)
     # validate rebuilds the system with its joint map, also from a result of the former format
     # that packed the map into the system name

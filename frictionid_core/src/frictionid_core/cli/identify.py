@@ -1,14 +1,39 @@
-"""``frictionid identify SOURCE [SOURCE ...] [--system S] [--friction F] [--solver X] [--start S] [--end S]
-[--fix NAME=VALUE]... [--bounds NAME=LO:HI]... [--layout FILE] [--consistent [--prior urdf --prior-weight W]]
-[--json OUT]``."""
+"""``frictionid identify SOURCE [SOURCE ...] [--request FILE] [--system S] [--friction F] [--solver X]
+[--start S] [--end S] [--fix NAME=VALUE]... [--bounds NAME=LO:HI]... [--layout FILE]
+[--consistent [--prior urdf --prior-weight W]] [--save-request FILE] [--json OUT]``.
+
+The flags and ``--request FILE`` build one :class:`~frictionid_core.identification.IdentifyRequest`
+(:func:`request_of`): the file's values, with every flag given on the command line over the file's
+value of its field. The request flags therefore default to None here; their defaults are the request's.
+"""
 
 from __future__ import annotations
 
 import argparse
 
-from frictionid_core.cli._common import (add_drive_argument, add_source_arguments, drive_option, load_sources,
-                                         parse_bounds, parse_fixed, print_table, save_json, warn, window_of)
+from frictionid_core.cli._common import (
+    add_drive_argument,
+    add_source_arguments,
+    load_sources,
+    parse_bounds,
+    parse_fixed,
+    print_table,
+    save_json,
+    split_list,
+    warn,
+)
 from frictionid_core.errors import FrictionIdError
+
+# Request field (dotted: nested) → the flag that sets it, for messages.
+FLAGS = {"system": "--system", "joints": "--joints", "joint_map": "--joint-map", "drive": "--drive",
+         "friction": "--friction", "asymmetric": "--asymmetric", "solver.method": "--solver", "solver.seed": "--seed",
+         "solver.generations": "--budget", "solver.calls": "--budget", "solver.pop": "--pop",
+         "solver.varpro": "--varpro", "solver.warm_start": "--warm-start", "preprocessing.cutoff_hz": "--cutoff",
+         "preprocessing.decimate": "--decimate", "preprocessing.trim_start_s": "--trim",
+         "preprocessing.trim_end_s": "--trim", "preprocessing.min_speed": "--min-speed",
+         "preprocessing.velocity": "--velocity", "window": "--start/--end", "window.start_s": "--start",
+         "window.end_s": "--end", "consistent": "--consistent", "prior": "--prior", "prior_weight": "--prior-weight",
+         "stribeck_order": "--stribeck-order"}
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -17,21 +42,25 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from frictionid_core.options import CLOCKS, VELOCITY_SOURCES
 
     add_source_arguments(p)
-    p.add_argument("--system", default="emps",
-                   help="inverse dynamic model: emps | joint | friction-only | tx40-j2 | tx40 | urdf:PATH "
-                        "(default emps)")
+    p.add_argument("--request", metavar="FILE",
+                   help="identification request (YAML, as written by --save-request, or a result JSON's 'request'): "
+                        "its values, each flag given on the command line overriding the file's value")
+    p.add_argument("--save-request", metavar="FILE",
+                   help="write this run's request as YAML (rerun it with --request FILE)")
+    p.add_argument("--system", help="inverse dynamic model: emps | joint | friction-only | tx40-j2 | tx40 | urdf:PATH "
+                                    "(default emps)")
     p.add_argument("--joint-map", help="bag joint → model joint names when they differ: a=b,c=d")
     add_drive_argument(p)
-    p.add_argument("--friction", default="coulomb", choices=FRICTIONS, help="friction model (default coulomb)")
-    p.add_argument("--asymmetric", action="store_true", help="separate parameters for v > 0 and v < 0")
-    p.add_argument("--solver", default="ls", choices=SOLVERS, help="optimiser (default ls: linear least squares)")
-    p.add_argument("--seed", type=int, default=0, help="random seed of stochastic solvers (default 0)")
+    p.add_argument("--friction", choices=FRICTIONS, help="friction model (default coulomb)")
+    p.add_argument("--asymmetric", action="store_true", default=None, help="separate parameters for v > 0 and v < 0")
+    p.add_argument("--solver", choices=SOLVERS, help="optimiser (default ls: linear least squares)")
+    p.add_argument("--seed", type=int, help="random seed of stochastic solvers (default 0)")
     p.add_argument("--budget", type=int, help="generations (population solvers) or calls (bo, dt)")
     p.add_argument("--pop", type=int, help="population size of population solvers")
-    p.add_argument("--bounds", action="append", default=[], metavar="NAME=LO:HI",
+    p.add_argument("--bounds", action="append", metavar="NAME=LO:HI",
                    help="bounds of a parameter or family (e.g. vs=1e-4:1, Fs=0:100), held by every solver; "
                         "repeatable")
-    p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
+    p.add_argument("--fix", action="append", metavar="NAME=VALUE",
                    help="hold a parameter or family at a value (e.g. offset=0, joint_1/vs=0.01); repeatable")
     p.add_argument("--cutoff", type=float, metavar="HZ",
                    help="Butterworth cut-off on position, Hz (default: 10 × the motion's bandwidth, ≤ 0.2 × the "
@@ -49,81 +78,98 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="EMPS: minimise the closed-loop simulated position error, starting from the IDM result")
     p.add_argument("--clock", choices=CLOCKS, default="true",
                    help="simulation clock of --output-error (default true)")
-    p.add_argument("--varpro", action=argparse.BooleanOptionalAction, default=None,
+    p.add_argument("--varpro", action=argparse.BooleanOptionalAction,
                    help="variable projection: search only vs/delta/v0, solve the linear parameters in closed form "
                         "(default: on for tx40 and urdf:PATH, off otherwise)")
-    p.add_argument("--consistent", action="store_true",
+    p.add_argument("--consistent", action="store_true", default=None,
                    help="tx40, urdf:PATH: physically consistent standard parameters (pseudo-inertia ⪰ 0 per link, "
                         "rotor inertia, Fv, Fc ≥ 0; cvxpy + Clarabel); the result adds standard_parameters and "
                         "consistency")
     p.add_argument("--prior", choices=("urdf",),
                    help="with --consistent: pull each link toward the robot's own URDF inertials (log-det divergence)")
-    p.add_argument("--prior-weight", type=float, default=1.0, metavar="W",
+    p.add_argument("--prior-weight", type=float, metavar="W",
                    help="weight of the --prior divergence against the data term ‖e‖²/2σ̂² (default 1)")
-    p.add_argument("--stribeck-order", action="store_true",
+    p.add_argument("--stribeck-order", action="store_true", default=None,
                    help="with --consistent and an Fs parameter: also impose Fs ≥ Fc (off by default: see the docs)")
-    p.add_argument("--warm-start", action=argparse.BooleanOptionalAction, default=True,
+    p.add_argument("--warm-start", action=argparse.BooleanOptionalAction,
                    help="global solvers evaluate the closed-form start (never worse than the nested linear model) "
                         "first; --no-warm-start: purely random initial population, the thesis protocol (default on)")
 
 
-def _preprocessing(args):
-    """The system's pre-processing with the --cutoff/--decimate/--trim/--min-speed/--velocity
-    overrides, or None."""
-    from dataclasses import replace
+def given_fields(args) -> dict:
+    """The request fields the command line sets (nested as in ``IdentifyRequest.to_dict``), only
+    those of the flags given."""
+    from frictionid_core.systems import parse_joint_map
 
-    from frictionid_core.systems import get_system
-
-    changes = {k: v for k, v in (("cutoff_hz", args.cutoff), ("decimate", args.decimate),
-                                 ("min_speed", args.min_speed), ("velocity", args.velocity)) if v is not None}
+    top = {"system": args.system, "joints": split_list(args.joints), "drive": args.drive, "friction": args.friction,
+           "asymmetric": args.asymmetric, "consistent": args.consistent, "prior": args.prior,
+           "prior_weight": args.prior_weight, "stribeck_order": args.stribeck_order,
+           "joint_map": None if args.joint_map is None else parse_joint_map(args.joint_map),
+           "fixed": None if args.fix is None else parse_fixed(args.fix),
+           "bounds": None if args.bounds is None else parse_bounds(args.bounds)}
+    solver = {"method": args.solver, "seed": args.seed, "pop": args.pop, "varpro": args.varpro,
+              "warm_start": args.warm_start}
+    pre = {"cutoff_hz": args.cutoff, "decimate": args.decimate, "min_speed": args.min_speed, "velocity": args.velocity}
     if args.trim is not None:
         start, sep, end = args.trim.partition(":")
         try:
-            changes["trim_start_s"] = float(start)
-            changes["trim_end_s"] = float(end) if sep else float(start)
+            pre["trim_start_s"], pre["trim_end_s"] = float(start), float(end) if sep else float(start)
         except ValueError:
             raise FrictionIdError(f"--trim '{args.trim}': expected SECONDS or START:END in seconds") from None
-    if not changes:
-        return None
-    return replace(get_system(args.system).preprocessing, **changes)
+    window = {"start_s": args.start, "end_s": args.end}
+    out = {k: v for k, v in top.items() if v is not None}
+    for key, part in (("solver", solver), ("preprocessing", pre), ("window", window)):
+        part = {k: v for k, v in part.items() if v is not None}
+        if part:
+            out[key] = part
+    return out
+
+
+def request_of(args):
+    """The IdentifyRequest of the command line: ``--request``'s file (if any) with the flags given over it."""
+    from frictionid_core.identification import IdentifyRequest, budget_field, read_request
+
+    values = read_request(args.request).to_dict() if args.request else {}
+    for key, value in given_fields(args).items():
+        if isinstance(value, dict) and isinstance(values.get(key), dict) and key != "joint_map":
+            values[key] = {**values[key], **value}  # nested parts and fixed/bounds: field by field
+        else:
+            values[key] = value
+    if args.budget is not None:
+        method = (values.get("solver") or {}).get("method", "ls")
+        values.setdefault("solver", {})[budget_field(method)] = args.budget
+    return IdentifyRequest.from_dict(values, where="", names=FLAGS)
 
 
 def run(args) -> int:
-    from frictionid_core.options import budget_options
+    request = request_of(args)
+    if args.save_request:
+        from frictionid_core.identification import write_request
 
-    opts = budget_options(args.solver, args.budget, args.pop)
+        write_request(args.save_request, request)
     if args.output_error:
         from frictionid_core.output_error import identify_output_error
 
-        if args.system != "emps":
-            raise FrictionIdError(f"--output-error needs the EMPS closed-loop model; got system '{args.system}'")
-        unsupported = [flag for flag, used in (("several sources", len(args.source) > 1), ("--fix", args.fix),
-                                               ("--drive", args.drive is not None),
-                                               ("--start/--end", window_of(args)), ("--layout", args.layout)) if used]
+        unsupported = [flag for flag, used in (("several sources", len(args.source) > 1),
+                                               ("--layout", args.layout)) if used]
         if unsupported:
             raise FrictionIdError(f"--output-error takes one EMPS source without {', '.join(unsupported)}")
-        result = identify_output_error(args.source[0], friction=args.friction, asymmetric=args.asymmetric,
-                                       solver=args.solver if args.solver != "ls" else "lm", seed=args.seed,
-                                       clock=args.clock, bounds=parse_bounds(args.bounds), **opts).to_dict()
+        result = identify_output_error(args.source[0], request, clock=args.clock)
     else:
-        from frictionid_core.identification import identify
-        from frictionid_core.systems import parse_joint_map
+        from dataclasses import replace
 
-        result = identify(load_sources(args), system=args.system, joint_map=parse_joint_map(args.joint_map),
-                          friction=args.friction,
-                          asymmetric=args.asymmetric, solver=args.solver, seed=args.seed, varpro=args.varpro,
-                          warm_start=args.warm_start, bounds=parse_bounds(args.bounds),
-                          preprocessing=_preprocessing(args), fixed=parse_fixed(args.fix), window=window_of(args),
-                          drive=drive_option(args), consistent=args.consistent, prior=args.prior,
-                          prior_weight=args.prior_weight, stribeck_order=args.stribeck_order, **opts).to_dict()
-        result["layout"] = None if args.layout is None else str(args.layout)
-    print_table(result)
-    if "consistency" in result:
-        c = result["consistency"]
+        from frictionid_core.identification import identify
+
+        args.joints = None if request.joints is None else ",".join(request.joints)  # --joints or the file's
+        layout = None if args.layout is None else str(args.layout)
+        result = replace(identify(load_sources(args), request), layout=layout)
+    print_table(result.to_dict())
+    if result.consistency is not None:
+        c = result.consistency
         print(f"consistent parameters: {'FEASIBLE' if c['feasible'] else 'NOT FEASIBLE'} ({c['solver']}, "
               f"{c['sdp_wall_s']:.2f} s, prior {c['prior']} weight {c['prior_weight']:g}); cost "
               f"+{c['cost_increase_pct']:.3g} % over the unconstrained fit (relerr "
               f"{c['unconstrained']['relerr_pct']:.4g} %)")
-    warn(result.get("warnings", []))
-    save_json(args.json, result)
+    warn(result.warnings)
+    save_json(args.json, result.to_dict())
     return 0

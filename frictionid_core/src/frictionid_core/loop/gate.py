@@ -1,8 +1,8 @@
 """The safety gate of online re-identification (no ROS import).
 
-A candidate parameter set (an ``Identification.to_dict()``) replaces the current one only if it
-predicts a held-back slice of recent data — samples it was not fitted on — better: a lower
-effort RMSE under :func:`frictionid_core.identification.validate` than the current set. A
+A candidate parameter set (an :class:`~frictionid_core.identification.IdentifyResult`) replaces the
+current one only if it predicts a held-back slice of recent data — samples it was not fitted on —
+better: a lower effort RMSE under :func:`frictionid_core.identification.validate` than the current set. A
 candidate with a non-finite parameter or one larger than ``max_abs`` in magnitude is refused
 before any prediction.
 """
@@ -11,8 +11,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from frictionid_core.errors import FrictionIdError
+
+if TYPE_CHECKING:
+    from frictionid_core.identification import IdentifyResult
 
 
 @dataclass(frozen=True)
@@ -26,7 +30,7 @@ class Decision:
     candidate_rmse: float = math.nan
 
 
-def _rmse(result: dict, holdout) -> float:
+def _rmse(result: IdentifyResult, holdout) -> float:
     from frictionid_core.identification import validate
 
     try:
@@ -35,10 +39,10 @@ def _rmse(result: dict, holdout) -> float:
         raise FrictionIdError(f"cannot predict the held-back slice: {exc}") from None
 
 
-def screen(candidate: dict, max_abs: float = 1e3) -> Decision | None:
+def screen(candidate: IdentifyResult, max_abs: float = 1e3) -> Decision | None:
     """The rejection of a candidate with a non-finite parameter or one over ``max_abs`` in
     magnitude (no prediction needed), else None."""
-    params = candidate.get("params") or {}
+    params = candidate.params
     bad = sorted(k for k, v in params.items() if not math.isfinite(float(v)))
     if bad:
         return Decision(False, f"rejected: non-finite parameter(s) {bad}")
@@ -48,7 +52,7 @@ def screen(candidate: dict, max_abs: float = 1e3) -> Decision | None:
     return None
 
 
-def review(current: dict | None, candidate: dict, holdout, max_abs: float = 1e3) -> Decision:
+def review(current: IdentifyResult | None, candidate: IdentifyResult, holdout, max_abs: float = 1e3) -> Decision:
     """Accept ``candidate`` over ``current`` (None: no active set) on the held-back JointSeries
     ``holdout``? ``max_abs``: largest parameter magnitude accepted (SI units)."""
     refused = screen(candidate, max_abs)

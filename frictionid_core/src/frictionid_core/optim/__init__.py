@@ -71,7 +71,8 @@ class _Methods(Mapping):
 
 METHODS: Mapping[str, Callable[..., OptimResult]] = _Methods()
 
-__all__ = ["METHODS", "POPULATION_METHODS", "SOLVERS", "OptimResult", "Problem", "minimize"]
+__all__ = ["CALL_METHODS", "METHODS", "POPULATION_METHODS", "SOLVERS", "OptimResult", "Problem", "method_options",
+           "minimize"]
 
 
 def __getattr__(name: str):
@@ -89,6 +90,12 @@ def _keyword_options(solve: Callable) -> frozenset[str]:
     return frozenset(
         name for name, p in inspect.signature(solve).parameters.items() if p.kind is p.KEYWORD_ONLY
     )
+
+
+def method_options(method: str) -> frozenset[str]:
+    """The keywords ``method``'s ``solve`` takes (its budgets among them): what :func:`minimize`
+    accepts for it."""
+    return _keyword_options(METHODS[method])
 
 
 def call_method(

@@ -22,13 +22,13 @@ from frictionid_core.reports.html_page import PAGE_STYLE, friction_axes, html_ta
 
 def model_table(series) -> list[dict]:
     """Thesis Table 6.3: every friction model by local search (ls, or lm with variable projection)."""
-    from frictionid_core.identification import identify
+    from frictionid_core.identification import IdentifyRequest, SolverOptions, identify
 
     rows = []
     for m in all_models():
         solver = "ls" if m.is_linear else "lm"
-        res = identify(series, system="emps", friction=m.name, asymmetric=m.asymmetric, solver=solver,
-                       varpro=not m.is_linear)
+        res = identify(series, IdentifyRequest(friction=m.name, asymmetric=m.asymmetric,
+                                               solver=SolverOptions(solver, varpro=not m.is_linear)))
         rows.append({"model": m.label, "solver": solver + ("" if m.is_linear else "+varpro"), "params": res.params,
                      **{k: res.metrics[k] for k in ("relerr_pct", "r2", "rmse", "error_std")}, "result": res})
     worst = max(r["relerr_pct"] for r in rows)
@@ -102,6 +102,7 @@ def build_report(estimation: Path, validation: Path, out_dir: Path, study_dir: P
     """Compute everything, write the PNGs, ``report.json`` and ``report.html``; return the JSON dict."""
     from frictionid_core.ensemble import grey_black_ensemble
     from frictionid_core.io import load
+    from frictionid_core.identification import IdentifyRequest
     from frictionid_core.output_error import identify_output_error
     from frictionid_core.emps_simulation import EmpsSimulator, load_emps
 
@@ -125,7 +126,7 @@ def build_report(estimation: Path, validation: Path, out_dir: Path, study_dir: P
     # Output error: choose the model on estimation data only.
     oe = {}
     for friction, asym in (("coulomb", True), ("tustin", True)):
-        res = identify_output_error(estimation, friction=friction, asymmetric=asym)
+        res = identify_output_error(estimation, IdentifyRequest(friction=friction, asymmetric=asym, solver="lm"))
         oe[f"{friction}{'-asym' if asym else ''}"] = {"params": res.params,
                                                        "sim": sim_errors(friction, asym, res.params)}
     best_oe = min(oe, key=lambda k: oe[k]["sim"]["est_true"])

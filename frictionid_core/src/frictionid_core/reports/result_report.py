@@ -136,7 +136,7 @@ def build_fit_report(result: dict, sources: list[tuple[str, JointSeries]], out_d
     """Write ``out_dir/report.html``, one PNG per source and joint and ``out_dir/report.json``.
 
     Args:
-        result: an identification result (``Identification.to_dict()``).
+        result: an identification result (``IdentifyResult.to_dict()``).
         sources: (role, series) pairs, role e.g. ``estimation`` or ``validation``; each series
             holds the result's joints.
         result_file: where the result was read from (shown on the page).

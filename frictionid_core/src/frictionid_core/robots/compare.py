@@ -64,7 +64,7 @@ def check_result(result, name: str) -> None:
 
 
 def compare_fits(results: list[dict], files: list[str] | None = None) -> dict:
-    """Two or more identification results (``Identification.to_dict()``) side by side.
+    """Two or more identification results (``IdentifyResult.to_dict()``) side by side.
 
     Fits are labelled A, B, …; differences are taken against A. Returns::
 

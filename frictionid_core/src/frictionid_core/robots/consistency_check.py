@@ -203,7 +203,7 @@ def standard_from_record(robot, record: dict) -> np.ndarray:
 
 
 def report_for_result(result: dict, system, prior: str = "model") -> dict:
-    """Consistency report of an identification result (``Identification.to_dict()``) of a robot
+    """Consistency report of an identification result (``IdentifyResult.to_dict()``) of a robot
     system; ``system``: its System (:func:`frictionid_core.systems.result_system`)."""
     if system.robot is None:
         raise FrictionIdError(f"system '{system.name}' is not a robot system (tx40, urdf:PATH): "

@@ -90,7 +90,7 @@ def as_system(system: str | System, joint_map: dict[str, str] | None = None, dri
 
 
 def result_system(result: dict) -> System:
-    """The system of an identification result (``Identification.to_dict()``): its ``system``,
+    """The system of an identification result (``IdentifyResult.to_dict()``): its ``system``,
     ``joint_map`` (older results pack the map into the name: ``tx40?map=a=b,c=d``) and ``drive``."""
     name, _, packed = str(result["system"]).partition(_PACKED_MAP)
     return get_system(name, result.get("joint_map") or parse_joint_map(packed), result_drive(result))

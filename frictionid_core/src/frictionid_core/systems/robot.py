@@ -63,7 +63,7 @@ def robot_system(robot, name: str, joint_map: dict[str, str] | None = None, base
 
 def nominal_parameters(system: System) -> dict[str, float]:
     """{base parameter name: value} of a robot system's own model (its rigid body as modelled:
-    what ``identify(fixed=...)`` takes to identify friction only on a known arm)."""
+    what ``IdentifyRequest(fixed=...)`` takes to identify friction only on a known arm)."""
     info = system.robot
     if info is None:
         raise FrictionIdError(f"system '{system.name}' has no robot model (tx40 or urdf:PATH only)")

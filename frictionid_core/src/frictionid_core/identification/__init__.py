@@ -1,0 +1,49 @@
+"""Identification: a request (:class:`IdentifyRequest`) in, a result (:class:`IdentifyResult`) out.
+
+    from frictionid_core.identification import IdentifyRequest, identify, validate
+
+    result = identify(series, IdentifyRequest(system="emps", friction="coulomb"))
+    metrics = validate(other_series, result)
+
+One module per job: ``request`` (the request, its YAML file; ``settings``: its solver and
+pre-processing parts; ``checks``: its field checks), ``result`` (the result and its JSON),
+``orchestration`` (:func:`identify`), ``model`` (data → identification model, metrics),
+``solve`` (solver glue), ``dip_refit`` (the friction-dip refit policy), ``uncertainty`` (σ),
+``reload`` (a result on other data: :func:`model_from_result`, :func:`validate`). Other packages
+import the names of :data:`__all__` from here; each is loaded on first use (PEP 562), so importing
+the request alone stays light.
+"""
+
+import importlib as _importlib
+
+# Public names -> the module of this package that defines them.
+_LAZY = {
+    "IdentifyRequest": "request", "read_request": "request", "write_request": "request",
+    "window_record": "request",
+    "SolverOptions": "settings", "PreprocessingOverrides": "settings", "budget_field": "settings",
+    "FieldError": "checks",
+    "IdentifyResult": "result",
+    "identify": "orchestration",
+    "Sources": "model", "build_model": "model", "observe_sources": "model", "as_sources": "model",
+    "model_metrics": "model", "metric_model": "model",
+    "solve_model": "solve",
+    "model_from_result": "reload", "validate": "reload",
+}
+
+__all__ = ["FieldError", "IdentifyRequest", "IdentifyResult", "PreprocessingOverrides", "SolverOptions", "Sources",
+           "as_sources", "budget_field", "build_model", "identify", "metric_model", "model_from_result",
+           "model_metrics", "observe_sources", "read_request", "solve_model", "validate", "window_record",
+           "write_request"]
+
+
+def __getattr__(name: str):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(_importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

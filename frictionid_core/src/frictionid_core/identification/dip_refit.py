@@ -1,0 +1,99 @@
+"""The dip-refit policy: a friction dip (Stribeck, Threlfall) that the pre-processing rates chosen
+from the data cannot follow makes the identification refit at the rates its estimate needs
+(:func:`fit_at_dip_rates`), or warns when the user set those rates (:func:`dip_warnings`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from frictionid_core.identification.solve import Fit
+from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.preprocess import Preprocessing, dip_needs, rule_decimation
+
+# At most this many refits when a friction dip needs finer rates than those chosen.
+DIP_ROUNDS = 4
+
+
+def fit_at_dip_rates(model: IdentificationModel, settings: Preprocessing,
+                     rebuild: Callable[[Preprocessing], IdentificationModel],
+                     fit: Callable[..., Fit]) -> tuple[IdentificationModel, Fit]:
+    """``fit(model)``, then while the dip of the estimate needs finer rates than those chosen from
+    the data, ``fit(rebuild(settings with those rates), previous)`` (too coarse a rate
+    overestimates vs, so this may take a few rounds); returns the last model and its fit.
+    ``fit(model, previous=None)``: see :func:`frictionid_core.identification.solve.fit_model`."""
+    result = fit(model)
+    for _ in range(DIP_ROUNDS):
+        changes, why = dip_changes(model, result[0])
+        if not changes:
+            break
+        from_data = model.obs.report["from_data"]
+        model = rebuild(replace(settings, **changes))
+        model.obs.report["from_data"] = sorted(set(from_data) | set(model.obs.report["from_data"]))
+        model.obs.report["dip"] = why
+        result = fit(model, (result[0], result[3]))
+    return model, result
+
+
+def model_dip_needs(model: IdentificationModel, x: np.ndarray) -> tuple[int, float, str, dict[str, float]]:
+    """(largest decimation, smallest cut-off, why, {row joint: speed scale}) the friction dip of
+    the fit ``x`` needs: see :func:`frictionid_core.preprocess.dip_needs`, for its speed scale
+    (vs or v0) of each joint and branch at the joint's reversal acceleration (the smaller of a
+    joint's two branches); a scale at its lower bound (a dip that vanished) is skipped."""
+    obs = model.obs
+    n_max, fc_min, why, scales = np.iinfo(np.int32).max, 0.0, "", {}
+    if model.is_linear:
+        return n_max, fc_min, why, scales
+    lo, _ = model.bounds()
+    fs = obs.report["sample_rate_hz"]
+    scale = model.friction.law.nonlinear[0]
+    for i in model.nonlinear_index:
+        name = model.names[i]
+        vanished = x[i] <= lo[i] and i not in model.fixed_values  # a searched dip at its lower bound
+        if name.rsplit("/", 1)[-1].removesuffix("_pos").removesuffix("_neg") != scale or vanished:
+            continue
+        joint = name.split("/", 1)[0] if "/" in name else obs.joints[0]
+        a = obs.report.get("reversal_acceleration", {}).get(joint) or 0.0
+        n, fc = dip_needs(fs, a, x[i])
+        scales[joint] = min(float(x[i]), scales.get(joint, np.inf))
+        if n < n_max or fc > fc_min:
+            why = (f"{joint}: its friction dip ({name} {x[i]:.3g}) is crossed at reversals at up to {a:.3g}/s²; "
+                   f"it needs an analysis rate ≥ {fs / n:.4g} Hz and a cut-off ≥ {fc:.3g} Hz")
+        n_max, fc_min = min(n, n_max), max(fc, fc_min)
+    return n_max, fc_min, why, scales
+
+
+def dip_changes(model: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:
+    """The pre-processing changes (among the settings chosen from the data) the dip of ``x``
+    needs, and why; {} when none.
+
+    A decimation chosen from the data goes down to what the dip needs; the rows are then thinned
+    (``thin``, ``dip_scale``: see :func:`frictionid_core.preprocess.thinned_rows`) back to the
+    rule's rate for the cut-off wherever the dip is not crossed fast: the fine rate there only
+    adds rows (and seconds and GBs on long logs)."""
+    n, fc, why, scales = model_dip_needs(model, x)
+    pre, chosen = model.obs.preprocessing, model.obs.report["from_data"]
+    changes = {}
+    cutoff = pre.cutoff_hz
+    if fc > cutoff * (1 + 1e-9) and "cutoff_hz" in chosen:
+        cutoff = changes["cutoff_hz"] = fc
+    if "decimate" in chosen:
+        rule = rule_decimation(model.obs.report["sample_rate_hz"], cutoff)
+        n = min(n, rule)
+        if n < pre.decimate or changes:
+            changes["decimate"] = n
+            changes["thin"] = max(1, rule // n)
+            changes["dip_scale"] = scales if changes["thin"] > 1 else None
+    return changes, why
+
+
+def dip_warnings(model: IdentificationModel, x: np.ndarray) -> list[str]:
+    """A warning when the settings the user gave are too coarse for the dip of ``x``."""
+    n, fc, why, _ = model_dip_needs(model, x)
+    pre = model.obs.preprocessing
+    if n >= pre.decimate and fc <= pre.cutoff_hz * (1 + 1e-9):
+        return []
+    return [f"{why} (here {model.obs.report['analysis_rate_hz']:.4g} Hz and {pre.cutoff_hz:.3g} Hz): vs and δ come out "
+            f"biased; use --decimate {min(n, pre.decimate)} --cutoff {max(fc, pre.cutoff_hz):.3g}"]

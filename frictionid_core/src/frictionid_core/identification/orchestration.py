@@ -1,0 +1,134 @@
+"""One identification: data → pre-processing → model → solver (and dip refit) → σ → consistent
+parameters → metrics and warnings (:func:`identify`)."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from frictionid_core import diagnostics
+from frictionid_core.drive import drive_from_dict, load_drive
+from frictionid_core.errors import FrictionIdError, InputError
+from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_rates
+from frictionid_core.identification.model import Sources, as_sources, build_model, model_metrics, preprocessing_record
+from frictionid_core.identification.request import IdentifyRequest
+from frictionid_core.identification.result import IdentifyResult
+from frictionid_core.identification.solve import fit_model
+from frictionid_core.identification.uncertainty import jacobian_std
+from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.parallel import single_threaded_libraries
+from frictionid_core.systems import System, as_system
+from frictionid_core.timeseries import JointSeries
+
+
+def request_system(request: IdentifyRequest) -> System:
+    """The system of ``request``: its name with its joint map, reading its logs through its drive."""
+    drive = request.drive
+    if isinstance(drive, str):
+        drive = load_drive(drive)
+    elif drive is not None:
+        drive = drive_from_dict(drive, "the request's drive")
+    return as_system(request.system, request.joint_map, drive)
+
+
+def request_sources(series: Sources, request: IdentifyRequest) -> list[JointSeries]:
+    """``series`` as a list of sources cut to the request's window, with the request's joints."""
+    sources = as_sources(series, request.window)
+    joints = request.joints
+    if joints is not None:
+        sources = [s if list(s.joints) == list(joints) else s.select(list(joints)) for s in sources]
+    return sources
+
+
+# One BLAS thread: the tall products (FᵀF of the dip refit's 161k rows, the Jacobian's JᵀJ) gain
+# nothing from a second one, and a thread parked behind a competing process stalls each call:
+# a large log at load ~4 took 43.6 s instead of 24.7 s, every parameter bit for bit the same.
+@single_threaded_libraries()
+def identify(series: Sources, request: IdentifyRequest | None = None, *, progress=None) -> IdentifyResult:
+    """Identify the parameters ``request`` asks for (default ``IdentifyRequest()``: EMPS, Coulomb,
+    ls) from ``series``: one source, or several with the same joints (each pre-processed alone,
+    the observations stacked).
+
+    ``progress(generation, evaluations, best_cost)`` is called during an optimiser run (see
+    :class:`frictionid_core.optim.Problem`; an exception it raises stops the run); not by ``ls``.
+    With a drive whose friction acts on the motors, friction, offsets and rotor inertias are per
+    motor (``motor_<k>/…``, fit in the referred motor torques) and the metrics on the joint
+    torques Cᵀ·u. With ``consistent``, σ stay those of the unconstrained fit.
+    """
+    t0 = time.perf_counter()
+    request = IdentifyRequest() if request is None else request
+    if not isinstance(request, IdentifyRequest):
+        raise FrictionIdError(f"identify takes an IdentifyRequest, got {type(request).__name__}")
+    sys_ = request_system(request)
+    settings = request.preprocessing.apply(sys_.preprocessing)
+    solver = request.solver
+    if solver.varpro is None:
+        solver = replace(solver, varpro=sys_.robot is not None)
+    sources = request_sources(series, request)
+
+    def rebuild(pre) -> IdentificationModel:
+        return build_model(sources, sys_, request.friction, request.asymmetric, pre, request.bounds,
+                           fixed=request.fixed)
+
+    model = rebuild(settings)
+    errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
+    if errors:
+        raise InputError(f"{sources[0].source}: " + "; ".join(errors))
+    fixed = {model.names[i]: v for i, v in model.fixed_values.items()}
+    model, (x, std, cond, res) = fit_at_dip_rates(
+        model, settings, rebuild, lambda m, previous=None: fit_model(m, solver, progress, previous))
+    warnings += dip_warnings(model, x)
+    if res is not None:
+        std, design = jacobian_std(model, x)
+        cond = float(np.linalg.cond(design))
+    consistency = standard = None
+    if request.consistent:
+        x, consistency, standard = consistent_parameters(model, x, sys_, request)
+    metrics = model_metrics(model, x)
+    metrics["cost"] = float(model.batch_cost(x[None])[0])
+    metrics["cond"] = cond
+    notes = [*(note for s in sources for note in s.notes), *model.obs.notes]
+    warnings = result_warnings(model, x, std, notes, warnings)
+    return IdentifyResult(
+        system=sys_.name, joint_map=dict(sys_.joint_map), friction=request.friction, asymmetric=request.asymmetric,
+        solver=solver.method, source=sources[0].source if len(sources) == 1 else [s.source for s in sources],
+        joints=list(sources[0].joints), params=dict(zip(model.names, map(float, x))), std=std, metrics=metrics,
+        wall_s=time.perf_counter() - t0, warnings=warnings, notes=notes,
+        drive=sys_.drive.to_dict() if sys_.drive else None, window=request.window, fixed=fixed,
+        bounds=dict(request.bounds), optimizer=None if res is None else res.to_dict(),
+        varpro=None if res is None else solver.varpro, warm_start=None if res is None else solver.warm_start,
+        consistency=consistency, standard_parameters=standard,
+        preprocessing=preprocessing_record(model.obs, metrics, sys_.preprocessing, settings), request=request)
+
+
+def result_warnings(model: IdentificationModel, x: np.ndarray, std: dict[str, float], notes: list[str],
+                    warnings: list[str]) -> list[str]:
+    """Every warning of a fit: the stamps (from ``notes``), the accelerations, ``warnings`` (the
+    directions and the dip) and the parameters (at a bound, undetermined)."""
+    obs = model.obs
+    lo, hi = model.bounds()
+    free = model.free_index
+    return (diagnostics.stamp_warnings(notes)
+            + diagnostics.acceleration_warnings(obs.report, obs.preprocessing.cutoff_hz,
+                                                "cutoff_hz" in obs.report["from_data"])
+            + warnings + diagnostics.parameter_warnings([model.names[i] for i in free], x[free], std,
+                                                        lo[free], hi[free]))
+
+
+def consistent_parameters(model: IdentificationModel, x: np.ndarray, sys_: System, request: IdentifyRequest
+                          ) -> tuple[np.ndarray, dict, dict]:
+    """(the consistent parameters, the ``consistency`` record with the unconstrained fit's
+    metrics, the standard parameters per link) at the nonlinear shapes of ``x``."""
+    from frictionid_core.robots.consistency_check import standard_record
+    from frictionid_core.robots.consistent_fit import consistent_fit
+
+    use_prior = request.prior == "urdf"
+    unconstrained = model_metrics(model, x)
+    fit = consistent_fit(model, x, sys_.robot, prior_weight=request.prior_weight if use_prior else 0.0,
+                         stribeck_order=request.stribeck_order)
+    fit.record["unconstrained"] = {"params": dict(zip(model.names, map(float, x))),
+                                   "relerr_pct": unconstrained.get("relerr_pct"), "rmse": unconstrained.get("rmse")}
+    fit.record["prior"] = "urdf" if use_prior else "none"
+    return fit.x, fit.record, standard_record(sys_.robot, fit.names, fit.standard)

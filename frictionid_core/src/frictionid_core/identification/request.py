@@ -1,0 +1,229 @@
+"""What one identification is asked for: :class:`IdentifyRequest`, validated once, on creation.
+
+Every caller builds one, through the one validator of its fields (``__post_init__``): Python
+(``IdentifyRequest(system="emps", friction="coulomb")``), the command line (its flags, or a YAML
+file: ``frictionid identify --request FILE``) and the node (its ``~/identify`` fields over its
+parameters), the last two through :meth:`IdentifyRequest.from_dict`, which names a bad value by
+the caller's own name for it (``--pop``, ``request field 'population'``, ``r.yaml: key 'solver.pop'``).
+A request holds names and values only (the system's name, the drive's file, bundled name or
+keys), so it is a YAML file (:func:`read_request`, :func:`write_request`) and pickles to the
+node's worker process.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.identification.checks import FieldError, choice, flag, known_keys, mapping, number
+from frictionid_core.identification.settings import PreprocessingOverrides, SolverOptions
+
+ROBOT_SYSTEMS = "tx40, urdf:PATH"  # the systems with body parameters, for messages
+
+
+@dataclass(frozen=True)
+class IdentifyRequest:
+    """One identification's choices (validated on creation: a bad value is a :class:`FieldError`
+    naming its field).
+
+    Attributes:
+        system: the inverse dynamic model: ``emps``, ``joint``, ``friction-only``, ``tx40-j2``,
+            ``tx40`` or ``urdf:PATH`` (see :data:`frictionid_core.systems.SYSTEM_NAMES`).
+        joints: the data joints to fit, in this order (None: every joint of the data).
+        joint_map: {data joint: model joint} of a robot system where the names differ.
+        drive: the log's transmission: a drive YAML file or bundled name (``tx40``), or the
+            drive's keys (:func:`frictionid_core.drive.drive_from_dict`); None: a joint-side log.
+        friction: the friction law (one of :data:`frictionid_core.friction.FRICTIONS`).
+        asymmetric: separate parameters for v > 0 and v < 0.
+        solver: the solver and its options (a method name alone is ``SolverOptions(method=name)``).
+        preprocessing: settings replacing the system's pre-processing defaults.
+        window: (start_s, end_s) of every source, s from its first sample (None: an open end);
+            None: all of it.
+        fixed: {name: value} parameters held at a value in every solver path (σ 0); a name is a
+            full parameter name, a base name (``offset``) or a family (``vs``).
+        bounds: {name: (lo, hi)} the user's bounds, held by every solver path (names as ``fixed``).
+        consistent: robot systems: physically consistent standard parameters (the result gains
+            ``standard_parameters`` and ``consistency``).
+        prior: with ``consistent``: ``urdf`` pulls each link toward the robot model's own
+            inertials (log-det divergence weighted by ``prior_weight``); None: no prior.
+        prior_weight: weight of that divergence against the data term (≥ 0).
+        stribeck_order: with ``consistent``: also Fs ≥ Fc.
+    """
+
+    system: str = "emps"
+    joints: tuple[str, ...] | None = None
+    joint_map: dict[str, str] = field(default_factory=dict)
+    drive: str | dict | None = None
+    friction: str = "coulomb"
+    asymmetric: bool = False
+    solver: SolverOptions = field(default_factory=SolverOptions)
+    preprocessing: PreprocessingOverrides = field(default_factory=PreprocessingOverrides)
+    window: tuple[float | None, float | None] | None = None
+    fixed: dict[str, float] = field(default_factory=dict)
+    bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
+    consistent: bool = False
+    prior: str | None = None
+    prior_weight: float = 1.0
+    stribeck_order: bool = False
+
+    def __post_init__(self) -> None:
+        from frictionid_core.friction import FRICTIONS
+
+        set_ = object.__setattr__
+        set_(self, "system", _system_name(self.system))
+        set_(self, "joints", _joint_names(self.joints))
+        joint_map = mapping("joint_map", self.joint_map)
+        if not all(isinstance(v, str) and v for v in joint_map.values()):
+            raise FieldError("joint_map", f" must map data joint names to model joint names, got {joint_map!r}")
+        set_(self, "joint_map", joint_map)
+        set_(self, "drive", _drive(self.drive))
+        choice("friction", self.friction, FRICTIONS, "friction model")
+        set_(self, "asymmetric", flag("asymmetric", self.asymmetric))
+        set_(self, "solver", _nested("solver", self.solver, SolverOptions, "method"))
+        set_(self, "preprocessing", _nested("preprocessing", self.preprocessing, PreprocessingOverrides))
+        set_(self, "window", _window(self.window))
+        set_(self, "fixed", {k: number(f"fixed.{k}", v) for k, v in mapping("fixed", self.fixed).items()})
+        set_(self, "bounds", {k: _bound(f"bounds.{k}", v) for k, v in mapping("bounds", self.bounds).items()})
+        self._check_consistency()
+
+    def _check_consistency(self) -> None:
+        set_ = object.__setattr__
+        for name in ("consistent", "stribeck_order"):
+            set_(self, name, flag(name, getattr(self, name)))
+        if self.prior == "none":
+            set_(self, "prior", None)
+        if self.prior is not None:
+            choice("prior", self.prior, ("urdf",), "prior")
+        weight = number("prior_weight", self.prior_weight)
+        if not 0.0 <= weight < math.inf:
+            raise FieldError("prior_weight", f" must be >= 0, got {weight}")
+        set_(self, "prior_weight", weight)
+        if self.consistent and not (self.system == "tx40" or self.system.startswith("urdf:")):
+            raise FieldError("consistent", f": needs a robot system ({ROBOT_SYSTEMS}) with body parameters; "
+                                           f"system '{self.system}' has none")
+        for name, used in (("prior", self.prior is not None), ("stribeck_order", self.stribeck_order)):
+            if used and not self.consistent:
+                raise FieldError(name, ": applies to the consistent fit only: set consistent")
+
+    @classmethod
+    def from_dict(cls, data: Mapping, where: str = "request field", names: Mapping[str, str] | None = None
+                  ) -> IdentifyRequest:
+        """The request of a mapping (YAML, the node's fields; nested ``solver``/``preprocessing``
+        mappings, ``window`` as {start_s, end_s}): see :meth:`to_dict`. A bad value is a
+        FrictionIdError ``{where} '{name}'…`` with ``names`` (field path → the caller's name for it)."""
+        names = dict(names or {})
+        try:
+            if not isinstance(data, Mapping):
+                raise FieldError("", f" must be a mapping of fields, got {type(data).__name__}")
+            known_keys("", data, cls)
+            return cls(**data)
+        except FieldError as exc:
+            label = names.get(exc.path, exc.path)
+            raise FrictionIdError(f"{where} '{label}'{exc.problem}" if where else f"{label}{exc.problem}") from None
+
+    def to_dict(self) -> dict:
+        """Plain values (YAML/JSON), read back by :meth:`from_dict`."""
+        out = {f.name: copy.deepcopy(getattr(self, f.name)) for f in fields(self)}
+        out.update(joints=None if self.joints is None else list(self.joints), solver=self.solver.to_dict(),
+                   preprocessing=self.preprocessing.to_dict(), window=window_record(self.window),
+                   bounds={k: list(v) for k, v in self.bounds.items()})
+        return out
+
+
+def window_record(window: tuple[float | None, float | None] | None) -> dict | None:
+    """A window (start_s, end_s) as a result and a request file keep it: {"start_s", "end_s"} (s;
+    None: open), or None."""
+    return None if window is None else dict(zip(("start_s", "end_s"), window))
+
+
+def _nested(path: str, value, cls, shorthand: str | None = None):
+    if isinstance(value, cls):
+        return value
+    if shorthand is not None and isinstance(value, str):
+        value = {shorthand: value}
+    if not isinstance(value, Mapping):
+        raise FieldError(path, f" must be a {cls.__name__} or a mapping of its fields, got {value!r}")
+    known_keys(path, value, cls)
+    return cls(**value)
+
+
+def _system_name(name) -> str:
+    from frictionid_core.systems.registry import FIXED_SYSTEMS, SYSTEM_NAMES, URDF_PREFIX
+
+    if not isinstance(name, str) or not (name in FIXED_SYSTEMS or name == "tx40"
+                                         or (name.startswith(URDF_PREFIX) and len(name) > len(URDF_PREFIX))):
+        raise FieldError("system", f": unknown system {name!r}; choose one of {', '.join(SYSTEM_NAMES)}")
+    return name
+
+
+def _joint_names(joints) -> tuple[str, ...] | None:
+    if joints is None:
+        return None
+    if isinstance(joints, str) or not all(isinstance(j, str) and j for j in joints) or not joints:
+        raise FieldError("joints", f" must be a non-empty list of joint names, got {joints!r}")
+    dup = sorted({j for j in joints if list(joints).count(j) > 1})
+    if dup:
+        raise FieldError("joints", f": duplicated name(s) {dup}")
+    return tuple(joints)
+
+
+def _drive(drive) -> str | dict | None:
+    if drive is None or (isinstance(drive, str) and drive):
+        return drive
+    if isinstance(drive, Path):
+        return str(drive)
+    if isinstance(drive, Mapping):
+        from frictionid_core.drive import drive_from_dict
+
+        try:
+            drive_from_dict(dict(drive))
+        except FrictionIdError as exc:
+            raise FieldError("drive", f": {exc}") from None
+        return copy.deepcopy(dict(drive))
+    raise FieldError("drive", f" must be a drive file, a bundled drive name or the drive's keys, got {drive!r}")
+
+
+def _window(window) -> tuple[float | None, float | None] | None:
+    if window is None:
+        return None
+    if isinstance(window, Mapping):
+        unknown = [str(k) for k in window if k not in ("start_s", "end_s")]
+        if unknown:
+            raise FieldError(f"window.{unknown[0]}", ": unknown; known: start_s, end_s")
+        window = (window.get("start_s"), window.get("end_s"))
+    if isinstance(window, str) or len(window) != 2:
+        raise FieldError("window", f" must be (start_s, end_s) or {{start_s, end_s}}, got {window!r}")
+    start, end = (number(f"window.{k}", v, optional=True) for k, v in zip(("start_s", "end_s"), window))
+    if start is not None and end is not None and end <= start:
+        raise FieldError("window", f": end_s {end} is not after start_s {start}")
+    return start, end
+
+
+def _bound(path: str, value) -> tuple[float, float]:
+    if isinstance(value, str) or not hasattr(value, "__len__") or len(value) != 2:
+        raise FieldError(path, f" must be [lo, hi], got {value!r}")
+    return number(path, value[0]), number(path, value[1])
+
+
+def read_request(path: str | Path) -> IdentifyRequest:
+    """The request in a YAML (or JSON) file: a request's mapping (:meth:`IdentifyRequest.to_dict`),
+    or an identification result holding one (its ``request`` key)."""
+    from frictionid_core.yamlfile import read_yaml
+
+    data = read_yaml(path, "an identification request")
+    if "request" in data and "params" in data:  # a result of 'frictionid identify --json'
+        data = data["request"]
+    return IdentifyRequest.from_dict(data, where=f"{path}: key")
+
+
+def write_request(path: str | Path, request: IdentifyRequest) -> Path:
+    """Write ``request`` as YAML to ``path`` atomically; returns the absolute path."""
+    import yaml
+
+    from frictionid_core.jsonfile import write_text
+
+    return write_text(path, yaml.safe_dump(request.to_dict(), sort_keys=False, allow_unicode=True))

@@ -1,0 +1,131 @@
+"""What an identification produced: :class:`IdentifyResult`, and its JSON (the result file).
+
+The JSON keys are a contract (scripts read them): :meth:`IdentifyResult.to_dict` writes the
+fields in their order, leaving out the optional blocks that do not apply (the optimiser's without
+an optimiser, the consistent fit's without one, the output-error ones, the request of a result
+built by hand); :meth:`IdentifyResult.from_dict` reads such a file back, also one written by
+hand or by an earlier version (only ``system``, ``friction``, ``asymmetric`` and ``params`` are
+required; keys it does not know are ignored).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.identification.request import IdentifyRequest, window_record
+
+# Keys left out of the JSON when their field is None.
+OPTIONAL_KEYS = ("optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "output_error", "idm",
+                 "idm_params", "request")
+REQUIRED_KEYS = ("system", "friction", "asymmetric", "params")
+
+
+@dataclass(frozen=True)
+class IdentifyResult:
+    """The parameters of one identification, their σ, its metrics and how it was obtained.
+
+    Attributes:
+        system, joint_map, friction, asymmetric: the model fitted (as in the request).
+        solver: the solver method.
+        source: the source's name, or a list with several sources fitted together.
+        joints: the data joints fitted, in order.
+        params, std: {name: value} and {name: σ} (σ 0 for a fixed parameter, NaN where not
+            determined), SI units.
+        metrics: fit metrics on the estimation data (see :mod:`frictionid_core.metrics`), with
+            ``cost`` and ``cond``; per joint under ``per_joint``.
+        wall_s: the identification's wall time [s].
+        warnings, notes: what the user should know (one line each), and what the data said.
+        drive: the drive's keys (:meth:`frictionid_core.drive.Drive.to_dict`), or None.
+        window: (start_s, end_s) of every source [s from its first sample], or None.
+        fixed: {full parameter name: value} held fixed.
+        bounds: the user's bounds {name: (lo, hi)} as requested.
+        optimizer: the optimiser's record (:meth:`frictionid_core.optim.OptimResult.to_dict`);
+            None for a closed-form solution, as ``varpro`` and ``warm_start`` (what it ran with).
+        consistency, standard_parameters: the consistent fit's record and its standard
+            parameters per link (None without ``consistent``).
+        preprocessing: the pre-processing settings resolved, what the data said and
+            ``overridden`` (the settings that differ from the system's).
+        layout: the CSV layout file the source was read with (the command line), or None.
+        output_error, idm, idm_params: an output-error identification: True, the IDM start's
+            metrics and parameters (None otherwise).
+        request: the request that produced it (None: built by hand).
+    """
+
+    system: str
+    friction: str
+    asymmetric: bool
+    solver: str
+    source: str | list[str]
+    joints: list[str]
+    params: dict[str, float]
+    std: dict[str, float]
+    metrics: dict
+    wall_s: float
+    joint_map: dict[str, str] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    drive: dict | None = None
+    window: tuple[float | None, float | None] | None = None
+    fixed: dict[str, float] = field(default_factory=dict)
+    bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
+    optimizer: dict | None = None
+    varpro: bool | None = None
+    warm_start: bool | None = None
+    consistency: dict | None = None
+    standard_parameters: dict | None = None
+    preprocessing: dict | None = None
+    layout: str | None = None
+    output_error: bool | None = None
+    idm: dict | None = None
+    idm_params: dict[str, float] | None = None
+    request: IdentifyRequest | None = None
+
+    def to_dict(self) -> dict:
+        """The result's JSON: the keys of ``frictionid identify --json`` in their order."""
+        head = ("system", "joint_map", "friction", "asymmetric", "solver", "source", "joints", "params", "std",
+                "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds", "optimizer", "varpro",
+                "warm_start", "consistency", "standard_parameters", "preprocessing", "layout", "output_error", "idm",
+                "idm_params", "request")
+        out = {}
+        for key in head:
+            value = getattr(self, key)
+            if value is None and key in OPTIONAL_KEYS:
+                continue
+            out[key] = value
+        out.update(window=window_record(self.window), bounds={k: [float(lo), float(hi)] for k, (lo, hi) in
+                                                              self.bounds.items()})
+        if self.request is not None:
+            out["request"] = self.request.to_dict()
+        return out
+
+    def friction_rows(self) -> list[str]:
+        """Who owns the friction and offset parameters (the ``<name>/`` prefixes): the drive's
+        motors (``motor_<k>``) when its friction acts on the motors, else the joints."""
+        from frictionid_core.drive import friction_rows
+
+        return friction_rows({"drive": self.drive, "joints": self.joints})
+
+    @classmethod
+    def from_dict(cls, data: Mapping, where: str = "identification result") -> IdentifyResult:
+        """The result of its JSON (:meth:`to_dict`); FrictionIdError naming ``where`` when a
+        required key is missing or a value has the wrong shape."""
+        missing = [k for k in REQUIRED_KEYS if k not in data]
+        if missing:
+            raise FrictionIdError(f"{where} lacks {', '.join(map(repr, missing))}; expected the JSON written by "
+                                  "'frictionid identify'")
+        known = {f.name for f in fields(cls)}
+        values = {k: v for k, v in data.items() if k in known}
+        defaults = {"solver": "", "source": "", "joints": [], "std": {}, "metrics": {}, "wall_s": 0.0}
+        try:
+            values = {**defaults, **values}
+            window = values.get("window")
+            if window is not None:
+                values["window"] = (window.get("start_s"), window.get("end_s"))
+            values["bounds"] = {k: (lo, hi) for k, (lo, hi) in (values.get("bounds") or {}).items()}
+            if values.get("request") is not None:
+                values["request"] = IdentifyRequest.from_dict(values["request"], where=f"{where}: request key")
+            return cls(**values)
+        except (AttributeError, TypeError, ValueError) as exc:
+            raise FrictionIdError(f"{where}: malformed ({type(exc).__name__}: {exc})") from None

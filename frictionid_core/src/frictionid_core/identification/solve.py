@@ -1,0 +1,118 @@
+"""Solver glue: one fit of an identification model by its request's solver (closed form, an
+optimiser of :mod:`frictionid_core.optim`, or a polish from a previous point), and the problems
+the optimisers see."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from frictionid_core.identification.settings import SolverOptions
+from frictionid_core.identification_model import IdentificationModel
+
+if TYPE_CHECKING:
+    from frictionid_core.optim.problem import OptimResult, Problem
+
+# A fit: (parameters (k,), σ {name: σ} or None, condition number or None, the optimiser's result or None).
+Fit = tuple[np.ndarray, "dict[str, float] | None", "float | None", "OptimResult | None"]
+
+
+def is_closed_form(model: IdentificationModel, solver: SolverOptions) -> bool:
+    """True when ``solver`` solves ``model`` in closed form: ``ls``, or variable projection with
+    no nonlinear parameter left to search."""
+    return solver.method == "ls" or bool(solver.varpro and model.searched_nonlinear_index.size == 0)
+
+
+def fit_model(model: IdentificationModel, solver: SolverOptions, progress=None,
+              previous: tuple[np.ndarray, OptimResult] | None = None) -> Fit:
+    """``solver`` (its ``varpro`` resolved) on ``model``: closed form (with σ and the condition
+    number) or an optimiser. With ``previous`` (the point and result of a coarser round of the
+    dip refit), a local solver (lm, hybrid's polish) only polishes from that point: the finer
+    rates move the optimum, not its basin."""
+    if is_closed_form(model, solver):
+        return (*model.fit_linear(), None)
+    if previous is not None and solver.method in ("lm", "hybrid"):
+        polish = solver if solver.method == "lm" else SolverOptions(  # hybrid: the options of its polish
+            "lm", solver.seed, calls=solver.calls, varpro=solver.varpro,
+            options=solver.options.get("polish_options") or {})
+        x, res = solve_model(model, polish, progress=progress, start=previous[0])
+        return x, None, None, previous[1].refined(res, "dip refit at the finer rates: lm from this point")
+    x, res = solve_model(model, solver, progress=progress)
+    return x, None, None, res
+
+
+def solve_model(model: IdentificationModel, solver: SolverOptions, *, progress=None,
+                start: np.ndarray | None = None) -> tuple[np.ndarray, OptimResult]:
+    """Minimise the model's cost with the optimiser of ``solver``; returns (parameters (k,), OptimResult).
+
+    Local solvers start from ``start`` (k,) if given (e.g. a previous fit), else from the best of
+    a sample of closed-form solutions (:func:`start_point`; for a model linear in its
+    parameters, the least-squares optimum); with ``solver.warm_start`` population methods and
+    bo/dt evaluate that point first (as ``problem.x0``), linear models included. With
+    ``solver.varpro`` the optimiser sees only the nonlinear parameters; fixed parameters are never
+    searched. ``progress(generation, evaluations, best_cost)``: see :class:`frictionid_core.optim.Problem`.
+    """
+    from frictionid_core.optim import minimize
+
+    varpro = bool(solver.varpro)
+    searched = model.searched_nonlinear_index if varpro else model.free_index
+    problem = varpro_problem(model) if varpro else full_problem(model)
+    problem.progress = progress
+    if start is not None:
+        lo, hi = model.bounds()
+        problem.x0 = np.clip(np.asarray(start, dtype=float), lo, hi)[searched]
+    elif solver.warm_start or solver.method == "lm":  # linear models too: their start is the least-squares optimum
+        problem.x0 = start_point(model, np.random.default_rng(solver.seed))[searched]
+    res = minimize(problem, solver.method, seed=solver.seed, pop=solver.pop, generations=solver.generations,
+                   calls=solver.calls, **solver.options)
+    x = model.embed(res.x, searched)
+    return (model.solve_linear(x)[0] if varpro else x)[0], res
+
+
+def start_point(model: IdentificationModel, rng: np.random.Generator, samples: int = 64) -> np.ndarray:
+    """Best of ``samples`` random nonlinear parameter sets (plus the lower corner, where the
+    Stribeck/Threlfall dip vanishes and the model is the nested Coulomb one), each with its
+    linear parameters solved in closed form: the start of local solvers (lm) and a member of
+    the global methods' first population, so no solver returns worse than the nested model."""
+    lo, hi = model.bounds()
+    nl = model.nonlinear_index
+    theta = np.zeros((samples + 1, model.k))
+    theta[:, nl] = np.vstack([lo[nl], lo[nl] + (hi[nl] - lo[nl]) * rng.random((samples, nl.size))])
+    full, cost = model.solve_linear(theta)
+    return np.clip(full[int(np.argmin(cost))], lo, hi)
+
+
+def full_problem(model: IdentificationModel) -> Problem:
+    """The problem over every parameter that is not fixed."""
+    from frictionid_core.optim.problem import Problem
+
+    lo, hi = model.bounds()
+    free = model.free_index
+
+    def full(p: np.ndarray) -> np.ndarray:
+        return model.embed(p, free)
+
+    return Problem(names=[model.names[i] for i in free], lower=lo[free], upper=hi[free],
+                   batch_cost=lambda p: model.batch_cost(full(p)), residuals=lambda p: model.residuals(full(p)[0]),
+                   batch_residuals=lambda p: model.obs.y[None, :] - model.predict(full(p)))
+
+
+def varpro_problem(model: IdentificationModel) -> Problem:
+    """The reduced problem over the nonlinear parameters that are not fixed."""
+    from frictionid_core.optim.problem import Problem
+
+    lo, hi = model.bounds()
+    nl = model.searched_nonlinear_index
+
+    def cost(theta_nl: np.ndarray) -> np.ndarray:
+        return model.solve_linear(model.embed(theta_nl, nl))[1]
+
+    def residuals(theta_nl: np.ndarray) -> np.ndarray:
+        return model.residuals(model.solve_linear(model.embed(theta_nl, nl))[0][0])
+
+    def batch_residuals(theta_nl: np.ndarray) -> np.ndarray:
+        return model.obs.y[None, :] - model.predict(model.solve_linear(model.embed(theta_nl, nl))[0])
+
+    return Problem(names=[model.names[i] for i in nl], lower=lo[nl], upper=hi[nl], batch_cost=cost,
+                   residuals=residuals, batch_residuals=batch_residuals)
