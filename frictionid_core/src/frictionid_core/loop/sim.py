@@ -9,6 +9,10 @@ so it is integrated semi-implicitly: f(v₀) goes to ``qfrc_applied`` and its sl
 (≥ 0) to ``dof_damping`` under MuJoCo's ``implicitfast`` integrator — the applied friction is
 f(v₀) + c·(v₁ − v₀), stable at 1 kHz for any eps. The Coulomb level (Fc and Fs) may drift:
 it is scaled by 1 + drift·min(1, (t − t_start)/duration).
+
+MuJoCo's own joint friction can be the hidden truth instead of (or beside) the core's law:
+``damping`` (viscous, implicit) and ``frictionloss`` (dry friction as a constraint of MuJoCo's
+solver: it sticks below a small speed) per joint.
 """
 
 from __future__ import annotations
@@ -100,14 +104,17 @@ def mjcf(robot) -> str:
 
 class SimArm:
     """The arm of ``robot`` in MuJoCo at :data:`DT` with hidden friction ``friction`` (J, 5)
-    Stribeck parameters; ``q0`` start position (J,) [rad | m].
+    Stribeck parameters of the core's law (None: none); ``q0`` start position (J,) [rad | m].
+    MuJoCo's own joint friction (module docstring), each (J,) or None (none): ``damping``
+    [N·m·s/rad | N·s/m], ``frictionloss`` [N·m | N]. The rotor inertias are the robot model's armature.
 
     :meth:`step` applies a joint torque for one step; ``q``, ``qd`` [rad, rad/s | m, m/s] and
     ``t`` [s] are the state after it, ``tau`` the torque applied, ``tau_friction`` the friction
-    of the step (N·m | N, opposing the motion: τ_cmd − τ_friction drives the arm).
+    of the step, every kind together (N·m | N, opposing the motion: τ_cmd − τ_friction drives the arm).
     """
 
-    def __init__(self, robot, friction: np.ndarray, q0: np.ndarray | None = None, eps: float = SIM_EPS):
+    def __init__(self, robot, friction: np.ndarray | None, q0: np.ndarray | None = None, eps: float = SIM_EPS, *,
+                 damping: np.ndarray | None = None, frictionloss: np.ndarray | None = None):
         import mujoco
 
         self._mj = mujoco
@@ -118,8 +125,12 @@ class SimArm:
         if nv != robot.nv:
             raise FrictionIdError(f"MuJoCo model of {robot.name} has {nv} DOF, Pinocchio {robot.nv}")
         self.law = get_model("stribeck")
-        self.params = np.array(friction, dtype=float).reshape(nv, len(self.law.names))
+        self.params = None if friction is None else np.array(friction, dtype=float).reshape(nv, len(self.law.names))
         self.eps = float(eps)
+        self.damping = np.zeros(nv) if damping is None else np.array(damping, dtype=float).reshape(nv)
+        if frictionloss is not None:
+            self.model.dof_frictionloss[:] = np.asarray(frictionloss, dtype=float)
+        self.model.dof_damping[:] = self.damping
         if q0 is not None:
             self.data.qpos[:] = np.asarray(q0, dtype=float)  # MuJoCo hinges and slides: one coordinate each
         mujoco.mj_forward(self.model, self.data)
@@ -150,13 +161,15 @@ class SimArm:
         return 1.0 + self.drift * min(1.0, (self.t - self._drift_t0) / self.drift_s)
 
     def current_params(self) -> np.ndarray:
-        """Hidden Stribeck parameters (J, 5) now, with the drift."""
+        """Hidden Stribeck parameters (J, 5) of the core's law now, with the drift (zeros: none)."""
+        if self.params is None:
+            return np.zeros((self.model.nv, len(self.law.names)))
         p = self.params.copy()
         p[:, 1:3] *= self.level_scale()
         return p
 
     def friction(self, v: np.ndarray, params: np.ndarray | None = None) -> np.ndarray:
-        """Hidden friction f(v) (J,) [N·m | N] of the core's Stribeck law, joint k at v[k]."""
+        """Hidden friction f(v) (J,) [N·m | N] of the core's Stribeck law, joint k at v[k] (not MuJoCo's own)."""
         p = self.current_params() if params is None else params
         return self.law.torque_each(p, np.asarray(v, dtype=float), self.eps)
 
@@ -164,13 +177,18 @@ class SimArm:
         """Apply the joint torque ``tau`` (J,) for one step (friction semi-implicit, module docstring)."""
         d = self.data
         v0 = np.array(d.qvel)
+        self.tau[:] = tau
+        if self.params is None:  # MuJoCo's own friction only
+            d.qfrc_applied[:] = self.tau
+            self._mj.mj_step(self.model, d)
+            self.tau_friction[:] = self.damping * d.qvel - d.qfrc_constraint
+            return
         n = len(v0)
         p = np.tile(self.current_params(), (3, 1))  # one law call: f(v0), f(v0 + h), f(v0 − h)
         f = self.law.torque_each(p, np.concatenate([v0, v0 + _SLOPE_H, v0 - _SLOPE_H]), self.eps)
         f0, c = f[:n], (f[n:2 * n] - f[2 * n:]) / (2.0 * _SLOPE_H)
         np.maximum(c, 0.0, out=c)
-        self.tau[:] = tau
-        self.model.dof_damping[:] = c
+        self.model.dof_damping[:] = self.damping + c
         d.qfrc_applied[:] = self.tau - f0 + c * v0
         self._mj.mj_step(self.model, d)
-        self.tau_friction[:] = f0 + c * (np.asarray(d.qvel) - v0)
+        self.tau_friction[:] = f0 + c * (np.asarray(d.qvel) - v0) + self.damping * d.qvel - d.qfrc_constraint
