@@ -30,7 +30,7 @@ Per parameter: truth, estimate, error %, σ (and the robust σ when the result h
 1.96σ covers the truth; per run: wall time of the whole process and ``frictionid validate``'s
 relative torque error on the validation log (truth and mujoco.sysid's values go through the same
 ``validate``, written into a copy of the Coulomb result). Also per joint: the share of samples
-where MuJoCo's arm sticks (|dry friction| below its level) and the fastest such sample.
+where the arm sticks (|dry friction| below its level) and the fastest such sample.
 Results: bench/results/groundtruth{,_quick}.{txt,json}.
 """
 
@@ -59,7 +59,7 @@ FRICTIONID = [sys.executable, "-m", "frictionid_core.cli"]
 RATE = 1000.0  # Hz, the simulation step and the log
 ENCODER_COUNTS = 2**19  # per revolution: the position quantum 2π/2^19 ≈ 1.2e-5 rad
 TORQUE_NOISE = 0.015  # 1σ white torque noise, fraction of the joint's torque range in the log
-STICK_LEVEL = 0.99  # a sample sticks when |MuJoCo's dry friction| < this × frictionloss
+STICK_LEVEL = 0.99  # a sample sticks when |dry friction| < this × its level (Fc, frictionloss)
 Z95 = 1.96
 # log name: (excitation seed, noise seed)
 LOGS = {"estimation": (1, 11), "validation": (2, 21)}
@@ -172,24 +172,25 @@ def simulate(sc: Scenario, trajectory) -> dict:
 
 def stick_figures(sc: Scenario, sim: dict) -> dict:
     """Per joint: share of steps whose dry friction (the step's friction minus the viscous part
-    at the step's end velocity, MuJoCo's implicit damping) is below STICK_LEVEL × its level, and
-    the fastest |q̇| among them [rad/s]."""
-    dry = sim["friction"] - np.asarray(sc.damping) * sim["qd_after"]
+    at the step's end velocity, as both laws integrate it) is below STICK_LEVEL × its level — the
+    arm sticks, or creeps under MuJoCo's soft frictionloss — and the fastest |q̇| among them [rad/s]."""
+    qd = sim["qd_after"][1:]  # from the second step: the first starts the solver cold
+    dry = sim["friction"][1:] - np.asarray(sc.damping) * qd
     stuck = np.abs(dry) < STICK_LEVEL * np.asarray(sc.frictionloss)
-    speed = np.abs(sim["qd_after"])
+    speed = np.abs(qd)
     return {"share": stuck.mean(axis=0).tolist(),
             "max_speed": [float(speed[stuck[:, j], j].max()) if stuck[:, j].any() else 0.0
                           for j in range(stuck.shape[1])]}
 
 
-def make_log(sc: Scenario, folder: Path, name: str) -> dict:
-    """Excite, simulate and record the ``name`` log of ``sc`` in ``folder`` (reused when present):
-    {"bag": path, "npz": path of the clean record and noise levels}."""
+def make_log(sc: Scenario, folder: Path, name: str, seed_offset: int = 0) -> dict:
+    """Excite, simulate and record the ``name`` log of ``sc`` in ``folder`` (reused when present),
+    its seeds those of LOGS + ``seed_offset``: {"bag": path, "npz": path of the clean record and noise levels}."""
     from frictionid_core.io.bag import write_joint_state_bag
     from frictionid_core.robots.excitation import load_trajectory
     from frictionid_core.timeseries import JointSeries
 
-    excite_seed, noise_seed = LOGS[name]
+    excite_seed, noise_seed = (s + seed_offset for s in LOGS[name])
     bag, npz = folder / f"{name}_bag", folder / f"{name}.npz"
     if bag.exists() and npz.exists():
         return {"bag": bag, "npz": npz}
@@ -422,10 +423,10 @@ def diverged(rows: list[dict], relerr: float, truth_relerr: float) -> bool:
             or relerr > DIVERGED_RELERR_FACTOR * truth_relerr)
 
 
-def run_scenario(name: str, sc: Scenario, folder: Path, sysid_py: Path | None) -> dict:
+def run_scenario(name: str, sc: Scenario, folder: Path, sysid_py: Path | None, seed_offset: int = 0) -> dict:
     folder.mkdir(parents=True, exist_ok=True)
     log(f"[{name}] logs ...")
-    logs = {k: make_log(sc, folder, k) for k in LOGS}
+    logs = {k: make_log(sc, folder, k, seed_offset) for k in LOGS}
     est = np.load(logs["estimation"]["npz"])
     joints = [str(j) for j in est["joints"]]
     truth = truth_values(sc, joints)
@@ -437,8 +438,7 @@ def run_scenario(name: str, sc: Scenario, folder: Path, sysid_py: Path | None) -
                    "torque_noise": dict(zip(joints, map(float, est["torque_noise"]))),
                    "tracking_error_max_rad": dict(zip(joints, map(float, est["tracking_error_max"])))},
            "runs": {}}
-    if sc.law == "mujoco":
-        out["stick"] = {k: stick_figures(sc, np.load(v["npz"])) for k, v in logs.items()}
+    out["stick"] = {k: stick_figures(sc, np.load(v["npz"])) for k, v in logs.items()}
     template = None
     for label in RUNS:
         log(f"[{name}] frictionid {label} ...")
@@ -529,7 +529,7 @@ def report(res: dict) -> str:
                   + ", ".join(f"{v:.3g}" for v in lg["torque_noise"].values()) + " N·m"]
         if "stick" in sc:
             st = sc["stick"]["estimation"]
-            lines.append("   stuck samples (|dry friction| < 0.99 frictionloss) per joint: "
+            lines.append(f"   samples sticking (|dry friction| < {STICK_LEVEL:g} × its level) per joint: "
                          + ", ".join(f"{100 * s:.1f} %" for s in st["share"])
                          + f"; at speeds up to {max(st['max_speed']):.3g} rad/s")
         lines.append(f"   truth's validation relerr {sc['truth_validation_relerr_pct']:.3f} %")
@@ -577,6 +577,8 @@ def main(argv=None) -> int:
     p.add_argument("--keep", type=Path, help="keep (and reuse) the logs and results in this folder")
     p.add_argument("--no-sysid", action="store_true", help="leave mujoco.sysid out")
     p.add_argument("--no-install", action="store_true", help="never create bench/.venv-sysid")
+    p.add_argument("--seed-offset", type=int, default=0,
+                   help="add this to every excitation and noise seed: other logs of the same arms (default 0)")
     args = p.parse_args(argv)
     all_scenarios = scenarios()
     names = (args.scenarios.split(",") if args.scenarios else ["ur5_mujoco"] if args.quick else list(all_scenarios))
@@ -593,17 +595,19 @@ def main(argv=None) -> int:
     res = {"quick": args.quick, "host": {"python": platform.python_version(), "cpus": os.cpu_count(),
                                          "load_start": round(os.getloadavg()[0], 2)},
            "settings": {"rate_hz": RATE, "encoder_counts": ENCODER_COUNTS, "torque_noise_of_range": TORQUE_NOISE,
-                        "logs": LOGS, "runs": {k: list(v) for k, v in RUNS.items()}},
+                        "logs": LOGS, "seed_offset": args.seed_offset, "runs": {k: list(v) for k, v in RUNS.items()}},
            "sysid": None if sysid_py is not None or args.no_sysid else "unavailable",
            "scenarios": {}}
     with tempfile.TemporaryDirectory(prefix="groundtruth_") as tmp:
         base = args.keep or Path(tmp)
         for name in names:
-            res["scenarios"][name] = run_scenario(name, all_scenarios[name], base / name, sysid_py)
+            folder = base / (name if not args.seed_offset else f"{name}_seeds+{args.seed_offset}")
+            res["scenarios"][name] = run_scenario(name, all_scenarios[name], folder, sysid_py, args.seed_offset)
     res["wall_s"] = time.perf_counter() - t0
     res["host"]["load_end"] = round(os.getloadavg()[0], 2)
     res["targets"] = targets(res)
-    publish("groundtruth_quick" if args.quick else "groundtruth", report(res), res)
+    custom = bool(args.scenarios or args.no_sysid or args.seed_offset)  # not the figures of record
+    publish(("groundtruth_quick" if args.quick else "groundtruth") + ("_custom" if custom else ""), report(res), res)
     return 0
 
 

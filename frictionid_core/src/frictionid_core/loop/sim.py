@@ -81,11 +81,11 @@ def mjcf(robot) -> str:
         jm, pl, inertia = pm.joints[i], pm.jointPlacements[i], pm.inertias[i]
         kind, axis = _axis_and_kind(jm)
         qx, qy, qz, qw = np.asarray(__import__("pinocchio").Quaternion(pl.rotation).coeffs())
-        I = inertia.inertia
+        inertia_matrix = inertia.inertia
         mass = max(float(inertia.mass), 1e-9)
         lines = [f'{indent}<body name="{pm.names[i]}_link" pos="{fmt(pl.translation)}" quat="{fmt((qw, qx, qy, qz))}">',
                  f'{indent}  <inertial pos="{fmt(inertia.lever)}" mass="{mass:.17g}" '
-                 f'fullinertia="{fmt((I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))}"/>',
+                 f'fullinertia="{fmt(inertia_matrix[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]])}"/>',
                  f'{indent}  <joint name="{pm.names[i]}" type="{kind}" axis="{fmt(axis)}" '
                  f'armature="{float(pm.armature[jm.idx_v]):.17g}" limited="false"/>']
         for c in children.get(i, []):
