@@ -1,8 +1,8 @@
 #!/usr/bin/env python
 """Ground truth: frictionid's friction and rotor-inertia estimates against known values and mujoco.sysid.
 
-    .venv/bin/python bench/groundtruth.py --quick   # UR5 with MuJoCo's friction only (~5 min)
-    .venv/bin/python bench/groundtruth.py           # the three scenarios below (~15 min)
+    .venv/bin/python bench/groundtruth.py --quick   # UR5 with MuJoCo's friction only (~3–5 min)
+    .venv/bin/python bench/groundtruth.py           # the three scenarios below (~10 min)
 
 Scenarios (MuJoCo arms, :class:`frictionid_core.loop.sim.SimArm`, 1 kHz):
 
@@ -572,7 +572,7 @@ def report(res: dict) -> str:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--quick", action="store_true", help="ur5_mujoco only (~5 min)")
+    p.add_argument("--quick", action="store_true", help="ur5_mujoco only (~3–5 min)")
     p.add_argument("--scenarios", help="comma-separated scenarios (default: all; --quick: ur5_mujoco)")
     p.add_argument("--keep", type=Path, help="keep (and reuse) the logs and results in this folder")
     p.add_argument("--no-sysid", action="store_true", help="leave mujoco.sysid out")
