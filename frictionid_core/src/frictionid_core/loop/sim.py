@@ -11,8 +11,9 @@ f(v₀) + c·(v₁ − v₀), stable at 1 kHz for any eps. The Coulomb level (Fc
 it is scaled by 1 + drift·min(1, (t − t_start)/duration).
 
 MuJoCo's own joint friction can be the hidden truth instead of (or beside) the core's law:
-``damping`` (viscous, implicit) and ``frictionloss`` (dry friction as a constraint of MuJoCo's
-solver: it sticks below a small speed) per joint.
+``damping`` (viscous, implicit) and ``frictionloss`` (dry friction as a soft constraint of
+MuJoCo's solver: below its level at low speed, where the arm sticks or creeps — up to a speed that
+grows with the level over the joint's inertia) per joint.
 """
 
 from __future__ import annotations
@@ -127,6 +128,7 @@ class SimArm:
         self.law = get_model("stribeck")
         self.params = None if friction is None else np.array(friction, dtype=float).reshape(nv, len(self.law.names))
         self.eps = float(eps)
+        self.own_friction = damping is not None or frictionloss is not None  # MuJoCo's own as well
         self.damping = np.zeros(nv) if damping is None else np.array(damping, dtype=float).reshape(nv)
         if frictionloss is not None:
             self.model.dof_frictionloss[:] = np.asarray(frictionloss, dtype=float)
@@ -188,7 +190,9 @@ class SimArm:
         f = self.law.torque_each(p, np.concatenate([v0, v0 + _SLOPE_H, v0 - _SLOPE_H]), self.eps)
         f0, c = f[:n], (f[n:2 * n] - f[2 * n:]) / (2.0 * _SLOPE_H)
         np.maximum(c, 0.0, out=c)
-        self.model.dof_damping[:] = self.damping + c
+        self.model.dof_damping[:] = self.damping + c if self.own_friction else c
         d.qfrc_applied[:] = self.tau - f0 + c * v0
         self._mj.mj_step(self.model, d)
-        self.tau_friction[:] = f0 + c * (np.asarray(d.qvel) - v0) + self.damping * d.qvel - d.qfrc_constraint
+        self.tau_friction[:] = f0 + c * (np.asarray(d.qvel) - v0)
+        if self.own_friction:
+            self.tau_friction += self.damping * d.qvel - d.qfrc_constraint
