@@ -95,6 +95,30 @@ def test_sim_dynamics_are_pinocchio_rnea(tx40):
         np.testing.assert_allclose(sim.data.qfrc_inverse, tx40.inverse_dynamics(q, v, a)[0], rtol=1e-9, atol=1e-9)
 
 
+def test_sim_mujoco_friction_slides_at_its_level_and_sticks_below_it(tx40):
+    """MuJoCo's own friction as the hidden truth: sliding fast, the step's friction is damping·q̇
+    (implicit: at the step's end velocity) + frictionloss·sign(q̇) to the solver's precision; held
+    by half its frictionloss (gravity compensated), the arm's friction balances the push and it
+    creeps at under a tenth of the speed it reaches in 0.5 s without frictionloss."""
+    damping = np.array([7.9, 5.7, 2.0, 1.1, 1.6, 0.7])
+    frictionloss = np.array([7.0, 7.8, 6.2, 2.4, 3.4, 1.8])
+    q0 = np.array([0.0, 0.3, 1.2, 0.0, 0.5, 0.0])
+    sim = SimArm(tx40, None, q0=q0, damping=damping, frictionloss=frictionloss)
+    v0 = 6.0 * np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0])  # fast enough for MuJoCo's soft friction to saturate
+    sim.data.qvel[:] = v0
+    sim.step(tx40.inverse_dynamics(sim.q[None], sim.qd[None], np.zeros((1, 6)))[0])
+    np.testing.assert_allclose(sim.tau_friction, damping * sim.qd + frictionloss * np.sign(v0), rtol=1e-9, atol=1e-9)
+    speeds = []
+    for level in (frictionloss, np.zeros(6)):
+        sim = SimArm(tx40, None, q0=q0, damping=damping, frictionloss=level)
+        for _ in range(500):
+            sim.step(tx40.inverse_dynamics(sim.q[None], sim.qd[None], np.zeros((1, 6)))[0] + 0.5 * frictionloss)
+        speeds.append(np.abs(sim.qd))
+        if level is frictionloss:
+            np.testing.assert_allclose(sim.tau_friction, 0.5 * frictionloss, rtol=1e-6)
+    assert np.all(speeds[0] < 0.1 * speeds[1]), speeds
+
+
 def test_short_loop_error_falls_with_feedforward(tx40):
     """In-process loop, 2.5 s each: the friction feed-forward at the desired velocity (true
     parameters, smoothed sign) cuts the RMS tracking error of every joint at least 3-fold."""
@@ -109,8 +133,8 @@ def test_short_loop_error_falls_with_feedforward(tx40):
     stamp = np.arange(2 * n, dtype=np.int64) * 1_000_000
     record = {"joints": np.array(tx40.joints), "stamp_ns": stamp, "error": np.concatenate(errors),
               "latency_ns": np.zeros(0)}
-    result = summarize(record, {"feedforward_off": (0, n * 1_000_000), "feedforward_on": (n * 1_000_000, 2 * n * 1_000_000)},
-                       settle_s=0.5)
+    result = summarize(record, {"feedforward_off": (0, n * 1_000_000),
+                                "feedforward_on": (n * 1_000_000, 2 * n * 1_000_000)}, settle_s=0.5)
     off, on = (np.array(result["rms_tracking_error"][k]) for k in ("feedforward_off", "feedforward_on"))
     assert np.all(on < off / 3.0), (off, on)
     assert median_ratio(result) < 0.2

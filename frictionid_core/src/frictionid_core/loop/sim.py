@@ -9,6 +9,11 @@ so it is integrated semi-implicitly: f(v₀) goes to ``qfrc_applied`` and its sl
 (≥ 0) to ``dof_damping`` under MuJoCo's ``implicitfast`` integrator — the applied friction is
 f(v₀) + c·(v₁ − v₀), stable at 1 kHz for any eps. The Coulomb level (Fc and Fs) may drift:
 it is scaled by 1 + drift·min(1, (t − t_start)/duration).
+
+MuJoCo's own joint friction can be the hidden truth instead of (or beside) the core's law:
+``damping`` (viscous, implicit) and ``frictionloss`` (dry friction as a soft constraint of
+MuJoCo's solver: below its level at low speed, where the arm sticks or creeps — up to a speed that
+grows with the level over the joint's inertia) per joint.
 """
 
 from __future__ import annotations
@@ -77,11 +82,11 @@ def mjcf(robot) -> str:
         jm, pl, inertia = pm.joints[i], pm.jointPlacements[i], pm.inertias[i]
         kind, axis = _axis_and_kind(jm)
         qx, qy, qz, qw = np.asarray(__import__("pinocchio").Quaternion(pl.rotation).coeffs())
-        I = inertia.inertia
+        inertia_matrix = inertia.inertia
         mass = max(float(inertia.mass), 1e-9)
         lines = [f'{indent}<body name="{pm.names[i]}_link" pos="{fmt(pl.translation)}" quat="{fmt((qw, qx, qy, qz))}">',
                  f'{indent}  <inertial pos="{fmt(inertia.lever)}" mass="{mass:.17g}" '
-                 f'fullinertia="{fmt((I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]))}"/>',
+                 f'fullinertia="{fmt(inertia_matrix[[0, 1, 2, 0, 0, 1], [0, 1, 2, 1, 2, 2]])}"/>',
                  f'{indent}  <joint name="{pm.names[i]}" type="{kind}" axis="{fmt(axis)}" '
                  f'armature="{float(pm.armature[jm.idx_v]):.17g}" limited="false"/>']
         for c in children.get(i, []):
@@ -100,14 +105,17 @@ def mjcf(robot) -> str:
 
 class SimArm:
     """The arm of ``robot`` in MuJoCo at :data:`DT` with hidden friction ``friction`` (J, 5)
-    Stribeck parameters; ``q0`` start position (J,) [rad | m].
+    Stribeck parameters of the core's law (None: none); ``q0`` start position (J,) [rad | m].
+    MuJoCo's own joint friction (module docstring), each (J,) or None (none): ``damping``
+    [N·m·s/rad | N·s/m], ``frictionloss`` [N·m | N]. The rotor inertias are the robot model's armature.
 
     :meth:`step` applies a joint torque for one step; ``q``, ``qd`` [rad, rad/s | m, m/s] and
     ``t`` [s] are the state after it, ``tau`` the torque applied, ``tau_friction`` the friction
-    of the step (N·m | N, opposing the motion: τ_cmd − τ_friction drives the arm).
+    of the step, every kind together (N·m | N, opposing the motion: τ_cmd − τ_friction drives the arm).
     """
 
-    def __init__(self, robot, friction: np.ndarray, q0: np.ndarray | None = None, eps: float = SIM_EPS):
+    def __init__(self, robot, friction: np.ndarray | None, q0: np.ndarray | None = None, eps: float = SIM_EPS, *,
+                 damping: np.ndarray | None = None, frictionloss: np.ndarray | None = None):
         import mujoco
 
         self._mj = mujoco
@@ -118,8 +126,13 @@ class SimArm:
         if nv != robot.nv:
             raise FrictionIdError(f"MuJoCo model of {robot.name} has {nv} DOF, Pinocchio {robot.nv}")
         self.law = get_model("stribeck")
-        self.params = np.array(friction, dtype=float).reshape(nv, len(self.law.names))
+        self.params = None if friction is None else np.array(friction, dtype=float).reshape(nv, len(self.law.names))
         self.eps = float(eps)
+        self.own_friction = damping is not None or frictionloss is not None  # MuJoCo's own as well
+        self.damping = np.zeros(nv) if damping is None else np.array(damping, dtype=float).reshape(nv)
+        if frictionloss is not None:
+            self.model.dof_frictionloss[:] = np.asarray(frictionloss, dtype=float)
+        self.model.dof_damping[:] = self.damping
         if q0 is not None:
             self.data.qpos[:] = np.asarray(q0, dtype=float)  # MuJoCo hinges and slides: one coordinate each
         mujoco.mj_forward(self.model, self.data)
@@ -150,13 +163,15 @@ class SimArm:
         return 1.0 + self.drift * min(1.0, (self.t - self._drift_t0) / self.drift_s)
 
     def current_params(self) -> np.ndarray:
-        """Hidden Stribeck parameters (J, 5) now, with the drift."""
+        """Hidden Stribeck parameters (J, 5) of the core's law now, with the drift (zeros: none)."""
+        if self.params is None:
+            return np.zeros((self.model.nv, len(self.law.names)))
         p = self.params.copy()
         p[:, 1:3] *= self.level_scale()
         return p
 
     def friction(self, v: np.ndarray, params: np.ndarray | None = None) -> np.ndarray:
-        """Hidden friction f(v) (J,) [N·m | N] of the core's Stribeck law, joint k at v[k]."""
+        """Hidden friction f(v) (J,) [N·m | N] of the core's Stribeck law, joint k at v[k] (not MuJoCo's own)."""
         p = self.current_params() if params is None else params
         return self.law.torque_each(p, np.asarray(v, dtype=float), self.eps)
 
@@ -164,13 +179,20 @@ class SimArm:
         """Apply the joint torque ``tau`` (J,) for one step (friction semi-implicit, module docstring)."""
         d = self.data
         v0 = np.array(d.qvel)
+        self.tau[:] = tau
+        if self.params is None:  # MuJoCo's own friction only
+            d.qfrc_applied[:] = self.tau
+            self._mj.mj_step(self.model, d)
+            self.tau_friction[:] = self.damping * d.qvel - d.qfrc_constraint
+            return
         n = len(v0)
         p = np.tile(self.current_params(), (3, 1))  # one law call: f(v0), f(v0 + h), f(v0 − h)
         f = self.law.torque_each(p, np.concatenate([v0, v0 + _SLOPE_H, v0 - _SLOPE_H]), self.eps)
         f0, c = f[:n], (f[n:2 * n] - f[2 * n:]) / (2.0 * _SLOPE_H)
         np.maximum(c, 0.0, out=c)
-        self.tau[:] = tau
-        self.model.dof_damping[:] = c
+        self.model.dof_damping[:] = self.damping + c if self.own_friction else c
         d.qfrc_applied[:] = self.tau - f0 + c * v0
         self._mj.mj_step(self.model, d)
         self.tau_friction[:] = f0 + c * (np.asarray(d.qvel) - v0)
+        if self.own_friction:
+            self.tau_friction += self.damping * d.qvel - d.qfrc_constraint
