@@ -98,8 +98,10 @@ def test_csv_missing_time_column(tmp_path, capsys):
 
 def test_csv_not_numeric(tmp_path, capsys):
     (tmp_path / "c.csv").write_text("time,position,effort\n0,1,1\n1,two,2\n")
-    msg = fails(["identify", tmp_path / "c.csv"], capsys)
-    assert "c.csv" in msg and "numeric CSV" in msg
+    msg = fails(["identify", tmp_path / "c.csv", "--strict-rows"], capsys)
+    assert "c.csv: broken row at line 3: column 1 ('position'): 'two' is not a number" in msg
+    msg = fails(["identify", tmp_path / "c.csv"], capsys)  # skipped: one row is left
+    assert "only 1 samples" in msg and "1 broken row(s) skipped" in msg
 
 
 def test_csv_header_only(tmp_path, capsys):

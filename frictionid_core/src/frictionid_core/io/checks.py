@@ -21,7 +21,8 @@ def check_series(series: JointSeries, *, strict_time: bool = False) -> JointSeri
     """
     src = series.source
     if len(series) < MIN_SAMPLES:
-        raise InputError(f"{src}: only {len(series)} samples; at least {MIN_SAMPLES} are needed")
+        done = f" ({'; '.join(series.notes)})" if series.notes else ""
+        raise InputError(f"{src}: only {len(series)} samples; at least {MIN_SAMPLES} are needed{done}")
     if not np.all(np.isfinite(series.t)):
         bad = np.flatnonzero(~np.isfinite(series.t))
         raise InputError(f"{src}: {bad.size} non-finite time stamps (first at sample {bad[0]})")
