@@ -59,6 +59,10 @@ SMOOTH_RATE_PER_CUTOFF = 100.0  # smooth columns (robot regressor) computed at â
 _GRID = 20001  # frequency points of the noise integrals
 _FILTER_COLUMNS = 16  # columns per block of the anti-alias filter
 
+class TooFewSamples(InputError):
+    """A signal shorter than a filter (or the trims) needs."""
+
+
 FILTERS = ("butterworth", "none")  # zero-phase Butterworth on position | no position filter
 METRIC_EFFORTS = ("recorded", "filtered")  # metrics against the recorded effort | the decimated filtered one
 
@@ -192,7 +196,7 @@ def filtfilt(sos: np.ndarray, order: int, x: np.ndarray, what: str) -> np.ndarra
     reference figures depend on."""
     pad = 3 * order
     if x.shape[0] <= pad:
-        raise InputError(f"{x.shape[0]} samples are too few for {what} (needs more than {pad})")
+        raise TooFewSamples(f"{x.shape[0]} samples are too few for {what} (needs more than {pad})")
     return signal.sosfiltfilt(sos, x, axis=0, padlen=pad)
 
 
@@ -289,6 +293,9 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
     req = requested or Preprocessing()
     fs = 1.0 / series.dt
     joints = list(series.joints)
+    if req.cutoff_hz is not None and req.cutoff_hz >= fs / 2:
+        raise InputError(f"{series.source}: cut-off {req.cutoff_hz:g} Hz at or above the Nyquist frequency "
+                         f"{fs / 2:.6g} Hz of data sampled at {fs:.6g} Hz; give a lower one (--cutoff HZ)")
     n0 = noise_density(series.position, fs)
     sigma_q = np.sqrt(n0 * fs / 2)
     moving = np.ptp(series.position, axis=0) > MOVING_FACTOR * sigma_q
@@ -301,6 +308,10 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
                              f"(Ïƒ_q {_per_joint(joints, sigma_q)}): the cut-off cannot be chosen from the data; "
                              "give one (--cutoff HZ)")
         cutoff = float(min(CUTOFF_PER_BANDWIDTH * np.nanmax(bandwidth), MAX_CUTOFF_SHARE * fs))
+        if not cutoff > 0:  # a record too short to show its motion's frequencies
+            raise InputError(f"{series.source}: {len(series)} samples ({series.t[-1] - series.t[0]:.4g} s) show no "
+                             "motion bandwidth: the cut-off cannot be chosen from the data; record longer motion or "
+                             "give one (--cutoff HZ)")
         from_data.append("cutoff_hz")
     dec = req.decimate
     if dec is None:
@@ -389,7 +400,7 @@ def prepare(series: JointSeries, settings: Preprocessing, dt: float | None = Non
     start, end = (int(round(s * fs)) for s in (settings.trim_start_s, settings.trim_end_s))
     stop = n - end
     if stop - start < 3:
-        raise InputError(f"{series.source}: {n} samples ({(n - 1) * dt:.4g} s) leave nothing after trimming "
+        raise TooFewSamples(f"{series.source}: {n} samples ({(n - 1) * dt:.4g} s) leave nothing after trimming "
                          f"{settings.trim_start_s:g} s + {settings.trim_end_s:g} s")
     sl = slice(start, stop)
     return Prepared(series.t[sl], q[sl], qd[sl], qdd[sl], series.effort[sl], dt)
