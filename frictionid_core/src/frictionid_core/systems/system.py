@@ -229,7 +229,16 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
 
 
 def _observe_segment(series: JointSeries, system: System, settings: Preprocessing | None) -> Observation:
-    """:func:`observe` of a series without gaps, on the joint side."""
+    """:func:`observe` of a series without gaps, on the joint side; TooFewSamples names its source."""
+    try:
+        return _observe_gapless(series, system, settings)
+    except TooFewSamples as exc:
+        if str(exc).startswith(f"{series.source}:"):
+            raise
+        raise TooFewSamples(f"{series.source}: {exc}") from None
+
+
+def _observe_gapless(series: JointSeries, system: System, settings: Preprocessing | None) -> Observation:
     drive = system.drive
     joints = list(series.joints)
     prepared, resolved, report, notes = preprocess(series, settings or system.preprocessing)
