@@ -29,7 +29,8 @@ FIELDS = ("position", "effort", "velocity")
 
 MAX_LINE_CHARS = 1 << 20  # a longer line is not a row of a log
 MAX_COLUMNS = 10_000  # cells of a row
-MAX_VALUES = 100_000_000  # rows × columns used (0.8 GB as float64): a longer log is refused
+MAX_VALUES = 50_000_000  # rows × columns used (0.4 GB as float64): a longer log is refused
+ESTIMATE_MARGIN = 1.1  # a size estimated from the first lines refuses a log this far above MAX_VALUES
 BLOCK_BYTES = 1 << 23  # read at a time
 PROBE_LINES = 1000  # first data lines that decide the delimiter and (without a header) the column count
 JUDGED_ROWS = 1000  # from this many rows read, broken rows outnumbering good ones refuse the file
@@ -45,25 +46,21 @@ def load_csv(path: Path, *, strict_rows: bool = False) -> JointSeries:
             raise InputError(f"{path}: column name(s) {repeated} appear more than once in the header")
         tcol = next((c for c in ("time", "t") if c in names), None)
         if tcol is None:
-            raise InputError(f"{path}: no 'time' column; columns are {names}")
+            raise InputError(f"{path}: no 'time' column; columns are {names}{LAYOUT_HINT}")
         for i, c in enumerate(names):
             joint, _, field = c.rpartition(".")
             if field in FIELDS:
                 joints.setdefault(joint or "joint", {})[field] = i
         if not joints:
-            raise InputError(f"{path}: no '<joint>.position' / '<joint>.effort' columns; columns are {names}")
+            raise InputError(f"{path}: no '<joint>.position' / '<joint>.effort' columns; columns are {names}"
+                             f"{LAYOUT_HINT}")
         for j, have in joints.items():
             for need in ("position", "effort"):
                 if need not in have:
-                    raise InputError(f"{path}: joint '{j}' has no '{need}' column")
+                    raise InputError(f"{path}: joint '{j}' has no '{need}' column{LAYOUT_HINT}")
         return [names.index(tcol)] + [i for have in joints.values() for i in have.values()]
 
-    try:
-        table = read_table(path, header=True, delimiter=",", columns=used, strict_rows=strict_rows)
-    except BrokenRowError:
-        raise
-    except InputError as exc:
-        raise InputError(f"{exc}{LAYOUT_HINT}") from None
+    table = read_table(path, header=True, delimiter=",", columns=used, strict_rows=strict_rows, hint=LAYOUT_HINT)
     at = {column: k for k, column in enumerate(table.columns)}
     names = list(joints)
 
@@ -93,10 +90,6 @@ def detect_delimiter(line: str) -> str:
     return next((d for d in (";", ",", "\t") if d in line), " ")
 
 
-class BrokenRowError(InputError):
-    """A broken row refused by ``strict_rows`` (see :func:`read_table`)."""
-
-
 @dataclass
 class Table:
     """The numbers of a delimited text file (see :func:`read_table`).
@@ -124,7 +117,7 @@ class Table:
 
 def read_table(path: Path, *, header: bool, delimiter: str | None = None,
                columns: Callable[[list[str] | None, int], list[int]] | None = None,
-               strict_rows: bool = False) -> Table:
+               strict_rows: bool = False, hint: str = "") -> Table:
     """The numbers of a delimited text file, read in blocks, of the columns asked for only.
 
     Args:
@@ -135,6 +128,7 @@ def read_table(path: Path, *, header: bool, delimiter: str | None = None,
         columns: ``columns(names, ncols)`` → the 0-based columns to keep (``names``: the header's,
             or None); it may raise InputError. Default: every column.
         strict_rows: refuse the first broken row instead of skipping broken rows.
+        hint: appended to the errors that say the file is not in the expected format.
 
     Blank lines and ``#`` comments are skipped. A row is broken when it has another number of
     cells than the header (without a header: than most of the first rows) or a kept cell that is
@@ -165,7 +159,7 @@ def read_table(path: Path, *, header: bool, delimiter: str | None = None,
         if names is not None:
             ncols = len(names)
             if counted is not None and counted[1] and counted[0] != ncols:
-                raise InputError(f"{path}: header has {ncols} columns but rows have {counted[0]}")
+                raise InputError(f"{path}: header has {ncols} columns but rows have {counted[0]}{hint}")
         elif counted is None:
             raise InputError(f"{path}: no samples")
         else:
@@ -173,7 +167,7 @@ def read_table(path: Path, *, header: bool, delimiter: str | None = None,
         if ncols > MAX_COLUMNS:
             raise InputError(f"{path}: {ncols:,} columns, more than the {MAX_COLUMNS:,} a log may have")
         keep = list(range(ncols)) if columns is None else list(columns(names, ncols))
-        rows = _Rows(path, delimiter, ncols, keep, names, strict_rows)
+        rows = _Rows(path, delimiter, ncols, keep, names, strict_rows, hint)
         estimate = _estimated_rows(size, lines)
         rows.check_size(estimate, estimated=True)
         out = np.empty((min(estimate + estimate // 8 + 1024, MAX_VALUES // max(len(keep), 1) + 1), len(keep)))
@@ -203,9 +197,9 @@ class _Rows:
     """Parses blocks of lines into the kept columns, counting and remembering the broken rows."""
 
     def __init__(self, path: Path, delimiter: str, ncols: int, keep: list[int], names: list[str] | None,
-                 strict: bool):
+                 strict: bool, hint: str):
         self.path, self.delimiter, self.ncols, self.keep, self.names = path, delimiter, ncols, keep, names
-        self.strict = strict
+        self.strict, self.hint = strict, hint
         self.split = None if delimiter == " " else delimiter
         self.rows = 0  # data rows read, broken ones included
         self.broken = 0
@@ -213,8 +207,8 @@ class _Rows:
         self.first: tuple[int, str] | None = None  # (line, what is wrong) of the first broken row
 
     def check_size(self, rows: int, estimated: bool = False) -> None:
-        """InputError when ``rows`` × the kept columns exceed MAX_VALUES (an estimate: 1.5 × it)."""
-        if rows * len(self.keep) <= (1.5 if estimated else 1.0) * MAX_VALUES:
+        """InputError when ``rows`` × the kept columns exceed MAX_VALUES (estimated: ESTIMATE_MARGIN × it)."""
+        if rows * len(self.keep) <= (ESTIMATE_MARGIN if estimated else 1.0) * MAX_VALUES:
             return
         what = f"about {rows:,} rows (estimated from its size)" if estimated else f"more than {rows:,} rows"
         raise InputError(f"{self.path}: {what} × {len(self.keep)} columns used: more than the {MAX_VALUES:,} values "
@@ -261,9 +255,9 @@ class _Rows:
         """``head`` with the first broken row: what is wrong with it, where."""
         line, why = self.first
         if self.strict:
-            return BrokenRowError(f"{head} at line {line}: {why} (delimiter {self.delimiter!r}); without "
-                                  "--strict-rows broken rows are skipped with a warning")
-        return InputError(f"{head}, the first at line {line}: {why} (delimiter {self.delimiter!r})")
+            return InputError(f"{head} at line {line}: {why} (delimiter {self.delimiter!r}); without "
+                              "--strict-rows broken rows are skipped with a warning")
+        return InputError(f"{head}, the first at line {line}: {why} (delimiter {self.delimiter!r}){self.hint}")
 
     def note(self) -> str:
         line, why = self.first
