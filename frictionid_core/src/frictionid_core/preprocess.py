@@ -113,13 +113,14 @@ class Preprocessing:
         speeds = self.min_speed.values() if isinstance(self.min_speed, dict) else [self.min_speed]
         # (name, value, lowest allowed, allowed itself)
         limits = [("cutoff_hz", self.cutoff_hz, 0, False), ("order", self.order, 1, True),
-                  ("decimate", self.decimate, 1, True), ("thin", self.thin, 1, True), ("trim_start_s", self.trim_start_s, 0, True),
-                  ("trim_end_s", self.trim_end_s, 0, True), *(("min_speed", v, 0, True) for v in speeds)]
+                  ("decimate", self.decimate, 1, True), ("thin", self.thin, 1, True),
+                  ("trim_start_s", self.trim_start_s, 0, True), ("trim_end_s", self.trim_end_s, 0, True),
+                  *(("min_speed", v, 0, True) for v in speeds)]
         bad = [f"{name} {value}" for name, value, low, inclusive in limits
                if value is not None and (value < low or (value == low and not inclusive))]
         if bad:
-            raise FrictionIdError(f"pre-processing: invalid {', '.join(bad)} (cut-off > 0, order, decimate and thin ≥ 1, "
-                                  "trims and min speed ≥ 0)")
+            raise FrictionIdError(f"pre-processing: invalid {', '.join(bad)} (cut-off > 0, order, decimate and thin "
+                                  "≥ 1, trims and min speed ≥ 0)")
 
     @property
     def resolved(self) -> bool:
@@ -169,7 +170,7 @@ def resample_uniform(series: JointSeries) -> JointSeries:
     if not off:
         return series
     t = series.t[0] + dt * np.arange(len(series))
-    interp = lambda a: None if a is None else np.column_stack(  # noqa: E731
+    interp = lambda a: None if a is None else np.column_stack(
         [np.interp(t, series.t, a[:, j]) for j in range(a.shape[1])])
     out = JointSeries(t, list(series.joints), interp(series.position), interp(series.effort),
                       interp(series.velocity), series.source,
@@ -471,7 +472,8 @@ def column_stride(fs: float, settings: Preprocessing) -> int:
     if settings.filter == "none":
         return 1
     n = settings.decimate
-    return max(k for k in range(1, n + 1) if n % k == 0 and (k == 1 or fs / k >= SMOOTH_RATE_PER_CUTOFF * settings.cutoff_hz))
+    return max(k for k in range(1, n + 1)
+               if n % k == 0 and (k == 1 or fs / k >= SMOOTH_RATE_PER_CUTOFF * settings.cutoff_hz))
 
 
 def subsample(prepared: Prepared, stride: int) -> Prepared:
