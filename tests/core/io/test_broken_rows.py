@@ -116,8 +116,13 @@ def test_more_broken_rows_than_good_ones_refuse_the_file(tmp_path):
 
 def test_duplicated_column_names_are_refused(tmp_path):
     (tmp_path / "log.csv").write_text("time,a.position,a.effort,a.position\n0,1,2,3\n1,2,3,4\n2,3,4,5\n")
-    with pytest.raises(InputError, match=r"log.csv: column name\(s\) \['a.position'\] appear more than once"):
+    with pytest.raises(InputError, match=r"log.csv: column name\(s\) \['a.position'\] appear more than once in the "
+                                         r"header: which column is meant is ambiguous"):
         load(tmp_path / "log.csv")
+    (tmp_path / "log.txt").write_text("t q q tau\n0 1 2 3\n1 2 3 4\n2 3 4 5\n")  # any header, any layout
+    lay = Layout(joints=["a"], position=[1], effort=["tau"], time_column="t", header=True)
+    with pytest.raises(InputError, match=r"log.txt: column name\(s\) \['q'\] appear more than once"):
+        load(tmp_path / "log.txt", layout=lay)
 
 
 def test_absurd_sizes_are_refused_early_with_the_numbers(tmp_path, monkeypatch):

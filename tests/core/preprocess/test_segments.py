@@ -11,6 +11,7 @@ import pytest
 from frictionid_core.errors import InputError
 from frictionid_core.identification import identify
 from frictionid_core.io.checks import check_series
+from frictionid_core.preprocess import Preprocessing
 from frictionid_core.timeseries import JointSeries, sample_period
 from support.data import emps_like
 
@@ -89,15 +90,28 @@ def test_a_segment_too_short_to_filter_is_left_out_with_its_time_and_length():
 def test_the_longest_segment_too_short_is_an_error():
     s = noisy(n=600)
     t = s.t.copy()
-    for k in range(20, 600, 20):
-        t[k:] += 10.0  # segments of 20 samples
-    with pytest.raises(InputError, match=r"jumpy: 20 samples .* too few|jumpy: .*leave nothing after trimming"):
+    for k in range(10, 600, 10):
+        t[k:] += 10.0  # segments of 10 samples
+    with pytest.raises(InputError, match=r"jumpy: 10 samples are too few for the order-4 Butterworth filter"):
         identify(checked(with_times(s, t)), system="joint")
 
 
 def test_a_cutoff_at_or_above_nyquist_is_an_error():
-    from frictionid_core.preprocess import Preprocessing
-
     with pytest.raises(InputError, match=r"synthetic: cut-off 500 Hz at or above the Nyquist frequency 500 Hz of data "
                                          r"sampled at 1000 Hz"):
         identify(noisy(2000), system="joint", preprocessing=Preprocessing(cutoff_hz=500.0))
+
+
+def test_many_gaps_cost_at_most_the_rules_trim_share():
+    """Messages lost in bursts every 0.4 s (a live stream under load): each gap cuts the log, and each
+    segment loses at most MAX_TRIM_SHARE (10 %) of itself at each gap, however high the cut-off's 5/fc."""
+    s = noisy()
+    settings = Preprocessing(cutoff_hz=50.0, decimate=2)  # 5/fc = 0.1 s: over 10 % of a 0.385 s segment
+    clean = identify(s, system="joint", preprocessing=settings).extra["preprocessing"]
+    keep = np.ones(len(s), dtype=bool)
+    for k in range(400, len(s), 400):
+        keep[k:k + 15] = False  # 15 messages lost
+    report = identify(s.take(keep), system="joint", preprocessing=settings).extra["preprocessing"]
+    assert report["segments"] == {"used": 20, "left_out": 0, "trim_at_gaps_s": pytest.approx(0.1)}
+    kept = clean["fit_rows"] * keep.mean()
+    assert 0.8 * kept <= report["fit_rows"] <= 0.85 * kept  # ~2 × 10 % of each segment trimmed

@@ -41,9 +41,6 @@ def load_csv(path: Path, *, strict_rows: bool = False) -> JointSeries:
     joints: dict[str, dict[str, int]] = {}
 
     def used(names: list[str], ncols: int) -> list[int]:
-        repeated = [c for c in dict.fromkeys(names) if names.count(c) > 1]
-        if repeated:
-            raise InputError(f"{path}: column name(s) {repeated} appear more than once in the header")
         tcol = next((c for c in ("time", "t") if c in names), None)
         if tcol is None:
             raise InputError(f"{path}: no 'time' column; columns are {names}{LAYOUT_HINT}")
@@ -133,9 +130,9 @@ def read_table(path: Path, *, header: bool, delimiter: str | None = None,
     Blank lines and ``#`` comments are skipped. A row is broken when it has another number of
     cells than the header (without a header: than most of the first rows) or a kept cell that is
     not a number; broken rows are skipped with a note (also a UserWarning) giving their count and
-    the first one's line. InputError naming the file (and line) for a broken row under
-    ``strict_rows``, more broken rows than good ones, a line longer than MAX_LINE_CHARS, more than
-    MAX_COLUMNS columns or MAX_VALUES values kept, and no good row.
+    the first one's line. InputError naming the file (and line) for a header naming a column
+    twice, a broken row under ``strict_rows``, more broken rows than good ones, a line longer than
+    MAX_LINE_CHARS, more than MAX_COLUMNS columns or MAX_VALUES values kept, and no good row.
     """
     try:
         fh = open(path, "rb")
@@ -158,6 +155,10 @@ def read_table(path: Path, *, header: bool, delimiter: str | None = None,
         counted = _column_count(probe, delimiter)
         if names is not None:
             ncols = len(names)
+            repeated = [c for c in dict.fromkeys(names) if names.count(c) > 1]
+            if repeated:
+                raise InputError(f"{path}: column name(s) {repeated} appear more than once in the header: which "
+                                 "column is meant is ambiguous")
             if counted is not None and counted[1] and counted[0] != ncols:
                 raise InputError(f"{path}: header has {ncols} columns but rows have {counted[0]}{hint}")
         elif counted is None:

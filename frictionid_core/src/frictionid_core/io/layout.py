@@ -207,10 +207,6 @@ def _indices(refs, key: str, file: Path, names: list[str] | None, ncols: int, wh
     if unknown:
         raise InputError(f"{where}: key '{key}': column(s) {unknown} not in the header of {file}; "
                          f"available: {names}")
-    repeated = [r for r in refs if isinstance(r, str) and names.count(r) > 1]
-    if repeated:
-        raise InputError(f"{where}: key '{key}': column name(s) {repeated} appear more than once in the header "
-                         f"of {file}; give 0-based indices")
     out = [names.index(r) if isinstance(r, str) else r for r in refs]
     beyond = [r for r in out if r >= ncols]
     if beyond:

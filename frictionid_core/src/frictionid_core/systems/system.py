@@ -16,6 +16,7 @@ import numpy as np
 from frictionid_core.errors import InputError
 from frictionid_core.observation import Observation, build_observation, concat_observations
 from frictionid_core.preprocess import (
+    MAX_TRIM_SHARE,
     TRIM_PERIODS,
     Prepared,
     Preprocessing,
@@ -186,15 +187,17 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
                       settings: Preprocessing | None) -> Observation:
     """The observation of a series cut at the gaps of its stamps: each segment pre-processed
     alone (no filter runs across a gap) with the settings resolved on the longest, trimmed at
-    each gap as the rule trims a record's ends (the filters' transients), the observations
-    stacked in time order; segments too short for that are left out (noted)."""
+    each gap as the rule trims a record's ends (TRIM_PERIODS / cut-off, at most MAX_TRIM_SHARE of
+    the segment: the filters' transients), the observations stacked in time order; segments too
+    short to filter are left out (noted)."""
     longest = max(range(len(segments)), key=lambda k: len(segments[k]))
     resolved, chosen = choose_preprocessing(resample_uniform(segments[longest]), settings or system.preprocessing)
     seam = TRIM_PERIODS / resolved.cutoff_hz
     observed, dropped = {}, []
     for k, segment in enumerate(segments):
-        trims = {"trim_start_s": max(resolved.trim_start_s, seam) if k > 0 else resolved.trim_start_s,
-                 "trim_end_s": max(resolved.trim_end_s, seam) if k < len(segments) - 1 else resolved.trim_end_s}
+        at_gap = min(seam, MAX_TRIM_SHARE * (segment.t[-1] - segment.t[0]))
+        trims = {"trim_start_s": max(resolved.trim_start_s, at_gap) if k > 0 else resolved.trim_start_s,
+                 "trim_end_s": max(resolved.trim_end_s, at_gap) if k < len(segments) - 1 else resolved.trim_end_s}
         try:
             observed[k] = _observe_segment(segment, system, replace(resolved, **trims))
         except TooFewSamples:
@@ -206,10 +209,14 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
             if o is not None:
                 o.preprocessing = resolved  # stacked under one setting; the seams' trims are noted
     obs = concat_observations([observed[k] for k in sorted(observed)])
+    # the longest segment's report, with what the rule chose and the counts and extremes of them all
     report = dict(observed[longest].report)
+    over = [o.report for o in observed.values()]
     report.update(chosen_from_data=chosen["chosen_from_data"], from_data=chosen["from_data"], fit_rows=int(obs.y.size),
-                  slow_rows_excluded={j: sum(o.report["slow_rows_excluded"][j] for o in observed.values())
+                  slow_rows_excluded={j: sum(r["slow_rows_excluded"][j] for r in over)
                                       for j in report["slow_rows_excluded"]},
+                  reversal_acceleration={j: max(r["reversal_acceleration"][j] or 0.0 for r in over)
+                                         for j in report["reversal_acceleration"]},
                   segments={"used": len(observed), "left_out": len(dropped), "trim_at_gaps_s": seam})
     for o in (obs, obs.sampled):
         if o is not None:
@@ -219,7 +226,7 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
     listed = ", ".join(f"{end - start:.4g} s after {start - t0:.6g} s" for start, end in gaps[:3])
     note = (f"{series.source}: the time stamps have {len(gaps)} gap(s) longer than {SEGMENT_GAP_PERIODS:g} sample "
             f"periods ({listed}{', …' if len(gaps) > 3 else ''}): {len(segments)} segments, each filtered alone and "
-            f"trimmed by {seam:.3g} s at the gaps")
+            f"trimmed by {seam:.3g} s (at most {MAX_TRIM_SHARE:.0%} of it) at the gaps")
     if dropped:
         short = ", ".join(f"{s.t[0] - t0:.6g} s ({len(s)} samples, {s.t[-1] - s.t[0]:.4g} s)" for s in dropped[:5])
         note += (f"; {len(dropped)} too short for that left out (from {short}{', …' if len(dropped) > 5 else ''}, "
