@@ -510,6 +510,10 @@ def preprocess(series: JointSeries, requested: Preprocessing | None = None
     share of the filtered q̈ variance that is differentiated position noise), and the notes of
     what was done to the stamps.
     """
+    order = (requested or Preprocessing()).order
+    if len(series) <= 3 * order:  # before any estimate from the data (a periodogram, a gradient)
+        raise TooFewSamples(f"{len(series)} samples are too few for the order-{order} Butterworth filter (needs more "
+                            f"than {3 * order})")
     uniform = resample_uniform(series)
     notes = uniform.notes[len(series.notes):]
     settings, report = choose_preprocessing(uniform, requested)

@@ -10,9 +10,14 @@ import numpy as np
 
 from frictionid_core.errors import InputError
 
-# An interval longer than this many sample periods (a clock jump, recording paused, messages lost)
-# splits a series into segments that are filtered alone (:meth:`JointSeries.segments`).
+# An interval longer than this many sample periods and SEGMENT_GAP_S (a clock jump, a paused
+# recording) splits a series into segments that are filtered alone (:meth:`JointSeries.segments`).
+# Shorter gaps (messages lost in bursts) are interpolated by the resampling: cutting there costs
+# the filters' trims (5/fc at each side) and, on a stream losing a burst every fraction of a
+# second, most of the data (on the TX40 excitation with 20 bursts of 11–60 ms lost in 6 s: the
+# validation error 1.3 % interpolated, 15–17 % cut).
 SEGMENT_GAP_PERIODS = 10.0
+SEGMENT_GAP_S = 0.2
 
 
 @dataclass
@@ -100,8 +105,10 @@ class JointSeries:
 
     def segment_bounds(self) -> list[tuple[int, int]]:
         """(start, stop) sample indices of the pieces between the gaps of the stamps: intervals
-        longer than SEGMENT_GAP_PERIODS :func:`sample_period`; one piece without gaps."""
-        cuts = np.flatnonzero(np.diff(self.t) > SEGMENT_GAP_PERIODS * sample_period(self.t)) + 1
+        longer than SEGMENT_GAP_PERIODS :func:`sample_period` and SEGMENT_GAP_S; one piece
+        without gaps."""
+        gap = max(SEGMENT_GAP_PERIODS * sample_period(self.t), SEGMENT_GAP_S)
+        cuts = np.flatnonzero(np.diff(self.t) > gap) + 1
         edges = [0, *cuts.tolist(), len(self)]
         return list(zip(edges[:-1], edges[1:]))
 

@@ -31,6 +31,16 @@ def checked(series: JointSeries) -> tuple[JointSeries, list[str]]:
     return out, [str(w.message) for w in caught]
 
 
+def test_a_step_at_the_last_sample_is_no_spike():
+    """A synthetic log that ends at rest: friction (sign(0) = 0) vanishes at its last sample only; the
+    last sample has no neighbour after it to tell that step from a spike."""
+    tau = emps_like(n=3000).effort[:, 0]
+    tau[-1] -= 60.0  # 30 × its largest sample-to-sample steps, within its span
+    assert find_spikes(tau).size == 0
+    tau[-1] = 1e6
+    np.testing.assert_array_equal(find_spikes(tau), [2999])
+
+
 def test_isolated_glitches_and_short_runs_are_found():
     rng = np.random.default_rng(1)
     t = np.arange(5000) * 1e-3

@@ -9,7 +9,7 @@ import numpy as np
 from scipy import ndimage
 
 from frictionid_core.errors import InputError
-from frictionid_core.timeseries import SEGMENT_GAP_PERIODS, JointSeries, sample_period
+from frictionid_core.timeseries import SEGMENT_GAP_PERIODS, SEGMENT_GAP_S, JointSeries, sample_period
 
 MIN_SAMPLES = 3
 GAP_FACTOR = 1.5  # an interval longer than this many median periods is a gap
@@ -66,8 +66,9 @@ def check_series(series: JointSeries, *, strict_time: bool = False) -> JointSeri
 
 def _repair_stamps(series: JointSeries, notes: list[str]) -> JointSeries:
     """Stamps out of line with both neighbours (spikes of the stamps) interpolated between them;
-    at a clock jump back of more than SEGMENT_GAP_PERIODS periods, the later stamps shifted to
-    follow after a gap as long as the jump (the gap splits the series: :meth:`JointSeries.segments`)."""
+    at a clock jump back longer than a gap (SEGMENT_GAP_PERIODS periods and SEGMENT_GAP_S), the
+    later stamps shifted to follow after a gap as long as the jump (the gap splits the series:
+    :meth:`JointSeries.segments`). Smaller steps back are disorder: :func:`_order_stamps` re-sorts them."""
     src = series.source
     t = series.t
     spikes = find_spikes(t)
@@ -76,7 +77,7 @@ def _repair_stamps(series: JointSeries, notes: list[str]) -> JointSeries:
         t[spikes] = _interpolated(np.arange(t.size, dtype=float), t, spikes)
         notes.append(f"{src}: {spikes.size} time stamp(s) out of line with both neighbours (first at sample "
                      f"{spikes[0]}) replaced by interpolation between them")
-    jumps = np.flatnonzero(np.diff(t) < -SEGMENT_GAP_PERIODS * sample_period(t))
+    jumps = np.flatnonzero(np.diff(t) < -max(SEGMENT_GAP_PERIODS * sample_period(t), SEGMENT_GAP_S))
     if jumps.size:
         where = ", ".join(f"{t[k] - t[k + 1]:.6g} s back after t = {t[k] - t[0]:.6g} s" for k in jumps[:3])
         more = f" and {jumps.size - 3} more" if jumps.size > 3 else ""
@@ -125,6 +126,9 @@ def find_spikes(x: np.ndarray) -> np.ndarray:
     exceeds SPIKE_FACTOR times the largest of: the signal's sample-to-sample change (the
     SPIKE_STEP_QUANTILE percentile of |Δx|), its resolution (the smallest nonzero |Δx|) and the
     spread of the middle five of those samples (steps, reversals and noise bursts stay inside it).
+    The first and the last sample have neighbours on one side only, where a step (a synthetic
+    log's friction vanishing at rest) looks the same: they are spikes only when they also lie
+    further out than the span of the signal (its 0.5 to 99.5 percentiles).
     """
     x = np.asarray(x, dtype=float)
     half = SPIKE_WINDOW // 2
@@ -144,7 +148,13 @@ def find_spikes(x: np.ndarray) -> np.ndarray:
     padded = np.pad(x, half, mode="reflect")
     window = np.sort(padded[candidates[:, None] + np.arange(SPIKE_WINDOW)], axis=1)
     spread = window[:, half + 2] - window[:, half - 2]
-    return candidates[residual[candidates] > SPIKE_FACTOR * np.maximum(scale, spread)]
+    spikes = candidates[residual[candidates] > SPIKE_FACTOR * np.maximum(scale, spread)]
+    ends = (spikes == 0) | (spikes == x.size - 1)
+    if ends.any():
+        low, high = np.percentile(x, [0.5, 99.5])
+        ends &= residual[spikes] <= high - low
+        spikes = spikes[~ends]
+    return spikes
 
 
 def _repair_spikes(series: JointSeries, notes: list[str]) -> JointSeries:
