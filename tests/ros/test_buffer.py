@@ -21,6 +21,8 @@ def test_name_map_reorders_and_caches():
     assert m.index(["x", "b", "a"]) is idx  # cached
     with pytest.raises(KeyError, match=r"lacks joint\(s\) \['b'\]"):
         m.index(["a"])
+    with pytest.raises(KeyError, match=r"names joint\(s\) \['b'\] more than once \(it has \['b', 'a', 'b'\]\)"):
+        m.index(["b", "a", "b"])
     row = np.empty(2)
     assert put(row, array.array("d", [9.0, 2.0, 1.0]), idx, 3) and list(row) == [1.0, 2.0]
     assert not put(row, array.array("d"), idx, 3) and np.isnan(row).all()  # empty field

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from frictionid_core.cli import main
-from frictionid_core.io.bag import write_joint_state_bag
+from frictionid_core.io.bag import open_reader, write_joint_state_bag
 from frictionid_core.io.csv import save_csv
 from frictionid_core.timeseries import JointSeries
 from support.data import EMPS_ESTIMATION, JOINT_STATE
@@ -98,8 +98,10 @@ def test_csv_missing_time_column(tmp_path, capsys):
 
 def test_csv_not_numeric(tmp_path, capsys):
     (tmp_path / "c.csv").write_text("time,position,effort\n0,1,1\n1,two,2\n")
-    msg = fails(["identify", tmp_path / "c.csv"], capsys)
-    assert "c.csv" in msg and "numeric CSV" in msg
+    msg = fails(["identify", tmp_path / "c.csv", "--strict-rows"], capsys)
+    assert "c.csv: broken row at line 3: column 1 ('position'): 'two' is not a number" in msg
+    msg = fails(["identify", tmp_path / "c.csv"], capsys)  # skipped: one row is left
+    assert "only 1 samples" in msg and "1 broken row(s) skipped" in msg
 
 
 def test_csv_header_only(tmp_path, capsys):
@@ -141,6 +143,52 @@ def test_joint_missing_from_a_later_message(tmp_path, ros2_bag, js_msgs, capsys)
     ros2_bag(tmp_path / "b", {"/joint_states": (JOINT_STATE, msgs)})
     msg = fails(["identify", tmp_path / "b"], capsys)
     assert "message 4" in msg and "['b']" in msg
+
+
+def test_duplicated_joint_names_in_a_message(tmp_path, ros2_bag, js_msgs, capsys):
+    t = np.arange(10) * 1e-3
+    msgs = js_msgs(t, ["a", "b"], position=np.ones((10, 2)), effort=np.ones((10, 2)))
+    ros2_bag(tmp_path / "later", {"/joint_states": (JOINT_STATE, [
+        *msgs[:6], (msgs[6][0], {"name": ["a", "b", "a"], "position": [1.0] * 3, "effort": [1.0] * 3}), *msgs[7:]])})
+    msg = fails(["identify", tmp_path / "later"], capsys)  # decoded message by message
+    assert "topic '/joint_states': message 6 names joint(s) ['a'] more than once (['a', 'b', 'a'])" in msg
+    same = [(ns, {**f, "name": ["a", "a"]}) for ns, f in msgs]
+    ros2_bag(tmp_path / "all", {"/joint_states": (JOINT_STATE, same)})
+    msg = fails(["identify", tmp_path / "all"], capsys)  # every message alike: decoded at once
+    assert "message 0 names joint(s) ['a'] more than once" in msg
+
+
+@pytest.mark.parametrize("at", [None, 3])  # every message (decoded at once), one message
+def test_arrays_longer_than_the_names(tmp_path, ros2_bag, js_msgs, capsys, at):
+    t = np.arange(10) * 1e-3
+    msgs = js_msgs(t, ["a", "b"], position=np.ones((10, 2)), effort=np.ones((10, 2)))
+    for k, (_, f) in enumerate(msgs):
+        if at is None or k == at:
+            f["effort"] = [1.0, 2.0, 3.0]
+    ros2_bag(tmp_path / "b", {"/joint_states": (JOINT_STATE, msgs)})
+    msg = fails(["identify", tmp_path / "b"], capsys)
+    assert (f"topic '/joint_states': message {at or 0}: field 'effort' has 3 values for 2 names ['a', 'b']: which "
+            "values belong to which joint is ambiguous") in msg
+
+
+def test_a_corrupt_message_names_topic_index_and_time(tmp_path, capsys):
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_KILTED)
+    good = write_joint_state_bag(tmp_path / "good", small_series(30))
+    reader = open_reader(good)
+    try:
+        raws = [(ns, raw) for _, ns, raw in reader.messages()]
+    finally:
+        reader.close()
+    with Writer(tmp_path / "bad", version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        conn = w.add_connection("/joint_states", JOINT_STATE, typestore=ts)
+        for k, (ns, raw) in enumerate(raws):
+            w.write(conn, ns, raw[:30] if k == 12 else raw)
+    msg = fails(["identify", tmp_path / "bad"], capsys)
+    assert ("topic '/joint_states': message 12 (bag time 0.012 s after the first) is not a readable "
+            "sensor_msgs/msg/JointState (AnyReaderError:") in msg
 
 
 def test_emps_system_needs_one_joint(tmp_path, capsys, synthetic):
@@ -222,6 +270,31 @@ def test_fewer_than_three_samples(tmp_path, capsys):
     (tmp_path / "c.csv").write_text("time,position,effort\n0,1,1\n1,2,2\n")
     msg = fails(["identify", tmp_path / "c.csv"], capsys)
     assert "only 2 samples" in msg
+
+
+def test_three_rows_and_a_constant_signal(tmp_path, capsys):
+    (tmp_path / "c.csv").write_text("time,position,effort\n0,1,1\n0.001,2,2\n0.002,3,1\n")
+    for system in ("emps", "joint", "friction-only"):
+        msg = fails(["identify", tmp_path / "c.csv", "--system", system], capsys)
+        assert msg.startswith(f"{tmp_path / 'c.csv'}: 3 samples are too few for the order-4 Butterworth filter")
+    t = np.arange(2000) * 1e-3
+    save_csv(JointSeries(t, ["a"], np.ones_like(t), np.sin(t), source="c"), tmp_path / "k.csv")
+    msg = fails(["identify", tmp_path / "k.csv", "--system", "joint"], capsys)
+    assert "k.csv: no joint moves more than 100× its position noise" in msg
+
+
+def test_values_of_1e308(tmp_path, capsys, synthetic):
+    s = synthetic()
+    s.position = s.position * 1e308
+    save_csv(s, tmp_path / "h.csv")
+    msg = fails(["identify", tmp_path / "h.csv"], capsys)
+    assert "h.csv:" in msg and "samples beyond ±1e+15 (not measured values) in field 'position' (joint 'emps'" in msg
+
+
+def test_cutoff_at_nyquist(tmp_path, capsys, synthetic):
+    save_csv(synthetic(), tmp_path / "s.csv")
+    msg = fails(["identify", tmp_path / "s.csv", "--system", "joint", "--cutoff", "500"], capsys)
+    assert "s.csv: cut-off 500 Hz at or above the Nyquist frequency 500 Hz" in msg
 
 
 # -------------------------------------------------------------------- time stamps

@@ -291,3 +291,14 @@ def test_results_with_trims_in_samples_still_validate(emps_estimation, emps_vali
     legacy = dict(r, preprocessing={"cutoff_hz": 100.0, "order": 4, "decimate": 10, "trim_start": 49, "trim_end": 0})
     assert validate(emps_validation, legacy)["relerr_pct"] == pytest.approx(5.98245, abs=5e-6)
     assert validate(emps_validation, r)["relerr_pct"] == pytest.approx(5.98245, abs=5e-6)
+
+
+@pytest.mark.parametrize("n", [3, 5])
+def test_a_record_too_short_to_show_its_bandwidth_is_an_error(n):
+    """A few samples of smooth motion (the node's window with min_samples 0): the periodogram puts
+    the motion's power at 0 Hz, so a cut-off of 10 × 0 Hz; one clear error instead of a division by 0."""
+    log = joint_log(1000.0, duration=n / 1000.0)
+    assert len(log) == n
+    with pytest.raises(InputError, match=rf"log1000: {n} samples \(0.00{n - 1} s\) show no motion bandwidth: the "
+                                         r"cut-off cannot be chosen from the data"):
+        choose_preprocessing(log)

@@ -35,6 +35,9 @@ def add_source_arguments(p: argparse.ArgumentParser) -> None:
                    help="YAML layout of a CSV not in frictionid's own format (columns of time, positions, efforts…)")
     p.add_argument("--strict-time", action="store_true",
                    help="fail on duplicated or out-of-order time stamps instead of repairing them")
+    p.add_argument("--strict-rows", action="store_true",
+                   help="fail on a broken row of a CSV (malformed, not numeric, truncated) instead of skipping "
+                        "broken rows with a warning")
     p.add_argument("--start", type=float, metavar="S", help="use the data from S seconds after the first sample")
     p.add_argument("--end", type=float, metavar="S", help="use the data up to S seconds after the first sample")
     add_json_argument(p)
@@ -65,7 +68,8 @@ def load_sources(args) -> list:
     from frictionid_core.io import load
 
     return [load(source, topic=args.topic, joints=split_list(args.joints) or None, effort_topic=args.effort_topic,
-                 strict_time=args.strict_time, layout=args.layout) for source in args.source]
+                 strict_time=args.strict_time, layout=args.layout, strict_rows=args.strict_rows)
+            for source in args.source]
 
 
 def window_of(args) -> tuple[float | None, float | None] | None:
@@ -172,7 +176,8 @@ def preprocessing_line(p: dict) -> str:
     thinned = (f" ({p.get('fit_rows')} rows: at the rate each dip crossing needs, 1 in {thin} elsewhere)"
                if thin > 1 else "")
     parts += [f"decimation {p.get('decimate')}{rate}{mark('decimate')}{thinned}",
-              f"trims {fmt(p.get('trim_start_s'), 3)} + {fmt(p.get('trim_end_s'), 3)} s{mark('trim_start_s', 'trim_end_s')}",
+              f"trims {fmt(p.get('trim_start_s'), 3)} + {fmt(p.get('trim_end_s'), 3)} s"
+              f"{mark('trim_start_s', 'trim_end_s')}",
               f"min speed {speed}{mark('min_speed')}", f"velocity from {p.get('velocity', 'position')}"]
     if p.get("overridden"):
         parts.append(f"set: {', '.join(p['overridden'])}")
@@ -224,7 +229,8 @@ def save_json(path: Path | None, data) -> None:
 def run_handler(handler, args: argparse.Namespace) -> int:
     """``handler(args)``'s exit code; a FrictionIdError becomes one line on stderr and exit code 2,
     any other exception one line and exit code 1 (the traceback with FRICTIONID_DEBUG=1).
-    Library warnings are printed as ``frictionid: warning: …`` lines, each message once."""
+    Library warnings are printed as ``frictionid: warning: …`` lines, each message once, unless
+    the command fails on bad input: its one line then says what went wrong."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
         try:
@@ -241,6 +247,7 @@ def run_handler(handler, args: argparse.Namespace) -> int:
             code = EXIT_INTERNAL
             print(f"frictionid: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} "
                   "(set FRICTIONID_DEBUG=1 for the traceback)", file=sys.stderr)
-        for message in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, UserWarning)):
-            print(f"frictionid: warning: {message}", file=sys.stderr)
+        if code != EXIT_INPUT:
+            for message in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, UserWarning)):
+                print(f"frictionid: warning: {message}", file=sys.stderr)
     return code

@@ -5,7 +5,8 @@ columns are the robot's *base* regressor (Pinocchio's joint torque regressor, 10
 per body, plus one rotor-inertia column q̈_j per joint, reduced to the base parameters by QR
 with column pivoting): τ = W_b(q, q̇, q̈)·β + τ_f(q̇) + offset. Rows are the data's joints
 (joint-major); the data must hold every model joint (bag names matched to model names through
-the system's joint map). The columns of the data are checked for rank before any solve.
+the system's joint map). The columns of the data are checked for rank before any solve
+(:attr:`System.excitation`).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import numpy as np
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.preprocess import Prepared, Preprocessing
-from frictionid_core.robots.base import base_parameter_names, check_excitation, robot_base_parameters
+from frictionid_core.robots.base import base_parameter_names, robot_base_parameters
 from frictionid_core.systems.system import RobotInfo, System
 
 # Robot data: every setting chosen from the data (frictionid_core.preprocess): the cut-off from
@@ -50,15 +51,16 @@ def robot_system(robot, name: str, joint_map: dict[str, str] | None = None, base
     bounds = {n: (-max(1.0, 10.0 * abs(v)), max(1.0, 10.0 * abs(v))) for n, v in zip(names, nominal)}
 
     def columns(p: Prepared, joints: list[str]) -> np.ndarray:
-        cols = info.base_columns(p.q, p.qd, p.qdd, joints)
+        return info.base_columns(p.q, p.qd, p.qdd, joints)
+
+    def excitation(cols: np.ndarray, p: Prepared, joints: list[str]) -> tuple[np.ndarray, list[str]]:
         if rows is None:
-            _check_rank(cols, p.qd, joints, list(names), name)
-        else:  # friction on each motor's referred velocity; data joints are in the drive's order
-            _check_rank(cols, drive.motor_velocity(p.qd), drive.motor_names(), list(names), name)
-        return cols
+            return _excitation_rows(cols, p.qd, joints, list(names))
+        # friction on each motor's referred velocity; data joints are in the drive's order
+        return _excitation_rows(cols, drive.motor_velocity(p.qd), drive.motor_names(), list(names))
 
     return System(name, tuple(robot.joints), columns, names, bounds, preprocessing, dict(joint_map or {}),
-                  robot=info, drive=drive)
+                  robot=info, drive=drive, excitation=excitation)
 
 
 def nominal_parameters(system: System) -> dict[str, float]:
@@ -70,9 +72,10 @@ def nominal_parameters(system: System) -> dict[str, float]:
     return dict(zip(system.rigid_names, map(float, info.base.from_standard(info.model.parameters()))))
 
 
-def _check_rank(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list[str], name: str) -> None:
-    """Raise when the rigid + Coulomb/viscous columns of the data are rank-deficient (``qd``:
-    each row block's friction velocity, ``joints``: the blocks' names)."""
+def _excitation_rows(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list[str]
+                     ) -> tuple[np.ndarray, list[str]]:
+    """(rows, names) of the rank test of the data: the rigid + Coulomb/viscous columns on a subset
+    of the samples (``qd``: each row block's friction velocity, ``joints``: the blocks' names)."""
     nj, n = len(joints), qd.shape[0]
     sel = np.arange(0, n, max(_CHECK_STRIDE, n // _CHECK_SAMPLES))
     rigid = np.concatenate([rows[j * n + sel] for j in range(nj)], axis=0)
@@ -82,4 +85,4 @@ def _check_rank(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list
         fric[j * sel.size : (j + 1) * sel.size, 2 * j] = v
         fric[j * sel.size : (j + 1) * sel.size, 2 * j + 1] = np.sign(v)
     fnames = [f"{j}/{p}" for j in joints for p in ("Fv", "Fc")]
-    check_excitation(np.hstack([rigid, fric]), names + fnames, f"system '{name}'")
+    return np.hstack([rigid, fric]), names + fnames
