@@ -120,9 +120,9 @@ class IdentificationModel:
             for tag, suffix, off in branches:
                 cols = obs.columns[j]
                 vcol, scol = cols["V" + suffix], cols["S" + suffix]
-                mask = np.sign(v) * {"pos": v > 0, "neg": v < 0, "": np.ones_like(v, bool)}[tag]
-                if obs.weight is not None:  # thinned rows: the dip column weighted like the others
-                    mask = mask * obs.weight
+                # the decimated sign column (weighted like the others on thinned rows): the dip's sign
+                # step anti-aliased as the effort's is
+                mask = scol
                 dip_id = None
                 nl = [base + off + k for k, n in enumerate(self.friction.branch_names) if n in law.nonlinear]
                 if nl:
