@@ -16,6 +16,7 @@ from frictionid_core.identification.model import Sources, as_sources, build_mode
 from frictionid_core.identification.request import IdentifyRequest
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.solve import fit_model
+from frictionid_core.identification.stick import exclude_stick_phases
 from frictionid_core.identification.uncertainty import jacobian_std
 from frictionid_core.identification_model import IdentificationModel
 from frictionid_core.parallel import single_threaded_libraries
@@ -72,13 +73,13 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
         return build_model(sources, sys_, request.friction, request.asymmetric, pre, request.bounds,
                            fixed=request.fixed)
 
-    model = rebuild(settings)
+    model, fit_settings = exclude_stick_phases(rebuild(settings), settings, rebuild)
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
     if errors:
         raise InputError(f"{sources[0].source}: " + "; ".join(errors))
     fixed = {model.names[i]: v for i, v in model.fixed_values.items()}
     model, (x, std, cond, res) = fit_at_dip_rates(
-        model, settings, rebuild, lambda m, previous=None: fit_model(m, solver, progress, previous))
+        model, fit_settings, rebuild, lambda m, previous=None: fit_model(m, solver, progress, previous))
     warnings += dip_warnings(model, x)
     if res is not None:
         std, design = jacobian_std(model, x)
