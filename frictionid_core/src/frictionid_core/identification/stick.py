@@ -68,8 +68,11 @@ def stick_speeds(model: IdentificationModel) -> dict[str, float]:
         return {}
     speeds: dict[str, float] = {}
     for _ in range(STICK_ROUNDS):
-        fitted = coulomb if not speeds else coulomb_model(model, without_rows(obs, speeds))
-        x, _, _ = fitted.fit_linear()
+        try:
+            fitted = coulomb if not speeds else coulomb_model(model, without_rows(obs, speeds))
+            x, _, _ = fitted.fit_linear()
+        except FrictionIdError:  # rank-deficient rows (a joint moving one way): the fit says why
+            return {}
         found = {}
         for j, joint in enumerate(obs.joints):
             v = joint_stick_speed(coulomb, x, j)
