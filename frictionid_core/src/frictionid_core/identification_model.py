@@ -120,9 +120,12 @@ class IdentificationModel:
             for tag, suffix, off in branches:
                 cols = obs.columns[j]
                 vcol, scol = cols["V" + suffix], cols["S" + suffix]
-                # the decimated sign column (weighted like the others on thinned rows): the dip's sign
-                # step anti-aliased as the effort's is
-                mask = scol
+                if tag:  # a branch: selector × sign(v) at the decimated velocity, weighted like the others
+                    mask = np.sign(v) * (v > 0 if tag == "pos" else v < 0)
+                    if obs.weight is not None:
+                        mask = mask * obs.weight
+                else:  # the decimated sign column (weighted like the others): the dip's sign step
+                    mask = scol  # anti-aliased as the effort's is
                 dip_id = None
                 nl = [base + off + k for k, n in enumerate(self.friction.branch_names) if n in law.nonlinear]
                 if nl:

@@ -22,10 +22,10 @@ Settings left unset (None) are chosen from the data by :func:`choose_preprocessi
      bound, the cut-off whose filtered signals best predict the joint's effort: the least-squares
      residual of its effort on every joint's q̈, q̇, sign(q̇) and a constant, over CUTOFF_CANDIDATES
      log-spaced cut-offs: the lowest within 1 % of the least residual (a higher one only where it
-     predicts clearly better; the residuals of nearby cut-offs differ by less than that). A position spectrum can stand above its noise for motion the effort does
-     not show (a real 5 kHz motor encoder's vibrations: a cut-off at the position's bound predicted
-     the TX40's validation torque with 49 % error, 17 % at 10·B), and stick/slip transitions
-     show in both (a MuJoCo arm's friction at 50 Hz where 10·B is 5.5 Hz);
+     predicts clearly better; the residuals of nearby cut-offs differ by less than that). A
+     position spectrum can stand above its noise for motion the effort does not show (a real
+     5 kHz motor encoder's vibrations: a cut-off at the position's bound predicted the TX40's
+     validation torque with 49 % error, 17 % at 10·B), and stick/slip transitions show in both;
 
   a joint that does not move takes the lowest cut-off of the moving ones;
 * decimation n = max(1, ⌊fs / (10·max fc)⌋) (analysis rate ≥ 10·fc of every joint, so the

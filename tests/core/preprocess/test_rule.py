@@ -187,7 +187,8 @@ def test_slow_joint2_defaults_give_zz_within_2_percent_without_a_flag(slow_joint
     assert old["params"]["ZZ"] < 0.7 * zz
     assert old["preprocessing"]["qdd_noise_share"]["joint_2"] == pytest.approx(0.27, abs=0.03)
     noisy = [w for w in old["warnings"] if "noise-dominated" in w]
-    assert len(noisy) == 1 and noisy[0].startswith("joint_2: ") and "lower the cut-off: use --cutoff joint_2=" in noisy[0]
+    assert len(noisy) == 1 and noisy[0].startswith("joint_2: ")
+    assert "lower the cut-off: use --cutoff joint_2=" in noisy[0]
     # the cut-off it names keeps the q̈ noise within 2 % (and is no lower than the rule's)
     named = float(noisy[0].rsplit("joint_2=", 1)[1])
     fixed = identify(series, IdentifyRequest(system="tx40-j2", preprocessing=PreprocessingOverrides(cutoff_hz=named))

@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 
 from frictionid_core.drive import result_drive
-from frictionid_core.errors import FrictionIdError
+from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.identification.model import Sources, as_sources, build_model, model_metrics
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.settings import PreprocessingOverrides
@@ -87,7 +87,15 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         settings, which = (preprocessing or PreprocessingOverrides()).apply(sys_.preprocessing), None
     if joints:
         sources = [s.select(list(joints)) for s in sources]
-    model = build_model(sources, sys_, friction, asymmetric, settings)
+    try:
+        model = build_model(sources, sys_, friction, asymmetric, settings)
+    except InputError as exc:  # these data cannot choose (nothing moves): the result's own settings
+        if which is None or not which["rechosen"] or "cannot be chosen from the data" not in str(exc):
+            raise
+        given = (preprocessing or PreprocessingOverrides()).changes()
+        settings = replace(Preprocessing.from_dict(result["preprocessing"], 1.0 / sources[0].dt), **given)
+        which = {"rechosen": [], "kept": which["kept"] + which["rechosen"], "set": which["set"]}
+        model = build_model(sources, sys_, friction, asymmetric, settings)
     if which is not None:
         model.obs.report.update(which)
     missing = [n for n in model.names if n not in values]
