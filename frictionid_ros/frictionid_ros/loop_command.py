@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import random
 import signal
 import subprocess
 import sys
@@ -25,8 +24,8 @@ from pathlib import Path
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.jsonfile import write_json
-
 from frictionid_ros.realtime import AUTO_PRIORITY, realtime_priority
+from frictionid_ros.ros_domain import reserve_domain
 
 DESCRIPTION = """\
 Run a simulated arm (MuJoCo, hidden Stribeck friction), a PD + rigid-body controller and the
@@ -286,7 +285,8 @@ def run(args) -> tuple[dict, dict, dict]:
     robot = load_robot(args.robot)
     work = Path(tempfile.mkdtemp(prefix="frictionid-loop-"))
     (work / "results").mkdir()
-    domain = random.randint(1, 200)
+    lease = reserve_domain()  # held until the processes are stopped
+    domain = lease.id
     record_file = work / "record.npz"
     procs = Processes(work, domain, args.realtime)
     client = None
@@ -338,6 +338,7 @@ def run(args) -> tuple[dict, dict, dict]:
         if client is not None:
             client.close()
         procs.stop()
+        lease.release()
     if not record_file.exists():
         raise FrictionIdError(f"the controller wrote no record (see {work}/controller.err)")
     with np.load(record_file) as z:
