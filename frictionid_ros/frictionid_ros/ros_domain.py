@@ -18,6 +18,7 @@ from pathlib import Path
 from frictionid_core.errors import FrictionIdError
 
 DOMAIN_IDS = range(1, 201)  # 0 is every other ROS process's default; Fast DDS ports allow ≤ 232
+LOCK_DIR = Path(tempfile.gettempdir())
 
 
 @dataclass
@@ -36,7 +37,7 @@ class DomainLease:
 
 def lock_file(domain: int) -> Path:
     """The lock file of ``domain``."""
-    return Path(tempfile.gettempdir()) / f"frictionid-ros-domain-{domain}.lock"
+    return LOCK_DIR / f"frictionid-ros-domain-{domain}.lock"
 
 
 def _open(path: Path) -> int | None:
@@ -68,4 +69,4 @@ def reserve_domain() -> DomainLease:
             continue
         return DomainLease(domain, fd)
     raise FrictionIdError(f"no free ROS domain: every id {DOMAIN_IDS.start}..{DOMAIN_IDS.stop - 1} is held by "
-                          f"another process (lock files {lock_file(0).parent}/frictionid-ros-domain-*.lock)")
+                          f"another process (lock files {LOCK_DIR}/frictionid-ros-domain-*.lock)")
