@@ -149,9 +149,12 @@ class Ros:
             self.ff_state.append(m)
 
     def _on_diag(self, arr):
+        """Keep each status with the time the node made it, on this process's monotonic clock (the
+        header stamp is the node's system time): a message that waited in a queue is not fresh."""
+        made = time.monotonic() - max(0.0, time.time() - (arr.header.stamp.sec + arr.header.stamp.nanosec * 1e-9))
         with self.lock:
             for s in arr.status:
-                self.diag[s.name] = ({kv.key: kv.value for kv in s.values}, s, time.monotonic())
+                self.diag[s.name] = ({kv.key: kv.value for kv in s.values}, s, made)
 
     def close(self):
         self._stop.set()
@@ -207,7 +210,7 @@ class Ros:
 
     def diag_value(self, key: str, status: str = "frictionid: joint buffer", newer_than: float = 0.0,
                    timeout: float = 30.0) -> str:
-        """Value ``key`` of the /diagnostics status ``status`` received after ``newer_than`` [s, monotonic]."""
+        """Value ``key`` of the /diagnostics status ``status`` made after ``newer_than`` [s, monotonic]."""
         def fresh():
             with self.lock:
                 entry = self.diag.get(status)
