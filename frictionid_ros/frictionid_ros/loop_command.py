@@ -260,7 +260,8 @@ def _wait(seconds: float, procs: Processes) -> None:
 
 def offer_bad_parameters(client: Client, results_file: Path) -> bool:
     """Offer the active set with every Coulomb level negated and tripled to the gate (~/load);
-    True if the node refused it and kept its active parameters."""
+    True if the node refused it and did not activate it (the online re-identification may replace
+    the active set meanwhile: that is no sign of the offer)."""
     from frictionid_interfaces.srv import ParametersFile
 
     data = json.loads(results_file.read_text())
@@ -270,8 +271,9 @@ def offer_bad_parameters(client: Client, results_file: Path) -> bool:
     bad["params"] = {k: -3.0 * v if k.rsplit("/", 1)[-1].startswith("Fc") else v for k, v in bad["params"].items()}
     write_json(results_file.parent / "bad.json", bad)
     res = client.call(ParametersFile, "/frictionid/load", ParametersFile.Request(path="bad.json"))
-    after = json.loads(results_file.read_text())
-    return (not res.success) and "safety gate" in res.message and after["per_joint"] == data["per_joint"]
+    params = lambda results: {joint: p["params"] for joint, p in results["per_joint"].items()}
+    active = params(json.loads(results_file.read_text()))
+    return (not res.success) and "safety gate" in res.message and active != params(bad)
 
 
 def run(args) -> tuple[dict, dict, dict]:

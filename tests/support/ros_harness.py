@@ -164,12 +164,12 @@ class Ros:
         self.node.destroy_node()
         rclpy.shutdown(context=self.ctx)
 
-    def call(self, srv_type, name: str, req, timeout: float = 30.0):
+    def call(self, srv_type, name: str, req, timeout: float = 60.0):
         """call_async + wait with a timeout: a test never hangs on a dead node."""
         cli = self._clients.get(name)
         if cli is None:
             cli = self._clients[name] = self.node.create_client(srv_type, name)
-        assert cli.wait_for_service(timeout_sec=20.0), f"service {name} not available"
+        assert cli.wait_for_service(timeout_sec=60.0), f"service {name} not available"
         return self.wait(cli.call_async(req), timeout, name)
 
     @staticmethod
@@ -181,7 +181,7 @@ class Ros:
         return future.result()
 
     def wait_service(self, proc: NodeProcess, name: str = "/frictionid/identify", srv_type=Identify,
-                     timeout: float = 60.0) -> None:
+                     timeout: float = 120.0) -> None:
         """Wait until the node ``proc`` offers service ``name``."""
         cli = self.node.create_client(srv_type, name)
         deadline = time.monotonic() + timeout
@@ -194,14 +194,14 @@ class Ros:
         are appended to ``feedback``."""
         if self._action is None:
             self._action = ActionClient(self.node, IdentifyAction, "/frictionid/identify")
-        assert self._action.wait_for_server(timeout_sec=20.0), "action ~/identify not available"
+        assert self._action.wait_for_server(timeout_sec=60.0), "action ~/identify not available"
         on_feedback = None if feedback is None else (lambda m: self._add(feedback, m.feedback))
         handle = self.wait(self._action.send_goal_async(IdentifyAction.Goal(**fields), feedback_callback=on_feedback),
                            30.0, "send_goal")
         assert handle.accepted
         return handle
 
-    def identify(self, timeout: float = 60.0, **fields):
+    def identify(self, timeout: float = 120.0, **fields):
         return self.call(Identify, "/frictionid/identify", Identify.Request(**fields), timeout)
 
     def reset(self):
