@@ -12,14 +12,15 @@
 
 A law with internal state (LuGre's bristle deflection z, the generalized Maxwell-slip elements)
 is not a dip law: its force is not Fv·v + level(|v|)·sign(v) with a dip linear in Fc, Fs. It
-would declare ``states`` and, instead of ``dip``, a scalar ``force(v, sign, p, o, i, z, z_rate,
-ops)`` that reads member i's state ``z[:, i]``, writes its time derivative into ``z_rate[:, i]``
-and returns the force (LuGre: ż = v − σ0·|v|·z/g(v), F = σ0·z + σ1·ż + σ2·v with g a dip law's
-level). The kernels keep their shape: :func:`~frictionid_core.friction.kernels.members_friction`
-calls ``force`` where it now composes the dip, with the (ns, m) state arrays that the EMPS
-simulator carries through its RK4 stages beside the velocity; ``FrictionModel.torque`` integrates
-z along the samples (it then needs their times); the identification takes such a law through
-the simulator (output error), since the dip sums exist for dip laws only.
+would declare ``states`` (refused today) and, instead of ``dip``, a scalar ``force(v, sign, p,
+o, z, z_rate, exp, ratio_power, where)`` that reads one member's state ``z`` (its column of a
+state table), writes its time derivative into ``z_rate`` and returns the force. LuGre:
+ż = v − σ0·|v|·z/g(|v|), F = σ0·z + σ1·ż + σ2·v, with g the level of a dip law above (called,
+not copied). The kernels keep their shape: ``members_friction`` calls ``force`` for each member
+where it now composes the dip, with (ns, m) state tables that the EMPS simulator carries
+through its RK4 stages beside the velocity; ``FrictionModel.torque`` integrates z along the
+samples (it then needs their times); the identification fits such a law through the simulator
+(output error), since the dip sums and the variable projection exist for dip laws only.
 """
 
 from frictionid_core.friction.laws import DEFAULT_BOUNDS, FRICTIONS, LAWS, UNITS, FrictionLaw

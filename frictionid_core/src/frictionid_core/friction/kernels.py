@@ -46,6 +46,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic, register_jitable
+from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from frictionid_core.friction.laws import LAWS, branch_force, dip_level
 from frictionid_core.parallel import run_chunks
@@ -89,7 +90,7 @@ def _bits_float(typingctx, n):
     return types.float64(types.int64), codegen
 
 
-@njit(cache=True, fastmath=_STRICT)
+@njit(cache=True, inline="always", fastmath=_STRICT)
 def fexp(x):  # pragma: no cover - compiled
     """e^x, vectorisable (module docstring)."""
     v = min(max(x, _EXP_MIN), _EXP_MAX)
@@ -176,17 +177,19 @@ def _reduce(d, y, Ft, dF):  # pragma: no cover - compiled
 @functools.cache
 def _dip_sums_kernel(friction: str):
     dip, _, _ = law_parts(friction)
+    n_nonlinear = len(LAWS[friction].nonlinear)
     digest = SOURCE_DIGEST
 
-    @njit(cache=True, nogil=True)
-    def dip_sums_rows(table, speed, log_speed, mask, Ft, y, lo, hi, s_dd, s_dy, s_dF):  # pragma: no cover
-        """Candidates lo..hi−1 of dip_sums (nonlinear parameters in the columns of ``table``
-        (m, P)), written into s_dd, s_dy (P,) and s_dF (P, L)."""
+    @njit(cache=True, nogil=True, fastmath=_STRICT)
+    def dip_sums_rows(theta, speed, log_speed, mask, Ft, y, lo, hi, s_dd, s_dy, s_dF):  # pragma: no cover
+        """Candidates lo..hi−1 of dip_sums (nonlinear parameters theta (P, m)), written into
+        s_dd, s_dy (P,) and s_dF (P, L)."""
         digest  # noqa: B018 - a cell of the closure: part of the cache key (module docstring)
         d = np.empty(speed.size)
         for i in range(lo, hi):
+            p = to_fixed_tuple(theta[i], n_nonlinear)  # values, not memory: they stay out of the row loop
             for r in range(speed.size):
-                d[r] = dip(speed[r], log_speed[r], table, 0, i, fexp, _fast_ratio_power, _select) * mask[r]
+                d[r] = dip(speed[r], log_speed[r], p, 0, fexp, _fast_ratio_power, _select) * mask[r]
             s_dd[i], s_dy[i] = _reduce(d, y, Ft, s_dF[i])
 
     return dip_sums_rows
@@ -203,13 +206,13 @@ def dip_sums(friction: str, theta: np.ndarray, speed: np.ndarray, log_speed: np.
         Ft: (L, n) design rows, transposed; y: (n,) torque rows.
     """
     rows = _dip_sums_kernel(friction)
-    table = np.ascontiguousarray(np.asarray(theta, dtype=float).T)
+    theta = np.ascontiguousarray(theta, dtype=float)
     Ft = np.ascontiguousarray(Ft)
-    n_pop = table.shape[1]
+    n_pop = theta.shape[0]
     s_dd, s_dy, s_dF = np.zeros(n_pop), np.zeros(n_pop), np.zeros((n_pop, Ft.shape[0]))
 
     def chunk(lo: int, hi: int) -> None:
-        rows(table, speed, log_speed, mask, Ft, y, lo, hi, s_dd, s_dy, s_dF)
+        rows(theta, speed, log_speed, mask, Ft, y, lo, hi, s_dd, s_dy, s_dF)
 
     run_chunks(chunk, n_pop, min_items=-(-MIN_CHUNK_ROWS // max(speed.size, 1)))
     return s_dd, s_dy, s_dF
@@ -226,7 +229,7 @@ def dip_ends(dip_end, n_linear, asym, th):  # pragma: no cover - compiled
         nb = th.shape[0] // 2 if asym else 0
         for b in range(2):
             for i in range(m):
-                cut[b, i] = dip_end(th, nb * b + n_linear, i)
+                cut[b, i] = dip_end(th[:, i], nb * b + n_linear)
     return cut
 
 
@@ -257,8 +260,8 @@ def _member_friction(dip, n_linear, asym, th, off, cut, v, sign, i):  # pragma: 
     level = th[o + 1, i]
     a = abs(v)
     if a < cut[1 if neg else 0, i]:
-        level = dip_level(th, o, i, n_linear, dip(a, math.log(a), th, o + n_linear, i, math.exp,
-                                                  _exact_ratio_power, _select))
+        p = th[:, i]
+        level = dip_level(p, o, n_linear, dip(a, math.log(a), p, o + n_linear, math.exp, _exact_ratio_power, _select))
     return branch_force(v, sign, th[o, i], level) + off[i]
 
 

@@ -15,16 +15,18 @@ variable projection searches); Fv, Fc, Fs enter linearly.
 
 A law is written once, as plain scalar Python that numpy and numba both run:
 
-* ``dip(speed, log_speed, p, o, i, ops)``: the dip at speed |v| ≥ 0. The law's j-th nonlinear
-  parameter is ``p[o + j, i]``: ``i`` is a member of a population (an int in compiled code;
-  ``...``, every member at once, under numpy, where ``p`` is (k, P, 1) and the result broadcasts
-  to (P, N)). ``ops = (exp, ratio_power, where)`` are the elementary functions the law may call;
-  each caller passes its own, with the same meaning: :data:`NUMPY_OPS` here, numba's
-  ``math.exp`` in the EMPS simulator, and a vectorised exponential in the identification's dip
-  sums (:mod:`frictionid_core.friction.kernels`). ``ratio_power(x, log_x, scale, exponent)``
-  is (x/scale)^exponent; ``log_x`` = log x lets the vectorised flavour compute it as
-  exp(exponent·(log x − log scale)) (the others ignore it: numpy passes None).
-* ``dip_end(p, o, i)``: a speed from which the dip is below e^(−40) (or exactly 0): the
+* ``dip(speed, log_speed, p, o, exp, ratio_power, where)``: the dip at speed |v| ≥ 0, whose
+  j-th nonlinear parameter is ``p[o + j]``. In compiled code ``p`` holds one candidate's
+  parameters (a tuple or a column of the simulator's table) and ``speed`` is a float; under
+  numpy ``p`` is (k, P, 1), so ``p[o + j]`` is (P, 1) and a dip at speeds (1, N) is (P, N).
+  ``exp``, ``ratio_power`` and ``where`` are the only functions a law calls; each caller passes
+  its own, with the same meaning: :data:`NUMPY_OPS` here, numba's ``math.exp`` (libm) in the
+  EMPS simulator, a vectorised exponential in the identification's dip sums
+  (:mod:`frictionid_core.friction.kernels`). ``ratio_power(x, log_x, scale, exponent)`` is
+  (x/scale)^exponent: ``log_x`` = log x lets the vectorised flavour compute it as
+  exp(exponent·(log x − log scale)); the others ignore it (numpy passes None).
+  ``where(condition, a, b)`` is a select (both sides evaluated).
+* ``dip_end(p, o)``: a speed from which the dip is below e^(−40) (or exactly 0): the
   simulator takes it as 0 there and skips the exponentials.
 
 :mod:`~frictionid_core.friction.model` derives the numpy ``FrictionModel.torque`` from these
@@ -69,44 +71,44 @@ _E3 = 1.0 - math.exp(-3.0)
 
 
 # ------------------------------------------------------------------------------ laws
-def threlfall_dip(speed, log_speed, p, o, i, exp, ratio_power, where):
+def threlfall_dip(speed, log_speed, p, o, exp, ratio_power, where):
     """1 − (1 − e^(−3|v|/v0))/(1 − e^(−3)): 1 at v = 0, 0 from v0 on (NaN for a NaN v0)."""
-    v0 = p[o, i]
+    v0 = p[o]
     return where(speed > v0, 0.0, 1.0 - (1.0 - exp(-3.0 * speed / v0)) / _E3)
 
 
-def threlfall_dip_end(p, o, i):
+def threlfall_dip_end(p, o):
     """v0: the dip is 0 from there on."""
-    return p[o, i]
+    return p[o]
 
 
-def tustin_dip(speed, log_speed, p, o, i, exp, ratio_power, where):
+def tustin_dip(speed, log_speed, p, o, exp, ratio_power, where):
     """e^(−|v|/vs)."""
-    return exp(-speed / p[o, i])
+    return exp(-speed / p[o])
 
 
-def tustin_dip_end(p, o, i):
+def tustin_dip_end(p, o):
     """40·vs."""
-    return p[o, i] * DIP_NEGLIGIBLE
+    return p[o] * DIP_NEGLIGIBLE
 
 
-def stribeck_dip(speed, log_speed, p, o, i, exp, ratio_power, where):
+def stribeck_dip(speed, log_speed, p, o, exp, ratio_power, where):
     """e^(−(|v|/vs)^δ)."""
-    return exp(-ratio_power(speed, log_speed, p[o, i], p[o + 1, i]))
+    return exp(-ratio_power(speed, log_speed, p[o], p[o + 1]))
 
 
-def stribeck_dip_end(p, o, i):
+def stribeck_dip_end(p, o):
     """vs·40^(1/δ)."""
-    return p[o, i] * DIP_NEGLIGIBLE ** (1.0 / p[o + 1, i])
+    return p[o] * DIP_NEGLIGIBLE ** (1.0 / p[o + 1])
 
 
 # ------------------------------------------------------- the branch of a dip law
-def dip_level(p, o, i, n_linear, dip):
-    """Coulomb level of a dip law's branch whose parameters start at ``p[o, i]`` (Fv, Fc[, Fs]):
+def dip_level(p, o, n_linear, dip):
+    """Coulomb level of a dip law's branch whose parameters start at ``p[o]`` (Fv, Fc[, Fs]):
     Fc + (Fs − Fc)·dip with Fs (``n_linear`` 3), Fc·(1 − dip) without."""
-    fc = p[o + 1, i]
+    fc = p[o + 1]
     if n_linear == 3:
-        return fc + (p[o + 2, i] - fc) * dip
+        return fc + (p[o + 2] - fc) * dip
     return fc * (1.0 - dip)
 
 

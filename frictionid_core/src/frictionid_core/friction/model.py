@@ -97,7 +97,7 @@ class FrictionModel:
         v = np.asarray(v, dtype=float).ravel()[None, :]
         s = smooth_sign(v, eps)
         a = np.abs(v)
-        table = p.T[:, :, None]  # (k, P, 1): the laws' p[o + j, ...] is parameter j of every candidate
+        table = p.T[:, :, None]  # (k, P, 1): the laws' p[o + j] is parameter o + j of every candidate
         nb = len(self.branch_names)
         out = self._branch(table, 0, v, s, a)
         if self.asymmetric:
@@ -115,7 +115,7 @@ class FrictionModel:
         n_linear = len(law.linear)
         level = table[o + 1]
         if law.dip is not None:
-            level = dip_level(table, o, ..., n_linear, _numpy_dip(law, a, table, o + n_linear))
+            level = dip_level(table, o, n_linear, _numpy_dip(law, a, table, o + n_linear))
         return branch_force(v, s, table[o], level)
 
     def dip(self, theta_nl: np.ndarray, a: np.ndarray) -> np.ndarray:
@@ -136,7 +136,7 @@ def _numpy_dip(law: FrictionLaw, a: np.ndarray, table: np.ndarray, o: int) -> np
     """The law's dip at speeds ``a`` (1, N) for the nonlinear parameters from row ``o`` of
     ``table`` (k, P, 1) → (P, N), under numpy."""
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        return law.dip(a, None, table, o, ..., *NUMPY_OPS)
+        return law.dip(a, None, table, o, *NUMPY_OPS)
 
 
 def _base(name: str) -> str:
