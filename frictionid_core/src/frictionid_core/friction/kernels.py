@@ -3,7 +3,9 @@
 Nothing here is specific to one law. Each kernel is built per law by a factory whose closure
 holds that law's functions from :mod:`~frictionid_core.friction.laws` (registered with
 numba's ``register_jitable``, so the plain Python that numpy runs is also compiled and
-inlined); numba then compiles the kernel for that law alone, with no branch on the law.
+inlined); numba then compiles the kernel for that law alone, with no branch on the law. The
+shared helpers are ``njit(inline="always")`` (inlined before typing, so a law without a dip
+passes None and its branch is dropped; typed inlining would not drop it, and warns).
 
 Caching: every kernel is ``cache=True``. numba keys a closure's cache entry by its cells
 (functions by reference), and checks only the file that defines the kernel; a kernel therefore
@@ -19,7 +21,7 @@ dip array, over chunks of candidates in the threads that :mod:`frictionid_core.p
 results do not depend on the thread count.
 
 The dips are exponentials, and neither numpy (float64 ``exp`` is SIMD only with AVX-512) nor
-numba (no SVML with the PyPI llvmlite) vectorises ``exp`` on AVX2 machines such as these,
+numba (no SVML with the PyPI llvmlite) vectorises ``exp`` on AVX2 machines,
 where a scalar libm ``exp`` costs ~6 ns. The dip sums therefore run the laws with
 :func:`fexp`, written so that LLVM vectorises a loop calling it: Cody–Waite reduction
 x = k·ln2 + q, a degree-13 Taylor polynomial of e^q on |q| ≤ ln2/2 (truncation < 1e-17) and
@@ -32,7 +34,7 @@ bit-reproducible on a given machine.
 
 Simulator friction. :func:`members_friction` is the friction of a population's members, each
 at its own velocity (members innermost, so that the EMPS simulator vectorises across them),
-with numba's ``math.exp`` (libm, as numpy); beyond :func:`dip_ends` a member's dip is taken as
+with numba's ``math.exp`` (libm); beyond :func:`dip_ends` a member's dip is taken as
 0 and not computed. :func:`friction_batch` evaluates it on a grid, for checks.
 """
 
@@ -146,7 +148,7 @@ def _fast_ratio_power(x, log_x, scale, exponent):
 
 @register_jitable(inline="always")
 def _exact_ratio_power(x, log_x, scale, exponent):
-    """(x/scale)^exponent with libm's pow (as numpy)."""
+    """(x/scale)^exponent with libm's pow."""
     return (x / scale) ** exponent
 
 
