@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from frictionid_core.errors import InputError
-from frictionid_core.identification import identify
+from frictionid_core.identification import IdentifyRequest, identify
 from frictionid_core.io.checks import check_series, find_spikes
 from frictionid_core.timeseries import JointSeries
 from support.data import emps_like
@@ -88,18 +88,18 @@ def test_a_glitch_no_longer_decides_the_fit():
     """One position of 1e6 among 6000 samples: without the repair σ_q is 2e4 and nothing "moves"; with
     it the fit is that of the clean data: every parameter within 1e-6, the same rows."""
     s = noisy()
-    clean = identify(s, system="joint")
+    clean = identify(s, IdentifyRequest(system="joint"))
     raw = s.take(np.arange(len(s)))
     raw.position = raw.position.copy()
     raw.position[2000, 0] = 1e6
     with pytest.raises(InputError, match="no joint moves"):
-        identify(raw, system="joint")
-    fit = identify(checked(raw)[0], system="joint")
+        identify(raw, IdentifyRequest(system="joint"))
+    fit = identify(checked(raw)[0], IdentifyRequest(system="joint"))
     for name, value in clean.params.items():
         assert fit.params[name] == pytest.approx(value, rel=1e-6), name
-    assert fit.extra["preprocessing"]["fit_rows"] == clean.extra["preprocessing"]["fit_rows"]
-    assert fit.extra["preprocessing"]["min_speed"]["emps"] == pytest.approx(  # from the noise: one sample less
-        clean.extra["preprocessing"]["min_speed"]["emps"], rel=1e-2)
+    assert fit.preprocessing["fit_rows"] == clean.preprocessing["fit_rows"]
+    assert fit.preprocessing["min_speed"]["emps"] == pytest.approx(  # from the noise: one sample less
+        clean.preprocessing["min_speed"]["emps"], rel=1e-2)
     assert any("1 spike sample(s)" in w and "joint 'emps' position" in w for w in fit.warnings)
 
 

@@ -9,9 +9,8 @@ import numpy as np
 import pytest
 
 from frictionid_core.errors import InputError
-from frictionid_core.identification import identify
+from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides, identify
 from frictionid_core.io.checks import check_series
-from frictionid_core.preprocess import Preprocessing
 from frictionid_core.timeseries import JointSeries, sample_period
 from support.data import emps_like
 
@@ -56,7 +55,7 @@ def test_a_clock_jump_splits_the_log_and_the_fit_stays(jump):
     """A clock jump of +1 h, −1 h or −2 s (back into the samples already recorded) at 4 s of an 8 s
     log: two segments filtered alone; the fit is the clean one's within its own σ."""
     s = noisy()
-    clean = identify(s, system="joint")
+    clean = identify(s, IdentifyRequest(system="joint"))
     t = s.t.copy()
     t[4000:] += jump
     series = checked(with_times(s, t))
@@ -65,8 +64,8 @@ def test_a_clock_jump_splits_the_log_and_the_fit_stays(jump):
     if jump < 0:
         assert series.notes[0].startswith(f"jumpy: the clock of the time stamps jumps back 1 time(s) "
                                           f"({-jump - 1e-3:.6g} s back after t = 3.999 s)")
-    fit = identify(series, system="joint")
-    report = fit.extra["preprocessing"]
+    fit = identify(series, IdentifyRequest(system="joint"))
+    report = fit.preprocessing
     assert report["sample_rate_hz"] == pytest.approx(1000.0, rel=1e-9)  # never a resample onto a coarse grid
     assert report["segments"] == {"used": 2, "left_out": 0, "trim_at_gaps_s": pytest.approx(5 / report["cutoff_hz"])}
     for name, value in clean.params.items():
@@ -81,8 +80,8 @@ def test_a_segment_too_short_to_filter_is_left_out_with_its_time_and_length():
     t = s.t.copy()
     t[5000:] += 60.0  # a pause of a minute …
     t[5008:] += 60.0  # … 8 samples, and another
-    fit = identify(checked(with_times(s, t)), system="joint")
-    assert fit.extra["preprocessing"]["segments"]["left_out"] == 1
+    fit = identify(checked(with_times(s, t)), IdentifyRequest(system="joint"))
+    assert fit.preprocessing["segments"]["left_out"] == 1
     note = next(w for w in fit.warnings if "gap(s)" in w)
     assert "3 segments" in note and "1 too short for that left out (from 65 s (8 samples, 0.007 s)" in note
 
@@ -93,25 +92,25 @@ def test_the_longest_segment_too_short_is_an_error():
     for k in range(10, 600, 10):
         t[k:] += 10.0  # segments of 10 samples
     with pytest.raises(InputError, match=r"jumpy: 10 samples are too few for the order-4 Butterworth filter"):
-        identify(checked(with_times(s, t)), system="joint")
+        identify(checked(with_times(s, t)), IdentifyRequest(system="joint"))
 
 
 def test_a_cutoff_at_or_above_nyquist_is_an_error():
     with pytest.raises(InputError, match=r"synthetic: cut-off 500 Hz at or above the Nyquist frequency 500 Hz of data "
                                          r"sampled at 1000 Hz"):
-        identify(noisy(2000), system="joint", preprocessing=Preprocessing(cutoff_hz=500.0))
+        identify(noisy(2000), IdentifyRequest(system="joint", preprocessing=PreprocessingOverrides(cutoff_hz=500.0)))
 
 
 def test_bursts_of_lost_messages_are_interpolated_not_cut():
     """Messages lost in bursts of 15 ms every 0.4 s (a live stream under load): shorter than
     SEGMENT_GAP_S, no cut (each would cost the trims of the filters); the fit stays the clean one's."""
     s = noisy()
-    clean = identify(s, system="joint")
+    clean = identify(s, IdentifyRequest(system="joint"))
     keep = np.ones(len(s), dtype=bool)
     for k in range(400, len(s), 400):
         keep[k:k + 15] = False
-    fit = identify(s.take(keep), system="joint")
-    assert "segments" not in fit.extra["preprocessing"]
+    fit = identify(s.take(keep), IdentifyRequest(system="joint"))
+    assert "segments" not in fit.preprocessing
     for name, value in clean.params.items():  # within 1 %: the interpolated 4 % of the data bias a little
         assert fit.params[name] == pytest.approx(value, rel=1e-2), name
 
@@ -135,7 +134,7 @@ def test_the_segments_together_must_excite_the_robot():
             failed += 1
     assert failed >= 1
     t = log.t + np.repeat(np.arange(12), 1000) * 1.0  # a pause of 1 s after each piece
-    fit = identify(checked(JointSeries(t, log.joints, log.position, log.effort, source="paused")), system="tx40")
-    assert fit.extra["preprocessing"]["segments"] == {"used": 12, "left_out": 0, "trim_at_gaps_s": pytest.approx(0.25)}
-    whole = identify(log, system="tx40")
+    fit = identify(checked(JointSeries(t, log.joints, log.position, log.effort, source="paused")), IdentifyRequest(system="tx40"))
+    assert fit.preprocessing["segments"] == {"used": 12, "left_out": 0, "trim_at_gaps_s": pytest.approx(0.25)}
+    whole = identify(log, IdentifyRequest(system="tx40"))
     assert fit.metrics["relerr_pct"] < 1.5 * whole.metrics["relerr_pct"]  # 1.7 % and 2.4 % (its own rates)
