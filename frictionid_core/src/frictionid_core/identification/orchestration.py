@@ -73,7 +73,7 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
         return build_model(sources, sys_, request.friction, request.asymmetric, pre, request.bounds,
                            fixed=request.fixed)
 
-    model, fit_settings = exclude_stick_phases(rebuild(settings), settings, rebuild)
+    model, fit_settings = exclude_stick_phases(rebuild(settings), settings)
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
     if errors:
         raise InputError(f"{sources[0].source}: " + "; ".join(errors))

@@ -7,16 +7,22 @@ term is removed, sign(q̇)·(y − ŷ + Fc·S); away from a reversal's anti-alia
 0.9, S the decimated sign column) it estimates the joint's Coulomb level Fc. The rows are sorted
 by |q̇| and binned (STICK_BIN_SHARE of them, at least STICK_BIN_ROWS); starting from the slowest,
 every bin whose median dry friction is below (1 − STICK_TOLERANCE)·Fc and 3 σ of its median sticks;
-the stick speed is the fastest row of the last such bin. The fit is repeated without the rows
-found (their biased Fc moved the level) until the speeds settle. A friction that rises out of
-standstill (a Stribeck dip above Fc) sticks nowhere: its low-speed rows lie above the level.
+the candidate stick speed is the fastest row of the last such bin.
+
+A stick phase is a band with a knee: the fit is repeated without the rows below the candidate
+speeds (they biased Fc low), and the joint sticks only where, at that refit level, the dry friction
+of the rows between STICK_KNEE × the candidate speed and twice that is back at its level (median
+within STICK_TOLERANCE). A friction that rises gradually out of standstill (a real gear's Fs < Fc,
+or a dip above Fc) is the friction law's shape, not a stick phase: its deficit goes on above the
+band, and its rows stay. The candidates are refit until their speeds settle (STICK_ROUNDS at most).
 
 Only when the min speed is chosen from the data (a ``--min-speed`` given is the user's choice).
+The rows are left out of the observation in place (:func:`leave_out_stick_rows`): the same rows a
+rebuild with ``Preprocessing.stick_speed`` leaves out, without a second pre-processing.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -31,32 +37,51 @@ STICK_BIN_SHARE = 0.01  # rows per speed bin, as a share of the joint's rows …
 STICK_BIN_ROWS = 50  # … and at least this many
 STICK_TOLERANCE = 0.05  # a bin sticks when its median dry friction is this far below the level (and 3 σ)
 STICK_SIGN = 0.9  # rows with |S| below this lie in a reversal's anti-alias transient: not judged
-STICK_ROUNDS = 4  # at most this many fits until the stick speeds settle
+STICK_KNEE = 2.0  # the friction is back at its level between this × the stick speed and twice that
+STICK_ROUNDS = 3  # at most this many refits until the stick speeds settle
 STICK_SETTLED = 0.05  # … settled when no speed moves by more than this share
 # Friction parameters of other laws than Coulomb (their user bounds and fixed values do not apply to it).
 _NOT_COULOMB = ("Fs", "vs", "delta", "v0")
 
 STICK_REASON = ("rows slower than the joint's stick speed, where the friction the fit leaves unexplained stays below "
-                "its Coulomb level (the joint sticks or creeps at reversals; no friction law of the fit models that)")
+                "its Coulomb level and is back at it just above (the joint sticks or creeps at reversals; no "
+                "friction law of the fit models that)")
 
 
-def exclude_stick_phases(model: IdentificationModel, settings: Preprocessing,
-                         rebuild: Callable[[Preprocessing], IdentificationModel]
+def exclude_stick_phases(model: IdentificationModel, settings: Preprocessing
                          ) -> tuple[IdentificationModel, Preprocessing]:
     """``model`` and ``settings`` with the stick phases of ``model.obs`` left out (``stick_speed``
-    set, the model rebuilt), or both unchanged when the min speed is not chosen from the data or
-    no joint sticks. The report of the rebuilt observation gets ``stick_reason``."""
+    set in both, the rows left out of the observation in place and the model rebuilt on it), or both
+    unchanged when the min speed is not chosen from the data or no joint sticks. The observation's
+    report gets ``stick_rows`` and ``stick_reason``."""
     if "min_speed" not in model.obs.report.get("from_data", []):
         return model, settings
     speeds = stick_speeds(model)
     if not speeds:
         return model, settings
-    settings = replace(settings, stick_speed=speeds)
-    from_data = model.obs.report["from_data"]
-    model = rebuild(settings)
-    model.obs.report["from_data"] = from_data
+    leave_out_stick_rows(model.obs, speeds)
     model.obs.report["stick_reason"] = STICK_REASON
-    return model, settings
+    return replace(model), replace(settings, stick_speed=speeds)
+
+
+def leave_out_stick_rows(obs: Observation, speeds: dict[str, float]) -> None:
+    """Leave the rows of ``obs`` (and of its sampled observation) slower than ``speeds`` ({row joint:
+    speed}) out, as :func:`frictionid_core.systems.system.exclude_rows` does for slow rows; count
+    them in the report (``stick_rows``, and in ``slow_rows_excluded``) and set ``stick_speed``."""
+    from frictionid_core.systems.system import exclude_rows
+
+    limit = np.array([speeds.get(j, 0.0) for j in obs.joints])
+    used = obs.used.reshape(len(obs.joints), obs.n_samples).T
+    stick = used & (np.abs(obs.velocity) < limit)
+    sampled = obs.sampled
+    for o in (obs, sampled):
+        if o is not None:
+            exclude_rows(o, stick if o is obs else stick[np.searchsorted(obs.t, o.t)])
+            o.preprocessing = replace(o.preprocessing, stick_speed=dict(speeds))
+    report = obs.report
+    counts = dict(zip(obs.joints, map(int, stick.sum(axis=0))))
+    report["stick_rows"] = {j: report.get("stick_rows", {}).get(j, 0) + n for j, n in counts.items()}
+    report["slow_rows_excluded"] = {j: report["slow_rows_excluded"].get(j, 0) + n for j, n in counts.items()}
 
 
 def stick_speeds(model: IdentificationModel) -> dict[str, float]:
@@ -64,24 +89,31 @@ def stick_speeds(model: IdentificationModel) -> dict[str, float]:
     obs = model.obs
     try:
         coulomb = coulomb_model(model, obs)
-    except FrictionIdError:  # the user's bounds or fixed values do not fit a Coulomb law
+        x, _, _ = coulomb.fit_linear()
+    except FrictionIdError:  # the user's bounds or fixed values do not fit a Coulomb law; rank-deficient rows
         return {}
-    speeds: dict[str, float] = {}
+    slowest = obs.report.get("min_speed_rows", {})
+    speeds = {}
+    for j, joint in enumerate(obs.joints):
+        v = band_speed(*dry_friction(coulomb, x, j))
+        if v > slowest.get(joint, 0.0):
+            speeds[joint] = v
     for _ in range(STICK_ROUNDS):
+        if not speeds:
+            break
         try:
-            fitted = coulomb if not speeds else coulomb_model(model, without_rows(obs, speeds))
-            x, _, _ = fitted.fit_linear()
+            x, _, _ = coulomb_model(model, without_rows(obs, speeds)).fit_linear()
         except FrictionIdError:  # rank-deficient rows (a joint moving one way): the fit says why
             return {}
         found = {}
-        for j, joint in enumerate(obs.joints):
-            v = joint_stick_speed(coulomb, x, j)
-            if v > obs.report.get("min_speed_rows", {}).get(joint, 0.0):
-                found[joint] = v
+        for joint, v in speeds.items():
+            speed, share = dry_friction(coulomb, x, obs.joints.index(joint))
+            if regains_level(speed, share, v):
+                found[joint] = max(band_speed(speed, share), slowest.get(joint, 0.0))
         settled = found.keys() == speeds.keys() and all(
             abs(found[j] - speeds[j]) <= STICK_SETTLED * speeds[j] for j in found)
-        speeds = found
-        if settled or not found:
+        speeds = {j: v for j, v in found.items() if v > slowest.get(j, 0.0)}
+        if settled:
             break
     return speeds
 
@@ -98,8 +130,9 @@ def coulomb_model(model: IdentificationModel, obs: Observation) -> Identificatio
                                fixed={k: v for k, v in model.fixed.items() if applies(k)})
 
 
-def joint_stick_speed(coulomb: IdentificationModel, x: np.ndarray, j: int) -> float:
-    """The stick speed of row joint j under the Coulomb fit ``x`` of ``coulomb`` (0: it does not stick)."""
+def dry_friction(coulomb: IdentificationModel, x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray]:
+    """(|q̇|, dry friction / level) of the judged rows of row joint j under the Coulomb fit ``x`` of
+    ``coulomb`` (see the module doc; none where the level is not positive)."""
     obs = coulomb.obs
     nd = obs.n_samples
     prefix = f"{obs.joints[j]}/" if len(obs.joints) > 1 else ""
@@ -115,22 +148,41 @@ def joint_stick_speed(coulomb: IdentificationModel, x: np.ndarray, j: int) -> fl
     else:
         level = np.full(nd, x[levels[0]])
     judged &= level > 0
-    if judged.sum() < 2 * STICK_BIN_ROWS:
+    return np.abs(v[judged]), (np.sign(v[judged]) * unexplained[judged] / np.abs(s[judged])) / level[judged]
+
+
+def _bin_size(rows: int) -> int:
+    return max(STICK_BIN_ROWS, int(np.ceil(STICK_BIN_SHARE * rows)))
+
+
+def _below_level(values: np.ndarray) -> bool:
+    """True when the median of ``values`` (dry friction / level) lies clearly below the level."""
+    median = np.median(values)
+    sigma = 1.2533 * 1.4826 * np.median(np.abs(values - median)) / np.sqrt(values.size)
+    return bool(median < 1.0 - max(STICK_TOLERANCE, 3.0 * sigma))
+
+
+def band_speed(speed: np.ndarray, share: np.ndarray) -> float:
+    """The fastest row of the slowest bins (by |q̇|) whose dry friction stays below its level; 0
+    when the slowest bin is at the level or there are too few rows to judge."""
+    if speed.size < 2 * STICK_BIN_ROWS:
         return 0.0
-    speed = np.abs(v[judged])
-    share = (np.sign(v[judged]) * unexplained[judged] / np.abs(s[judged])) / level[judged]  # dry friction / level
     order = np.argsort(speed)
-    size = max(STICK_BIN_ROWS, int(np.ceil(STICK_BIN_SHARE * order.size)))
+    size = _bin_size(order.size)
     stick = 0.0
     for start in range(0, order.size - size + 1, size):
         rows_in = order[start : start + size]
-        values = share[rows_in]
-        median = np.median(values)
-        sigma = 1.2533 * 1.4826 * np.median(np.abs(values - median)) / np.sqrt(size)
-        if median >= 1.0 - max(STICK_TOLERANCE, 3.0 * sigma):
+        if not _below_level(share[rows_in]):
             break
         stick = float(speed[rows_in].max())
     return stick
+
+
+def regains_level(speed: np.ndarray, share: np.ndarray, stick: float) -> bool:
+    """True when the dry friction of the rows between STICK_KNEE × ``stick`` and twice that is back
+    at its level (median within STICK_TOLERANCE): a stick band's knee; False with too few rows there."""
+    above = share[(speed > STICK_KNEE * stick) & (speed <= 2 * STICK_KNEE * stick)]
+    return above.size >= STICK_BIN_ROWS and bool(np.median(above) >= 1.0 - STICK_TOLERANCE)
 
 
 def without_rows(obs: Observation, speeds: dict[str, float]) -> Observation:
