@@ -354,12 +354,36 @@ def risk_cutoffs(q: np.ndarray, fs: float, n0: np.ndarray, order: int) -> tuple[
     return grid[best], best == grid.size - 1
 
 
-def prediction_cutoffs(series: JointSeries, low: np.ndarray, high: np.ndarray, moving: np.ndarray, order: int
+def rule_interval(q: np.ndarray, fs: float, n0: np.ndarray, bandwidth: np.ndarray, order: int
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per column of q (N, J) of noise density n0 and motion bandwidth (nan: not moving): (the
+    lowest, the highest cut-off the rule allows in Hz, True where the highest lies at 0.2 × fs):
+    10 × the bandwidth where it lies below the position's noise bound (:func:`risk_cutoffs`), and
+    that bound (see the module doc)."""
+    best, bound = risk_cutoffs(q, fs, n0, order)
+    floor = np.where(bandwidth < best, CUTOFF_PER_BANDWIDTH * bandwidth, 0.0)
+    floor = np.minimum(np.nan_to_num(floor), MAX_CUTOFF_SHARE * fs)
+    return floor, np.maximum(best, floor), bound
+
+
+def cutoff_interval(series: JointSeries, order: int = 4) -> dict[str, tuple[float, float]]:
+    """{moving joint: (lowest, highest cut-off in Hz)} the rule allows on ``series`` (uniform
+    stamps): :func:`rule_interval`; a cut-off inside keeps the joint's motion and stays below its
+    position noise."""
+    fs = 1.0 / series.dt
+    n0 = noise_density(series.position, fs)
+    moving = np.ptp(series.position, axis=0) > MOVING_FACTOR * np.sqrt(n0 * fs / 2)
+    bandwidth = np.where(moving, motion_bandwidth(series.position, fs, n0), np.nan)
+    floor, ceiling, _ = rule_interval(series.position, fs, n0, bandwidth, order)
+    return {j: (float(floor[k]), float(ceiling[k])) for k, j in enumerate(series.joints) if moving[k]}
+
+
+def prediction_cutoffs(series: JointSeries, low: np.ndarray, high: np.ndarray, chosen: np.ndarray, order: int
                        ) -> np.ndarray:
     """(J,) per joint, the cut-off in [low, high] (Hz; ``high`` where the interval is empty) whose
-    filtered signals best predict its effort (see the module doc); nan for joints not ``moving``."""
-    out = np.where(moving, np.maximum(high, low), np.nan)
-    open_ = moving & (high > low * (1 + 1e-9)) & (low > 0)
+    filtered signals best predict its effort (see the module doc); nan for joints not ``chosen``."""
+    out = np.where(chosen, np.maximum(high, low), np.nan)
+    open_ = chosen & (high > low * (1 + 1e-9)) & (low > 0)
     if not open_.any() or series.effort is None:
         return out
     fs = 1.0 / series.dt
@@ -440,7 +464,7 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
     bandwidth = np.where(moving, motion_bandwidth(series.position, fs, n0), np.nan)
     from_data = []
     cutoff = dict(given or {})
-    at_bound = []
+    at_bound, interval = [], {}
     if len(cutoff) < len(joints):  # the joints without a given cut-off: the rule
         if not np.any(np.isfinite(bandwidth)) and not cutoff:
             raise InputError(f"{series.source}: no joint moves more than {MOVING_FACTOR:g}× its position noise "
@@ -450,17 +474,16 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
             raise InputError(f"{series.source}: {len(series)} samples ({series.t[-1] - series.t[0]:.4g} s) show no "
                              "motion bandwidth: the cut-off cannot be chosen from the data; record longer motion or "
                              "give one (--cutoff HZ)")
-        best, bound = risk_cutoffs(series.position, fs, n0, req.order)
-        floor = np.where(bandwidth < best, CUTOFF_PER_BANDWIDTH * bandwidth, 0.0)
-        floor = np.minimum(np.nan_to_num(floor), MAX_CUTOFF_SHARE * fs)
-        ceiling = np.maximum(best, floor)
-        predicted = prediction_cutoffs(series, floor, ceiling, moving, req.order)
+        floor, ceiling, bound = rule_interval(series.position, fs, n0, bandwidth, req.order)
+        interval = {j: [float(floor[k]), float(ceiling[k])] for k, j in enumerate(joints) if moving[k]}
+        chosen = moving & np.array([j not in cutoff for j in joints])
+        predicted = prediction_cutoffs(series, floor, ceiling, chosen, req.order)
         for j, joint in enumerate(joints):
-            if joint not in cutoff and moving[j]:
+            if chosen[j]:
                 cutoff[joint] = float(predicted[j])
                 if bound[j]:
                     at_bound.append(joint)
-        lowest = min(cutoff.values()) if cutoff else float(best.min())
+        lowest = min(cutoff.values()) if cutoff else float(ceiling.min())
         cutoff.update({joint: lowest for joint in joints if joint not in cutoff})  # joints held still
         from_data.append("cutoff_hz")
     cutoff = {j: cutoff[j] for j in joints}
@@ -511,6 +534,8 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
         "top_speed": _per_joint(joints, top_speed),
         "cutoff_from_data": [j for j in joints if j not in (given or {})],
         "cutoff_at_bound": at_bound,
+        "cutoff_interval_hz": interval,
+        "record_s": float(series.t[-1] - series.t[0]),
         "_qdd_noise": (n0_v, diffs + 1),
     }
     return settings, report

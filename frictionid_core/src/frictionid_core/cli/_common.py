@@ -185,9 +185,11 @@ def preprocessing_line(p: dict) -> str:
         parts.append(f"stick rows left out: {', '.join(f'{j} {n}' for j, n in stuck.items())}")
     if p.get("overridden"):
         parts.append(f"set: {', '.join(p['overridden'])}")
+    why = p.get("kept_why") or {}
     for key, what in (("rechosen", "chosen from these data"), ("kept", "kept from the result"), ("set", "set")):
         if p.get(key):
-            parts.append(f"{what}: {', '.join(p[key])}")
+            names = [f"{n} ({why[n]})" if key == "kept" and n in why else n for n in p[key]]
+            parts.append(f"{what}: {', '.join(names)}")
     return "preprocessing: " + ", ".join(parts)
 
 

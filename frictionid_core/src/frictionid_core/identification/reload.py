@@ -1,6 +1,6 @@
 """A result reloaded on other data: its model (:func:`model_from_result`) with the pre-processing
-settings the result chose from its data chosen again from these (:func:`validation_settings`), and
-the cross-test (:func:`validate`)."""
+settings the result chose from its data chosen again from these where they can
+(:func:`validation_settings`), and the cross-test (:func:`validate`)."""
 
 from __future__ import annotations
 
@@ -15,38 +15,87 @@ from frictionid_core.identification.model import Sources, as_sources, build_mode
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.settings import PreprocessingOverrides
 from frictionid_core.identification_model import IdentificationModel
-from frictionid_core.preprocess import Preprocessing
-from frictionid_core.systems import as_system, result_system
+from frictionid_core.preprocess import Preprocessing, cutoff_interval, resample_uniform
+from frictionid_core.systems import System, as_system, result_system
+from frictionid_core.timeseries import JointSeries
 
 # The settings a result may have chosen from its data (its ``preprocessing.from_data``), and the
 # one its identification found in its data (the stick phases: a property of the robot, kept).
 DATA_SETTINGS = ("cutoff_hz", "decimate", "trim_start_s", "trim_end_s", "min_speed")
 FOUND_SETTINGS = ("stick_speed",)
+FIXED_WHY = "fixed in the identification"
+FOUND_WHY = "found by the identification (the robot's stick phases)"
 
 
-def validation_settings(record: Mapping, rate_hz: float, overrides: PreprocessingOverrides | None = None
-                        ) -> tuple[Preprocessing, dict[str, list[str]]]:
+def validation_settings(record: Mapping, series: JointSeries, overrides: PreprocessingOverrides | None = None
+                        ) -> tuple[Preprocessing, dict]:
     """The pre-processing to cross-test a result with, from its ``preprocessing`` block ``record``
-    (``rate_hz``: the data's, for results that held trims in samples): its settings, those it chose
-    from its data (``from_data``) left to be chosen from the new data, ``overrides`` (the user's)
-    over both; and which settings were ``rechosen``, ``kept`` (the data-dependent ones the result
-    fixed or found) and ``set``.
+    and the data ``series`` (the first source as the rule sees it: :func:`rule_series`): its
+    settings, those it chose from its data (``from_data``) chosen again from ``series`` — but a
+    joint's cut-off is kept where these data resolve the rule less finely than the identification's
+    (a shorter record: coarser periodogram, fewer cycles) and that cut-off lies within the rule's
+    bounds on them (:func:`frictionid_core.preprocess.cutoff_interval`: it keeps their motion and
+    stays below their noise) — and ``overrides`` (the user's) over all (a min speed given replaces
+    the stick phases, as on ``identify``).
 
-    A cut-off chosen for some joints only (``cutoff_from_data``) keeps the others'; a decimation
-    chosen again drops the result's row thinning (set for its own dips and rates)."""
-    settings = Preprocessing.from_dict(record, rate_hz)
+    Returns the settings and which were ``rechosen``, ``kept`` (with ``kept_why``: {setting:
+    reason}) and ``set``; the cut-off may be in both ``rechosen`` and ``kept`` (per joint). A
+    decimation chosen again drops the result's row thinning (set for its own dips and rates)."""
+    settings = Preprocessing.from_dict(record, 1.0 / series.dt)
     given = (overrides or PreprocessingOverrides()).changes()
-    chosen = [name for name in DATA_SETTINGS if name in record.get("from_data", []) and name not in given]
-    values = dict.fromkeys(chosen)
-    if "cutoff_hz" in chosen and isinstance(settings.cutoff_hz, dict) and record.get("cutoff_from_data") is not None:
-        kept = {j: v for j, v in settings.cutoff_hz.items() if j not in record["cutoff_from_data"]}
+    from_data = record.get("from_data", [])
+    chosen = [name for name in DATA_SETTINGS if name in from_data and name not in given]
+    values: dict = dict.fromkeys(chosen)
+    why = {name: FIXED_WHY for name in DATA_SETTINGS
+           if name not in from_data and name not in given and getattr(settings, name) is not None}
+    if "min_speed" in given:
+        values["stick_speed"] = None
+    elif settings.stick_speed:
+        why["stick_speed"] = FOUND_WHY
+    if "cutoff_hz" in chosen:
+        kept, reason = kept_cutoffs(record, settings.cutoff_hz, series, settings.order)
         values["cutoff_hz"] = kept or None
+        if kept:
+            why["cutoff_hz"] = reason
+        if set(kept) >= set(series.joints):
+            chosen.remove("cutoff_hz")
     if "decimate" in chosen:
         values.update(thin=1, dip_scale=None)
     settings = replace(settings, **values, **given)
-    kept = [name for name in DATA_SETTINGS + FOUND_SETTINGS
-            if name not in chosen and name not in given and getattr(settings, name) is not None]
-    return settings, {"rechosen": chosen, "kept": kept, "set": sorted(given)}
+    return settings, {"rechosen": chosen, "kept": list(why), "kept_why": why, "set": sorted(given)}
+
+
+def kept_cutoffs(record: Mapping, cutoff_hz: float | dict[str, float], series: JointSeries, order: int
+                 ) -> tuple[dict[str, float], str]:
+    """({joint: Hz} of the result's cut-off ``cutoff_hz`` kept on ``series``, why): those the
+    identification's user fixed (not in its ``cutoff_from_data``), and those of the rule where
+    ``series`` is shorter than the identification's record (``record_s``) and the cut-off lies within
+    the rule's bounds on ``series``; results without ``record_s`` (earlier versions) keep only the first."""
+    joints = list(series.joints)
+    result = cutoff_hz if isinstance(cutoff_hz, dict) else dict.fromkeys(joints, cutoff_hz)
+    result = {j: float(v) for j, v in result.items() if j in joints}
+    by_rule = record.get("cutoff_from_data")
+    by_rule = joints if by_rule is None else by_rule
+    kept = {j: v for j, v in result.items() if j not in by_rule}
+    reasons = [f"{', '.join(kept)}: {FIXED_WHY}"] if kept else []
+    record_s, here_s = record.get("record_s"), float(series.t[-1] - series.t[0])
+    if record_s is not None and here_s < record_s:
+        interval = cutoff_interval(series, order)
+        suits = {j: v for j, v in result.items()
+                 if j in by_rule and j in interval and interval[j][0] <= v <= interval[j][1]}
+        if suits:
+            kept.update(suits)
+            reasons.append(f"{', '.join(suits)}: these {here_s:.3g} s of data resolve the rule less finely than the "
+                           f"identification's {record_s:.3g} s, and its cut-off lies within the rule's bounds on them")
+    return kept, "; ".join(reasons)
+
+
+def rule_series(series: JointSeries, system: System) -> JointSeries:
+    """``series`` as the pre-processing rule sees it (:func:`frictionid_core.systems.observe`): on
+    the joint side, its longest segment, on uniform stamps."""
+    if system.drive is not None:
+        series = system.drive.to_joint_side(series, system.joint_map)
+    return resample_uniform(max(series.segments(), key=len))
 
 
 def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, system: str | None = None,
@@ -59,8 +108,9 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
     identified parameters (k,).
 
     System, joint map, joints, friction, drive and pre-processing come from the result, the
-    settings it chose from its data chosen again from ``series`` (:func:`validation_settings`;
-    which: the observation report's ``rechosen``, ``kept``, ``set``); each argument given overrides
+    settings it chose from its data chosen again from ``series`` where they can
+    (:func:`validation_settings`; which: the observation report's ``rechosen``, ``kept``,
+    ``kept_why``, ``set``); each argument given overrides
     its part (``preprocessing``: settings the user fixes; ``joint_map`` goes with ``system`` when
     both are given). ``window`` cuts ``series`` (s from the first sample); the result's own window
     is not reused.
@@ -81,12 +131,12 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         raise FrictionIdError(f"parameter file lacks {exc}; expected the JSON written by "
                               "'frictionid identify'") from None
     sources = as_sources(series, window)  # on the recorded side: the system's drive converts them
-    if result.get("preprocessing"):
-        settings, which = validation_settings(result["preprocessing"], 1.0 / sources[0].dt, preprocessing)
-    else:  # a hand-written file: the system's pre-processing, the user's settings over it
-        settings, which = (preprocessing or PreprocessingOverrides()).apply(sys_.preprocessing), None
     if joints:
         sources = [s.select(list(joints)) for s in sources]
+    if result.get("preprocessing"):
+        settings, which = validation_settings(result["preprocessing"], rule_series(sources[0], sys_), preprocessing)
+    else:  # a hand-written file: the system's pre-processing, the user's settings over it
+        settings, which = (preprocessing or PreprocessingOverrides()).apply(sys_.preprocessing), None
     try:
         model = build_model(sources, sys_, friction, asymmetric, settings)
     except InputError as exc:  # these data cannot choose (nothing moves): the result's own settings
@@ -94,7 +144,8 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
             raise
         given = (preprocessing or PreprocessingOverrides()).changes()
         settings = replace(Preprocessing.from_dict(result["preprocessing"], 1.0 / sources[0].dt), **given)
-        which = {"rechosen": [], "kept": which["kept"] + which["rechosen"], "set": which["set"]}
+        why = {**which["kept_why"], **dict.fromkeys(which["rechosen"], "these data cannot choose it")}
+        which = {"rechosen": [], "kept": list(why), "kept_why": why, "set": which["set"]}
         model = build_model(sources, sys_, friction, asymmetric, settings)
     if which is not None:
         model.obs.report.update(which)
