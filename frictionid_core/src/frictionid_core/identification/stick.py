@@ -88,9 +88,9 @@ def stick_speeds(model: IdentificationModel) -> dict[str, float]:
     """{row joint: stick speed} of the joints of ``model.obs`` that stick (see the module doc)."""
     obs = model.obs
     try:
-        coulomb = coulomb_model(model, obs)
-        x, _, _ = coulomb.fit_linear()
-    except FrictionIdError:  # the user's bounds or fixed values do not fit a Coulomb law; rank-deficient rows
+        coulomb = model if model.friction.name == "coulomb" else coulomb_model(model, obs)
+        x = coulomb_fit(coulomb)
+    except FrictionIdError:  # the user's bounds or fixed values do not fit a Coulomb law
         return {}
     slowest = obs.report.get("min_speed_rows", {})
     speeds = {}
@@ -101,10 +101,7 @@ def stick_speeds(model: IdentificationModel) -> dict[str, float]:
     for _ in range(STICK_ROUNDS):
         if not speeds:
             break
-        try:
-            x, _, _ = coulomb_model(model, without_rows(obs, speeds)).fit_linear()
-        except FrictionIdError:  # rank-deficient rows (a joint moving one way): the fit says why
-            return {}
+        x = coulomb_fit(coulomb_model(model, without_rows(obs, speeds)))
         found = {}
         for joint, v in speeds.items():
             speed, share = dry_friction(coulomb, x, obs.joints.index(joint))
@@ -128,6 +125,13 @@ def coulomb_model(model: IdentificationModel, obs: Observation) -> Identificatio
                                rigid_bounds=model.rigid_bounds,
                                bound_overrides={k: v for k, v in model.bound_overrides.items() if applies(k)},
                                fixed={k: v for k, v in model.fixed.items() if applies(k)})
+
+
+def coulomb_fit(coulomb: IdentificationModel) -> np.ndarray:
+    """The least-squares parameters (k,) of a Coulomb model, from its normal equations (within the
+    user's bounds, at the fixed values; a tiny ridge for collinear columns: the fit's own rank
+    check comes later)."""
+    return coulomb.solve_linear(np.zeros((1, coulomb.k)))[0][0]
 
 
 def dry_friction(coulomb: IdentificationModel, x: np.ndarray, j: int) -> tuple[np.ndarray, np.ndarray]:
