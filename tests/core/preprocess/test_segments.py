@@ -67,7 +67,8 @@ def test_a_clock_jump_splits_the_log_and_the_fit_stays(jump):
     fit = identify(series, IdentifyRequest(system="joint"))
     report = fit.preprocessing
     assert report["sample_rate_hz"] == pytest.approx(1000.0, rel=1e-9)  # never a resample onto a coarse grid
-    assert report["segments"] == {"used": 2, "left_out": 0, "trim_at_gaps_s": pytest.approx(5 / report["cutoff_hz"])}
+    seam = pytest.approx(5 / min(report["cutoff_hz"].values()))  # the lowest joint's cut-off
+    assert report["segments"] == {"used": 2, "left_out": 0, "trim_at_gaps_s": seam}
     for name, value in clean.params.items():
         assert abs(fit.params[name] - value) < 3 * clean.std[name], name
     gap = series.t[4000] - series.t[3999]
@@ -117,24 +118,28 @@ def test_bursts_of_lost_messages_are_interpolated_not_cut():
 
 @pytest.mark.slow
 def test_the_segments_together_must_excite_the_robot():
-    """12 s of the TX40 excitation in pieces of 1 s between pauses of 1 s: a piece alone may not
-    excite the 52 base parameters (its rank test fails), the pieces together do."""
+    """11 s of the TX40 excitation in pieces of 0.5 s between pauses of 1 s: a piece alone may not
+    excite the 52 base parameters (its rank test fails: the one at 10.5 s, where the wrist hardly
+    moves), the pieces together do."""
     from frictionid_core.io import load
     from frictionid_core.systems import as_system, observe
     from support.data import BAGS
 
-    log = load(BAGS / "tx40_excitation").slice(0, 12_000)
+    log = load(BAGS / "tx40_excitation").slice(0, 11_000)
     tx40 = as_system("tx40")
     failed = 0
-    for k in range(0, 12_000, 1000):
+    for k in range(0, 11_000, 500):
         try:
-            observe(log.slice(k, k + 1000), tx40)
+            observe(log.slice(k, k + 500), tx40)
         except InputError as exc:
             assert "rank-deficient" in str(exc)
             failed += 1
     assert failed >= 1
-    t = log.t + np.repeat(np.arange(12), 1000) * 1.0  # a pause of 1 s after each piece
-    fit = identify(checked(JointSeries(t, log.joints, log.position, log.effort, source="paused")), IdentifyRequest(system="tx40"))
-    assert fit.preprocessing["segments"] == {"used": 12, "left_out": 0, "trim_at_gaps_s": pytest.approx(0.25)}
+    t = log.t + np.repeat(np.arange(22), 500) * 1.0  # a pause of 1 s after each piece
+    paused = checked(JointSeries(t, log.joints, log.position, log.effort, source="paused"))
+    fit = identify(paused, IdentifyRequest(system="tx40"))
+    seam = fit.preprocessing["segments"]["trim_at_gaps_s"]
+    assert fit.preprocessing["segments"] == {"used": 22, "left_out": 0, "trim_at_gaps_s": seam}
+    assert seam == pytest.approx(5 / min(fit.preprocessing["cutoff_hz"].values()))
     whole = identify(log, IdentifyRequest(system="tx40"))
-    assert fit.metrics["relerr_pct"] < 1.5 * whole.metrics["relerr_pct"]  # 1.7 % and 2.4 % (its own rates)
+    assert fit.metrics["relerr_pct"] < 1.5 * whole.metrics["relerr_pct"]  # 0.66 % and 0.69 % (its own rates)
