@@ -20,8 +20,10 @@ Settings left unset (None) are chosen from the data by :func:`choose_preprocessi
      position holds more noise than motion;
   2. between 10·B (where B lies below that bound: a band above it is noise, not motion) and that
      bound, the cut-off whose filtered signals best predict the joint's effort: the least-squares
-     residual of its effort on every joint's q̈, q̇, sign(q̇) and a constant, over CUTOFF_CANDIDATES
-     log-spaced cut-offs: the lowest within 1 % of the least residual (a higher one only where it
+     residual of its effort on every joint's q̈, q̇, sign(q̇) and a constant, over the interval's
+     lower end and the cut-offs of a fixed logarithmic grid inside it (CUTOFFS_PER_DECADE: 1,
+     1.47, 2.15, 3.16, 4.64, 6.81, 10, … Hz, the same whatever the interval, so records of one
+     motion choose alike): the lowest within 1 % of the least residual (a higher one only where it
      predicts clearly better; the residuals of nearby cut-offs differ by less than that). A
      position spectrum can stand above its noise for motion the effort does not show (a real
      5 kHz motor encoder's vibrations: a cut-off at the position's bound predicted the TX40's
@@ -69,7 +71,7 @@ CUTOFF_PER_BANDWIDTH = 10.0  # the cut-off is at least this × the motion bandwi
 MAX_CUTOFF_SHARE = 0.2  # … at most this × fs (0.4 × Nyquist) …
 MIN_CUTOFF_BINS = 4.0  # … and at least this many periodogram bins (fs / N each)
 CUTOFF_GRID = 160  # cut-offs tried, log-spaced between those bounds, for the position's bound
-CUTOFF_CANDIDATES = 12  # cut-offs tried for the effort's prediction
+CUTOFFS_PER_DECADE = 6  # the fixed grid of cut-offs tried for the effort's prediction (a ratio 1.47)
 PREDICTION_TOLERANCE = 0.01  # … the lowest cut-off whose residual is within this share of the least one
 PREDICTION_ROWS = 50_000  # the effort's prediction uses at most about this many rows (every k-th)
 ANALYSIS_PER_CUTOFF = 10.0  # analysis rate ≥ this × fc
@@ -378,16 +380,24 @@ def cutoff_interval(series: JointSeries, order: int = 4) -> dict[str, tuple[floa
     return {j: (float(floor[k]), float(ceiling[k])) for k, j in enumerate(series.joints) if moving[k]}
 
 
+def cutoff_grid(low: float, high: float) -> np.ndarray:
+    """The cut-offs 10^(k / CUTOFFS_PER_DECADE) Hz in [low, high]."""
+    first = np.ceil(CUTOFFS_PER_DECADE * np.log10(low) - 1e-9)
+    last = np.floor(CUTOFFS_PER_DECADE * np.log10(high) + 1e-9)
+    return 10.0 ** (np.arange(first, last + 1) / CUTOFFS_PER_DECADE)
+
+
 def prediction_cutoffs(series: JointSeries, low: np.ndarray, high: np.ndarray, chosen: np.ndarray, order: int
                        ) -> np.ndarray:
     """(J,) per joint, the cut-off in [low, high] (Hz; ``high`` where the interval is empty) whose
-    filtered signals best predict its effort (see the module doc); nan for joints not ``chosen``."""
+    filtered signals best predict its effort (see the module doc: the lower ends and the fixed grid
+    are tried); nan for joints not ``chosen``."""
     out = np.where(chosen, np.maximum(high, low), np.nan)
     open_ = chosen & (high > low * (1 + 1e-9)) & (low > 0)
     if not open_.any() or series.effort is None:
         return out
     fs = 1.0 / series.dt
-    grid = np.geomspace(low[open_].min(), high[open_].max(), CUTOFF_CANDIDATES)
+    grid = np.unique(np.concatenate([low[open_], cutoff_grid(low[open_].min(), high[open_].max())]))
     n = len(series)
     trim = int(min(TRIM_PERIODS / grid[0], MAX_TRIM_SHARE * (n - 1) / fs) * fs)
     rows = np.arange(trim, n - trim, max(1, (n - 2 * trim) // PREDICTION_ROWS))

@@ -14,9 +14,13 @@ speeds (they biased Fc low), and the joint sticks only where, at that refit leve
 of the rows between STICK_KNEE × the candidate speed and twice that is back at its level (median
 within STICK_TOLERANCE). A friction that rises gradually out of standstill (a real gear's Fs < Fc,
 or a dip above Fc) is the friction law's shape, not a stick phase: its deficit goes on above the
-band, and its rows stay. The candidates are refit until their speeds settle (STICK_ROUNDS at most).
+band, and its rows stay. The candidates are refit until their speeds settle: the level rises a
+little as a band's rows leave, and the band with it; a band that still widens after STICK_ROUNDS
+refits follows the level up — the law's shape again — and is no stick phase either.
 
-Only when the min speed is chosen from the data (a ``--min-speed`` given is the user's choice).
+Only for a friction law without a dip (Coulomb: a law with a dip models friction below its level at
+low speed, its Fs < Fc, warned), and when the min speed is chosen from the data (a ``--min-speed``
+given is the user's choice).
 The rows are left out of the observation in place (:func:`leave_out_stick_rows`): the same rows a
 rebuild with ``Preprocessing.stick_speed`` leaves out, without a second pre-processing.
 """
@@ -38,7 +42,9 @@ STICK_BIN_ROWS = 50  # … and at least this many
 STICK_TOLERANCE = 0.05  # a bin sticks when its median dry friction is this far below the level (and 3 σ)
 STICK_SIGN = 0.9  # rows with |S| below this lie in a reversal's anti-alias transient: not judged
 STICK_KNEE = 2.0  # the friction is back at its level between this × the stick speed and twice that
-STICK_ROUNDS = 3  # at most this many refits until the stick speeds settle
+STICK_SLIDING_SHARE = 0.2  # the first fit leaves out this share of each joint's slowest rows: its level is sliding
+STICK_TOP_SHARE = 0.05  # a stick band lies below this share of the joint's top speed (99th percentile of |q̇|)
+STICK_ROUNDS = 4  # at most this many refits until the stick speeds settle
 STICK_SETTLED = 0.05  # … settled when no speed moves by more than this share
 # Friction parameters of other laws than Coulomb (their user bounds and fixed values do not apply to it).
 _NOT_COULOMB = ("Fs", "vs", "delta", "v0")
@@ -52,9 +58,9 @@ def exclude_stick_phases(model: IdentificationModel, settings: Preprocessing
                          ) -> tuple[IdentificationModel, Preprocessing]:
     """``model`` and ``settings`` with the stick phases of ``model.obs`` left out (``stick_speed``
     set in both, the rows left out of the observation in place and the model rebuilt on it), or both
-    unchanged when the min speed is not chosen from the data or no joint sticks. The observation's
-    report gets ``stick_rows`` and ``stick_reason``."""
-    if "min_speed" not in model.obs.report.get("from_data", []):
+    unchanged when the law has a dip, the min speed is not chosen from the data or no joint sticks.
+    The observation's report gets ``stick_rows`` and ``stick_reason``."""
+    if model.friction.law.nonlinear or "min_speed" not in model.obs.report.get("from_data", []):
         return model, settings
     speeds = stick_speeds(model)
     if not speeds:
@@ -93,13 +99,21 @@ def stick_speeds(model: IdentificationModel) -> dict[str, float]:
     except FrictionIdError:  # the user's bounds or fixed values do not fit a Coulomb law
         return {}
     slowest = obs.report.get("min_speed_rows", {})
-    speeds = {}
+    used = obs.used.reshape(len(obs.joints), obs.n_samples)
+    sliding, top = {}, {}
     for j, joint in enumerate(obs.joints):
-        v = band_speed(*dry_friction(coulomb, x, j))
-        if v > slowest.get(joint, 0.0):
-            speeds[joint] = v
+        if used[j].any():
+            sliding[joint], top[joint] = np.quantile(np.abs(obs.velocity[used[j], j]), [STICK_SLIDING_SHARE, 0.99])
+    x = coulomb_fit(coulomb_model(model, without_rows(obs, sliding)))  # the sliding level
+    first = {}
+    for joint in sliding:
+        speed, share = dry_friction(coulomb, x, obs.joints.index(joint))
+        v = band_speed(speed, share)
+        if slowest.get(joint, 0.0) < v <= STICK_TOP_SHARE * top[joint] and regains_level(speed, share, v):
+            first[joint] = v
+    speeds, settled = dict(first), set()
     for _ in range(STICK_ROUNDS):
-        if not speeds:
+        if not speeds or settled >= speeds.keys():
             break
         x = coulomb_fit(coulomb_model(model, without_rows(obs, speeds)))
         found = {}
@@ -107,12 +121,9 @@ def stick_speeds(model: IdentificationModel) -> dict[str, float]:
             speed, share = dry_friction(coulomb, x, obs.joints.index(joint))
             if regains_level(speed, share, v):
                 found[joint] = max(band_speed(speed, share), slowest.get(joint, 0.0))
-        settled = found.keys() == speeds.keys() and all(
-            abs(found[j] - speeds[j]) <= STICK_SETTLED * speeds[j] for j in found)
+        settled = {j for j, v in found.items() if abs(v - speeds[j]) <= STICK_SETTLED * speeds[j]}
         speeds = {j: v for j, v in found.items() if v > slowest.get(j, 0.0)}
-        if settled:
-            break
-    return speeds
+    return {j: v for j, v in speeds.items() if j in settled and v <= STICK_TOP_SHARE * top[j]}
 
 
 def coulomb_model(model: IdentificationModel, obs: Observation) -> IdentificationModel:
