@@ -286,7 +286,7 @@ def test_validate_with_unreadable_params(tmp_path, capsys, synthetic):
     save_csv(synthetic(), tmp_path / "s.csv")
     (tmp_path / "p.json").write_text("{not json")
     msg = fails(["validate", tmp_path / "s.csv", "--params", tmp_path / "p.json"], capsys)
-    assert "p.json" in msg and "cannot read parameters" in msg
+    assert "p.json" in msg and "cannot read an identification result" in msg
 
 
 def test_validate_with_params_lacking_a_key(tmp_path, capsys, synthetic):
