@@ -69,7 +69,7 @@ def observation_metrics(obs, y_hat: np.ndarray) -> dict:
         power = float(yj @ yj)
         m = fit_metrics(yj, pj) if yj.size > 1 and power > 0 else dict.fromkeys(("relerr_pct", "r2", "rmse"), NAN)
         row = {k: m[k] for k in ("relerr_pct", "rmse", "r2")}
-        noise = noise_sigma(y[rows] - y_hat[rows], keep) ** 2 * yj.size
+        noise = float(np.square(noise_sigma(y[rows] - y_hat[rows], keep))) * yj.size  # inf, not OverflowError
         row["noise_floor_pct"] = 100.0 * float(np.sqrt(noise / power)) if power > 0 else NAN
         if np.isfinite(noise):
             noise_sum += noise

@@ -165,7 +165,7 @@ def result_fields(data: Mapping) -> dict:
         "joint_map": _joint_map,
         "warnings": _lines, "notes": _lines,
         "drive": _drive,
-        "window": lambda k, v: _window(v),
+        "window": lambda k, v: _window(mapping(k, v)),
         "bounds": lambda k, v: {n: _bound(f"{k}.{n}", b) for n, b in mapping(k, v).items()},
         "optimizer": mapping, "consistency": mapping, "idm": mapping,
         "standard_parameters": _standard_parameters,
@@ -230,7 +230,9 @@ def _metrics(key: str, value) -> dict:
     for name, v in metrics.items():
         if name == "per_joint":
             for joint, row in mapping(f"{key}.per_joint", v).items():
-                for metric, x in mapping(f"{key}.per_joint.{joint}", row).items():
+                if not isinstance(row, Mapping):
+                    raise FieldError(f"{key}.per_joint.{joint}", f" must be a mapping of metrics, got {row!r}")
+                for metric, x in row.items():
                     if x is not None and (isinstance(x, bool) or not isinstance(x, Real)):
                         raise FieldError(f"{key}.per_joint.{joint}.{metric}", f" must be a number, got {x!r}")
         elif not (v is None or isinstance(v, (Real, str, Mapping))):
@@ -297,7 +299,8 @@ def _preprocessing(key: str, value) -> dict:
         if block.get(name) is not None:
             _finite(f"{key}.{name}", block[name])
     for name in ("order", "decimate", "thin"):
-        integer(f"{key}.{name}", block.get(name), low=1)
+        if name in block:
+            integer(f"{key}.{name}", block[name], low=1, optional=name == "decimate")
     for name in ("min_speed", "dip_scale"):
         speeds = block.get(name)
         if isinstance(speeds, Mapping):
