@@ -26,15 +26,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from frictionid_core.identification import IdentifyResult
+    from frictionid_core.identification import read_result
     from frictionid_core.jsonfile import read_json
-    from frictionid_core.robots.compare import check_result, compare_fits, fit_labels
+    from frictionid_core.robots.compare import compare_fits, fit_labels
 
-    results = []
-    for path in args.results:
-        data = read_json(path, "an identification result")
-        check_result(data, str(path))  # a truth given as a fit, etc.: the hint of this command
-        results.append(IdentifyResult.from_dict(data, where=str(path)).to_dict())
+    results = [read_result(path).to_dict() for path in args.results]
     refuse_overwriting({"--json": args.json}, {"FIT.json": args.results, "--truth": args.truth,
                                                "--validation": args.validation, "--layout": args.layout,
                                                "--system": [system_file(r["system"]) for r in results]})

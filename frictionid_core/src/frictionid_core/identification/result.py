@@ -121,6 +121,9 @@ class IdentifyResult:
             raise FrictionIdError(f"{where}: not an identification result (expected a JSON object, got "
                                   f"{type(data).__name__}); expected the JSON written by 'frictionid identify'")
         missing = [k for k in REQUIRED_KEYS if k not in data]
+        if "params" in missing and ("base_parameters" in data or "bags" in data):
+            raise FrictionIdError(f"{where}: a ground truth ('frictionid synth --truth'), not an identification "
+                                  "result (compare takes it with --truth)")
         if missing:
             raise FrictionIdError(f"{where} lacks {', '.join(map(repr, missing))}: not an identification result; "
                                   "expected the JSON written by 'frictionid identify'")
