@@ -37,13 +37,13 @@ def run(args) -> int:
     if not data.feasible:
         print("frictionid: warning: exporting an inconsistent result (--force): " + "; ".join(data.problems))
     urdf = urdf_text(data) if (args.urdf or args.mujoco) else None
-    outputs = []
+    texts = []  # every text before any file is written
     if args.urdf:
-        outputs.append(write_text(args.urdf, urdf))
+        texts.append((args.urdf, urdf))
     if args.mujoco:
-        outputs.append(write_text(args.mujoco, mujoco_text(data, urdf)))
+        texts.append((args.mujoco, mujoco_text(data, urdf)))
     if args.yaml:
-        outputs.append(write_text(args.yaml, yaml_text(data)))
-    for path in outputs:
-        print(f"wrote {path}")
+        texts.append((args.yaml, yaml_text(data)))
+    for path, text in texts:
+        print(f"wrote {write_text(path, text)}")
     return 0
