@@ -303,9 +303,8 @@ def output_folder(label: str, folder: Path, names: tuple[str, ...]) -> dict[str,
 # ---------------------------------------------------------------------- errors
 def run_handler(handler, args: argparse.Namespace) -> int:
     """``handler(args)``'s exit code; a FrictionIdError becomes one line on stderr and exit code 2,
-    Ctrl-C one line and exit code 130, any other exception one line and exit code 1 (the
-    traceback with FRICTIONID_DEBUG=1). Library warnings are printed as ``frictionid: warning: …``
-    lines, each message once."""
+    any other exception one line and exit code 1 (the traceback with FRICTIONID_DEBUG=1).
+    Library warnings are printed as ``frictionid: warning: …`` lines, each message once."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
         try:
@@ -316,7 +315,7 @@ def run_handler(handler, args: argparse.Namespace) -> int:
         except BrokenPipeError:  # output piped into head & co.
             sys.stderr.close()
             code = 0
-        except KeyboardInterrupt:
+        except KeyboardInterrupt:  # Ctrl-C: one line and exit code 130, no traceback
             code = interrupted()
         except Exception as exc:  # a bug, not bad input: one line unless debugging
             if os.environ.get("FRICTIONID_DEBUG"):
