@@ -426,7 +426,7 @@ def test_an_output_never_replaces_an_input(inputs, capsys, case):
 
 def test_links_to_an_input_are_that_input(inputs, capsys):
     (inputs["log"].parent / "soft.json").symlink_to(inputs["result"])
-    os.link(inputs["result"], inputs["log"].parent / "hard.json")
+    (inputs["log"].parent / "hard.json").hardlink_to(inputs["result"])
     before = inputs["result"].read_bytes()
     for name in ("soft.json", "hard.json"):
         msg = fails(["validate", inputs["log"], "--params", inputs["result"], "--json", inputs["log"].parent / name],
@@ -584,23 +584,14 @@ BAD_URDFS = {
 }
 
 
-def test_the_arm_urdf_loads():
+def test_the_arm_urdf_loads(tmp_path):
     # Guards the cases below against failing for another reason.
     from frictionid_core.robots import load_urdf
 
-    robot = load_urdf_text(ARM_URDF, load_urdf)
+    (tmp_path / "arm.urdf").write_text(ARM_URDF)
+    robot = load_urdf(tmp_path / "arm.urdf")
     assert robot.joints == ["shoulder", "elbow"]
     np.testing.assert_allclose(robot.parameters()[:4], [2.0, 0.4, 0.0, 0.0])  # m, m·c of the upper arm
-
-
-def load_urdf_text(text: str, loader):
-    import tempfile
-
-    with tempfile.TemporaryDirectory() as folder:
-        path = os.path.join(folder, "arm.urdf")
-        with open(path, "w") as f:
-            f.write(text)
-        return loader(path)
 
 
 @pytest.mark.parametrize("case", BAD_URDFS)
