@@ -329,6 +329,7 @@ def run_handler(handler, args: argparse.Namespace) -> int:
 
 
 def interrupted() -> int:
-    """Ctrl-C: one line on stderr, :data:`EXIT_INTERRUPTED` (files being written were left as they were)."""
+    """Ctrl-C: one line on stderr, :data:`EXIT_INTERRUPTED` (a file being written keeps its old
+    content: the atomic writer removes its temporary file)."""
     print("frictionid: interrupted", file=sys.stderr)
     return EXIT_INTERRUPTED

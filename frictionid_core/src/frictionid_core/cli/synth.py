@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import argparse
+import shutil
 from pathlib import Path
 
 from frictionid_core.cli._common import (
@@ -93,7 +94,13 @@ def run(args) -> int:
                                drive=drive_option(args),
                                **({} if args.torque_noise is None else {"torque_noise": args.torque_noise}))
     truth["trajectory_file"] = str(args.trajectory)
-    write_joint_state_bag(args.out, series)
+    existed = args.out.exists()  # the writer refuses an existing bag
+    try:
+        write_joint_state_bag(args.out, series)
+    except BaseException:  # Ctrl-C included: no half-written bag left behind
+        if not existed:
+            shutil.rmtree(args.out, ignore_errors=True)
+        raise
     save_json(args.truth, truth)
     print(f"{args.out}: {len(series)} samples × {len(series.joints)} joints of {robot.name} at {args.rate:g} Hz, "
           f"{args.friction}{' (asymmetric)' if args.asymmetric else ''} friction"
