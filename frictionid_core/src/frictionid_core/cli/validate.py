@@ -20,8 +20,11 @@ from frictionid_core.cli._common import (
     load_sources,
     preprocessing_line,
     print_metrics,
+    refuse_overwriting,
     save_json,
+    source_inputs,
     split_list,
+    system_file,
     window_of,
 )
 from frictionid_core.cli.identify import add_preprocessing_arguments, preprocessing_fields
@@ -37,31 +40,37 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
+    from dataclasses import replace
+
     from frictionid_core.identification import (
         PreprocessingOverrides,
         model_from_result,
-        model_metrics,
+        read_result,
+        validation_metrics,
         validation_record,
         window_record,
     )
-    from frictionid_core.jsonfile import read_json
+    from frictionid_core.metrics import check_finite
     from frictionid_core.systems import parse_joint_map
 
-    params = read_json(args.params, "parameters")
+    result = read_result(args.params)
+    refuse_overwriting({"--json": args.json}, {**source_inputs(args), "--params": args.params,
+                                               "--system": system_file(args.system or result.system)})
     drive = drive_option(args)
     if drive is not None:
-        params = {**params, "drive": drive.to_dict()}
+        result = replace(result, drive=drive.to_dict())
     overrides = PreprocessingOverrides(**preprocessing_fields(args))
     sources = load_sources(args)
     joint_map = None if args.joint_map is None else parse_joint_map(args.joint_map)
-    model, x = model_from_result(sources, params, system=args.system, joint_map=joint_map,
-                                 joints=split_list(args.joints), preprocessing=overrides, window=window_of(args))
-    metrics = model_metrics(model, x)
-    record = validation_record(model)
     names = [s.source for s in sources]
+    model, x = model_from_result(sources, result, system=args.system, joint_map=joint_map,
+                                 joints=split_list(args.joints), preprocessing=overrides, window=window_of(args))
+    metrics = validation_metrics(model, x, names)
+    check_finite(metrics, f"the cross-test of {args.params} on {', '.join(names)}")
+    record = validation_record(model)
     out = {"source": names[0] if len(names) == 1 else names, "params_file": str(args.params),
-           "system": args.system or params.get("system"), "friction": params.get("friction"),
-           "asymmetric": params.get("asymmetric"), "drive": params.get("drive"),
+           "system": args.system or result.system, "friction": result.friction,
+           "asymmetric": result.asymmetric, "drive": result.drive,
            "layout": None if args.layout is None else str(args.layout), "window": window_record(window_of(args)),
            "preprocessing": record, "metrics": metrics}
     print(f"cross-test of {args.params} on {', '.join(names)}")

@@ -11,7 +11,7 @@ import numpy as np
 
 from frictionid_core.drive import result_drive
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.identification.model import Sources, as_sources, build_model, model_metrics
+from frictionid_core.identification.model import Sources, as_sources, build_model, metric_model, model_metrics
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.settings import PreprocessingOverrides
 from frictionid_core.identification_model import IdentificationModel
@@ -165,6 +165,15 @@ def validate(series: Sources, result: IdentifyResult | Mapping, *, system: str |
     arguments override them as for :func:`model_from_result`."""
     model, x = model_from_result(series, result, system=system, joint_map=joint_map, joints=joints,
                                  preprocessing=preprocessing, window=window)
+    return validation_metrics(model, x, [s.source for s in as_sources(series)])
+
+
+def validation_metrics(model: IdentificationModel, x: np.ndarray, names: list[str]) -> dict[str, float]:
+    """The cross-test metrics of parameters ``x`` on ``model`` (of :func:`model_from_result` on the
+    sources ``names``); an error when no sample is left to test on."""
+    if not metric_model(model).obs.used.any():
+        raise FrictionIdError(f"{', '.join(names)}: no sample left to cross-test on (every one slower than the min "
+                              "speed of the pre-processing, or trimmed away)")
     return model_metrics(model, x)
 
 
