@@ -50,7 +50,8 @@ def joint_log(rate: float, duration: float = 20.0, *, seed: int = 0, sigma_q: fl
 def test_rule_picks_cutoff_decimation_and_trims_in_seconds_at_any_rate(rate):
     """The same motion at three rates: each joint's cut-off 10 × its own bandwidth (a: 1 Hz, b:
     0.8 Hz, ± the 0.05 Hz periodogram bin; smooth motion: the effort is predicted no better above),
-    below 0.2 × the rate; decimation down to ≥ 10 × the highest cut-off; 5/lowest fc s at both ends."""
+    below 0.2 × the rate; decimation down to ≥ 10 × the lowest cut-off with an anti-alias band
+    (0.4 × the analysis rate) ≥ 1.5 × the highest; 5/lowest fc s at both ends."""
     settings, report = choose_preprocessing(joint_log(rate))
     assert report["bandwidth_hz"] == pytest.approx(1.0, abs=0.06)
     bands = report["bandwidth_per_joint_hz"]
@@ -58,10 +59,11 @@ def test_rule_picks_cutoff_decimation_and_trims_in_seconds_at_any_rate(rate):
     assert settings.cutoff_hz == {j: pytest.approx(10 * bands[j]) for j in ("a", "b")}
     high, low = max(settings.cutoff_hz.values()), min(settings.cutoff_hz.values())
     assert high < 0.2 * rate and report["cutoff_from_data"] == ["a", "b"] and report["cutoff_at_bound"] == []
-    assert settings.decimate == max(1, int(rate // (10 * high)))
+    assert settings.decimate == max(1, int(min(rate / (10 * low), 0.4 * rate / (1.5 * high))))
     assert report["analysis_rate_hz"] == pytest.approx(rate / settings.decimate)
-    # ≥ 10 × the cut-off, and no faster than needed (below 20 ×) unless the log itself is slower.
-    assert 10 * high <= report["analysis_rate_hz"] < 20 * high or settings.decimate == 1
+    # ≥ 10 × the lowest cut-off, and no faster than needed (below 20 ×) unless the log itself is slower.
+    assert 10 * low <= report["analysis_rate_hz"] < 20 * low or settings.decimate == 1
+    assert 0.4 * report["analysis_rate_hz"] >= 1.5 * high
     assert settings.trim_start_s == settings.trim_end_s == pytest.approx(5 / low)
     assert sorted(report["from_data"]) == ["cutoff_hz", "decimate", "min_speed", "trim_end_s", "trim_start_s"]
     assert report["moving_joints"] == ["a", "b"]

@@ -99,7 +99,7 @@ def dip_changes(model: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:
     if cutoff_shortfall(cutoff, needs) and "cutoff_hz" in chosen:
         cutoff = changes["cutoff_hz"] = raised_cutoffs(cutoff, needs)
     if "decimate" in chosen:
-        rule = rule_decimation(model.obs.report["sample_rate_hz"], cutoff_range(cutoff)[1])
+        rule = rule_decimation(model.obs.report["sample_rate_hz"], cutoff)
         n = min(n, rule)
         if n < pre.decimate or changes:
             changes["decimate"] = n
