@@ -86,7 +86,8 @@ TRIM_PERIODS = 5.0  # trims of this many 1/fc at each end …
 MAX_TRIM_SHARE = 0.1  # … at most this share of the record each
 MIN_SPEED_SIGMAS = 10.0  # slow rows: |q̇| < max(this × σ_q̇, …
 MIN_SPEED_SHARE = 5e-4  # … this × the joint's top speed)
-DIP_FACTOR = 6.0  # friction dips: anti-alias band ≥ this × a/(π·vs), cut-off ≥ a/(π·vs) / this
+DIP_FACTOR = 6.0  # friction dips: anti-alias band ≥ this × a/(π·vs) …
+DIP_CUTOFF_FACTOR = 3.0  # … cut-off ≥ a/(π·vs) / this
 DIP_WINDOW = 3.0  # a dip acts below this × vs (e^-3 of its height at δ = 1, e^-9 at δ = 2)
 THIN_MARGIN = 2.0  # thinned rows near a dip: this × finer than the dip rule allows at that instant
 SMOOTH_RATE_PER_CUTOFF = 100.0  # smooth columns (robot regressor) computed at ≥ this × the cut-off
@@ -610,13 +611,13 @@ def dip_needs(fs: float, reversal_acceleration: float, speed_scale: float) -> tu
 
     The dip lasts about 2·vs/a there: a pulse of bandwidth f = a/(π·vs). It is evaluated at the
     decimated velocity while the torque is anti-aliased, so the anti-alias band 0.4·fs/n must
-    keep DIP_FACTOR·f; and the position filter must keep f/DIP_FACTOR, or the filtered velocity
-    misplaces the dip (both calibrated on the synthetic TX40 recordings: vs and δ within 5 %;
-    coarser choices bias δ by 10–70 %)."""
+    keep DIP_FACTOR·f; and the position filter must keep f/DIP_CUTOFF_FACTOR, or the filtered
+    velocity misplaces the dip (both calibrated on the synthetic TX40 recordings: vs and δ within
+    5 %; coarser choices bias δ by 10–70 %, f/6 by 5 % on the six-joint bag's joint 2)."""
     if reversal_acceleration <= 0 or speed_scale <= 0:
         return np.iinfo(np.int32).max, 0.0
     f = reversal_acceleration / (np.pi * speed_scale)
-    return max(1, int(np.floor(0.4 * fs / (DIP_FACTOR * f)))), min(f / DIP_FACTOR, MAX_CUTOFF_SHARE * fs)
+    return max(1, int(np.floor(0.4 * fs / (DIP_FACTOR * f)))), min(f / DIP_CUTOFF_FACTOR, MAX_CUTOFF_SHARE * fs)
 
 
 def thinned_rows(qd: np.ndarray, qdd: np.ndarray, fs: float, settings: Preprocessing, joints: list[str]
