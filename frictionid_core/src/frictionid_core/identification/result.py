@@ -18,7 +18,7 @@ from frictionid_core.identification.request import IdentifyRequest, window_recor
 
 # Keys left out of the JSON when their field is None.
 OPTIONAL_KEYS = ("optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "output_error", "idm",
-                 "idm_params", "request")
+                 "idm_params", "request", "uncertainty", "velocity_range", "holdout", "plausibility")
 REQUIRED_KEYS = ("system", "friction", "asymmetric", "params")
 
 
@@ -32,7 +32,9 @@ class IdentifyResult:
         source: the source's name, or a list with several sources fitted together.
         joints: the data joints fitted, in order.
         params, std: {name: value} and {name: σ} (σ 0 for a fixed parameter, NaN where not
-            determined), SI units.
+            determined or held at a bound), SI units; σ assumes white residuals.
+        std_robust: {name: σ} robust to coloured and heteroscedastic residuals (HAC; same names,
+            same conventions); ``uncertainty`` says how both were obtained.
         metrics: fit metrics on the estimation data (see :mod:`frictionid_core.metrics`), with
             ``cost`` and ``cond``; per joint under ``per_joint``.
         wall_s: the identification's wall time [s].
@@ -51,6 +53,13 @@ class IdentifyResult:
         output_error, idm, idm_params: an output-error identification: True, the IDM start's
             metrics and parameters (None otherwise).
         request: the request that produced it (None: built by hand).
+        uncertainty: how ``std`` and ``std_robust`` were obtained (the HAC bandwidth).
+        velocity_range: {friction row (joint or motor): [slowest, fastest] |velocity| of the rows
+            fitted} (what ``export`` matches a law over).
+        holdout: a nonlinear law against its linear special case (Coulomb) on held-back rows:
+            {held_back_rows, law_relerr_pct, linear_relerr_pct, beats_linear[, returned]}.
+        plausibility: robot systems: the links (fitted or reconstructed) against the robot model's,
+            with the thresholds used (:func:`frictionid_core.robots.consistency_check.link_plausibility`).
     """
 
     system: str
@@ -81,13 +90,19 @@ class IdentifyResult:
     idm: dict | None = None
     idm_params: dict[str, float] | None = None
     request: IdentifyRequest | None = None
+    std_robust: dict[str, float] = field(default_factory=dict)
+    uncertainty: dict | None = None
+    velocity_range: dict[str, list[float]] | None = None
+    holdout: dict | None = None
+    plausibility: dict | None = None
 
     def to_dict(self) -> dict:
         """The result's JSON: the keys of ``frictionid identify --json`` in their order."""
         head = ("system", "joint_map", "friction", "asymmetric", "solver", "source", "joints", "params", "std",
-                "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds", "optimizer", "varpro",
-                "warm_start", "consistency", "standard_parameters", "preprocessing", "layout", "output_error", "idm",
-                "idm_params", "request")
+                "std_robust", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds",
+                "optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "preprocessing", "layout",
+                "output_error", "idm", "idm_params", "request", "uncertainty", "velocity_range", "holdout",
+                "plausibility")
         out = {}
         for key in head:
             value = getattr(self, key)
@@ -117,7 +132,8 @@ class IdentifyResult:
                                   "'frictionid identify'")
         known = {f.name for f in fields(cls)}
         values = {k: v for k, v in data.items() if k in known}
-        defaults = {"solver": "", "source": "", "joints": [], "std": {}, "metrics": {}, "wall_s": 0.0}
+        defaults = {"solver": "", "source": "", "joints": [], "std": {}, "std_robust": {}, "metrics": {},
+                    "wall_s": 0.0}
         try:
             values = {**defaults, **values}
             window = values.get("window")
