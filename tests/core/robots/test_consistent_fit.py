@@ -210,7 +210,7 @@ def test_node_parameters_consistent_and_prior_weight(tx40_fits, tmp_path):
     request = node_request(cfg, [])
     assert (request.consistent, request.prior, request.prior_weight) == (True, "urdf", 10.0)
     free, cons = (IdentifyResult.from_dict(r) for r in tx40_fits)
-    assert cons.to_dict() == tx40_fits[1] and list(tx40_fits[1])[17:20] == ["consistency", "standard_parameters",
+    assert cons.to_dict() == tx40_fits[1] and list(tx40_fits[1])[18:21] == ["consistency", "standard_parameters",
                                                                              "preprocessing"]
     assert consistency_text(free) == ""
     text = summary(Job(cons.joints, node_request(cfg, cons.joints)), cons, 1000, 1.0)
