@@ -97,6 +97,7 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
     if errors:
         raise InputError(f"{sources[0].source}: " + "; ".join(errors))
+    at_rule_rates = model
     model, (x, std, cond, res) = fit_at_dip_rates(
         model, settings, rebuild, lambda m, previous=None: fit_model(m, solver, progress, previous))
     warnings += dip_warnings(model, x)
@@ -106,7 +107,8 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     holdout = None
     if not model.is_linear and solver.warm_start:
         holdout = holdout_comparison(model, x, solver)
-        if holdout.get("beats_linear") is False:
+        if holdout.get("beats_linear") is False:  # the Coulomb case, at the rates chosen before any dip refit
+            model = at_rule_rates
             x, std, cond = linear_fallback(model, x)
             holdout["returned"] = "linear special case"
             warnings.append(f"{model.friction.label} does not beat its linear special case (Coulomb) on the "
@@ -249,13 +251,14 @@ def known_rigid_body_report(held: KnownRigidBody, model: IdentificationModel, x:
 
 def robot_plausibility(model: IdentificationModel, x: np.ndarray, sys_: System, standard: dict | None) -> dict:
     """The ``plausibility`` block of a robot fit: its links (the consistent fit's standard
-    parameters, else those reconstructed from its base parameters by the projection of the
-    model's own) against the robot model's."""
+    parameters, else those reconstructed from its base parameters: the model's own corrected by
+    the least change, the rotor inertias, which URDFs seldom hold, taking up what they can
+    first) against the robot model's."""
     info = sys_.robot
     if standard is not None:
         return link_plausibility(info, standard_from_record(info, standard), "the consistent fit's")
     beta = np.array([x[model.names.index(n)] for n in sys_.rigid_names])
-    pi, _ = projection(info.model, info.base, beta)
+    pi, _ = projection(info.model, info.base, beta, rotors_first=True)
     return link_plausibility(info, pi, "reconstructed from the base parameters")
 
 

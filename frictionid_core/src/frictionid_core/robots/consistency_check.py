@@ -101,10 +101,17 @@ def generic_prior(robot) -> np.ndarray:
     return np.concatenate([np.tile(body, robot.model.njoints - 1), np.zeros(robot.nv)])
 
 
-def projection(robot, base, beta_hat: np.ndarray, prior: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+# Scale of the rotor inertias in :func:`projection` with ``rotors_first``: so large against the links'
+# (kg, kg·m, kg·m²) that a change the rotor inertias can make goes to them.
+ROTORS_FIRST_SCALE = 1e3
+
+
+def projection(robot, base, beta_hat: np.ndarray, prior: np.ndarray | None = None,
+               rotors_first: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(the standard parameters nearest ``prior`` (default: the model's own) that reproduce the base
     parameters ``beta_hat``: the weighted least-squares correction, each parameter measured
-    relative to its scale (kg, kg·m, kg·m²); those scales (P,))."""
+    relative to its scale (kg, kg·m, kg·m²); those scales (P,)). ``rotors_first``: the rotor
+    inertias (which URDFs seldom hold) take up what they can before the links change."""
     A = base.combination_matrix()
     beta_hat = np.asarray(beta_hat, dtype=float)
     if beta_hat.shape != (A.shape[0],):
@@ -113,6 +120,8 @@ def projection(robot, base, beta_hat: np.ndarray, prior: np.ndarray | None = Non
     nb = robot.model.njoints - 1
     floor = np.concatenate([np.tile([1.0, 0.1, 0.1, 0.1] + [0.01] * 6, nb), np.full(robot.nv, 0.01)])
     D = np.maximum(np.abs(pi0), floor)
+    if rotors_first:
+        D[10 * nb :] = ROTORS_FIRST_SCALE
     return pi0 + D * (np.linalg.pinv(A * D) @ (beta_hat - A @ pi0)), D
 
 
@@ -223,9 +232,16 @@ def report_for_result(result: dict, system, prior: str = "model") -> dict:
     except KeyError as exc:
         raise FrictionIdError(f"result lacks base parameter {exc}") from None
     pri, label = (None, "") if prior == "model" else (generic_prior(info.model), "generic bodies")
+    rows = info.rows or info.model
+    rotors = rows.parameter_names()[-info.model.nv :]
+    request = result.get("request") or {}
     if prior == "model" and result.get("standard_parameters"):  # a consistent fit's own witness
         pri, prior = standard_from_record(info, result["standard_parameters"]), "result"
         label = "result's own standard parameters (identify --consistent)"
+    elif prior == "model" and request.get("known_rigid_body") and all(n in result["params"] for n in rotors):
+        pri = np.array(rows.parameters(), dtype=float)  # the model's links and the identified rotor inertias
+        pri[-info.model.nv :] = [result["params"][n] for n in rotors]
+        prior, label = "result", "model's links with the result's rotor inertias (identify --known-rigid-body)"
     rep = check_consistency(info.model, info.base, beta, pri, prior_label=label)
     return dict(rep.to_dict(), system=system.name, prior=prior)
 
