@@ -128,7 +128,7 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     warnings = result_warnings(model, x, std, notes, warnings)
     plausibility = None
     if sys_.robot is not None and held is None:
-        plausibility = robot_plausibility(model, x, sys_, standard)
+        plausibility = robot_plausibility(dict(zip(model.names, x)), sys_, standard)
         warnings += plausibility_warnings(plausibility)
     params = dict(zip(model.names, map(float, x)))
     fixed = {model.names[i]: v for i, v in model.fixed_values.items()}
@@ -249,15 +249,15 @@ def known_rigid_body_report(held: KnownRigidBody, model: IdentificationModel, x:
     return params, stds[0], stds[1], fixed
 
 
-def robot_plausibility(model: IdentificationModel, x: np.ndarray, sys_: System, standard: dict | None) -> dict:
-    """The ``plausibility`` block of a robot fit: its links (the consistent fit's standard
+def robot_plausibility(params: dict[str, float], sys_: System, standard: dict | None) -> dict:
+    """The ``plausibility`` block of a robot fit (``params`` by name): its links (the consistent fit's standard
     parameters, else those reconstructed from its base parameters: the model's own corrected by
     the least change, the rotor inertias, which URDFs seldom hold, taking up what they can
     first) against the robot model's."""
     info = sys_.robot
     if standard is not None:
         return link_plausibility(info, standard_from_record(info, standard), "the consistent fit's")
-    beta = np.array([x[model.names.index(n)] for n in sys_.rigid_names])
+    beta = np.array([params[n] for n in sys_.rigid_names])
     pi, _ = projection(info.model, info.base, beta, rotors_first=True)
     return link_plausibility(info, pi, "reconstructed from the base parameters")
 

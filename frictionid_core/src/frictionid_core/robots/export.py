@@ -39,7 +39,7 @@ from frictionid_core.robots.consistency_check import link_plausibility, report_f
 MUJOCO_FRICTION = {"damping": "Fv", "frictionloss": "Fc"}
 # Speeds a law is matched over: this many, evenly spread over the data's range; without a range in
 # the result (written before it was recorded), DEFAULT_SPEEDS (rad/s or m/s).
-MATCH_SPEEDS = 200
+MATCH_SPEEDS = 2000
 DEFAULT_SPEEDS = (0.0, 1.0)
 
 
