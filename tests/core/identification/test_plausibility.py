@@ -78,7 +78,7 @@ def test_the_data_bound_the_dip_speed_and_the_static_level():
     obs = model.obs
     speed = np.abs(obs.velocity[obs.used, 0])
     speed = speed[speed > 0]
-    assert bounds["vs"] == (speed.min(), speed.max())
+    assert bounds["vs"] == (speed.min(), min(speed.max(), 0.5))  # the data's speeds, under the law's cap
     assert bounds["Fs"] == (0.0, pytest.approx(FS_FACTOR * x_special[special.names.index("Fc")], rel=1e-12))
     # a tight factor: the fit holds Fs at it, σ "—", and the warning names it
     r = identify(s, IdentifyRequest(system="friction-only", friction="stribeck", bounds={"Fs": (0.0, 1.2)},

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from frictionid_core.friction import DEFAULT_BOUNDS, get_model
 from frictionid_core.identification.settings import SolverOptions
 from frictionid_core.identification_model import IdentificationModel, parameter_kind
 
@@ -133,8 +134,6 @@ HOLDOUT_EVERY = 4
 def linear_special_case(model: IdentificationModel) -> tuple[IdentificationModel, np.ndarray]:
     """(the Coulomb model nested in ``model``'s law: the same rows, rigid body, offsets, fixed
     values and bounds of the parameters it shares; its closed-form solution (k_c,))."""
-    from frictionid_core.friction import get_model
-
     coulomb = get_model("coulomb", model.friction.asymmetric)
     names = {n for n in model.names if parameter_kind(n) not in ("Fs", *model.friction.law.nonlinear)}
     fixed = {model.names[i]: v for i, v in model.fixed_values.items() if model.names[i] in names}
@@ -165,7 +164,9 @@ def special_case_parameters(model: IdentificationModel, x: np.ndarray, special: 
 
 def data_bounds(model: IdentificationModel) -> dict[str, tuple[float, float]]:
     """Bounds of a nonlinear law grounded in the data of ``model`` (docs/cli.md#constraints): vs
-    and v0 within the used speeds of their joint [slowest, fastest]; Fs ≤ FS_FACTOR × the Coulomb
+    and v0 within the used speeds of their joint [slowest, fastest], and within the law's default
+    range (:data:`~frictionid_core.friction.DEFAULT_BOUNDS`: a search over decades of speed needs
+    a cap) where the two overlap; Fs ≤ FS_FACTOR × the Coulomb
     special case's Fc of its joint and branch (at least FS_FACTOR × FS_FLOOR_SHARE × the joint's
     largest |torque|). {} for a linear law."""
     if model.is_linear:
@@ -182,7 +183,10 @@ def data_bounds(model: IdentificationModel) -> dict[str, tuple[float, float]]:
         for name in model.friction.names:
             base = name.removesuffix("_pos").removesuffix("_neg")
             if base in ("vs", "v0") and speed.size and speed.max() > speed.min():
-                out[prefix + name] = (float(speed.min()), float(speed.max()))
+                lo, hi = DEFAULT_BOUNDS[base]
+                out[prefix + name] = (max(float(speed.min()), lo), min(float(speed.max()), hi))
+                if not out[prefix + name][0] < out[prefix + name][1]:  # the law's range misses the data's
+                    out[prefix + name] = (float(speed.min()), float(speed.max()))
             elif base == "Fs":
                 if special is None:
                     special, x_special = linear_special_case(model)
