@@ -121,6 +121,13 @@ def test_an_absurd_fit_is_an_error_not_a_result(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert code == 2 and not out.exists()
     assert err.startswith("frictionid: error: ") and "\n" not in err and "exceeds 1000 %" in err
+    # the same parameters cross-tested by validate: an error too, not a number
+    params = tmp_path / "p.json"
+    params.write_text('{"system": "friction-only", "friction": "coulomb", "asymmetric": false, '
+                      '"params": {"Fv": 2.0, "Fc": 1e6, "offset": 0.0}}')
+    assert main(["validate", str(csv), "--params", str(params)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"frictionid: error: cross-test of {params} on ") and "exceeds 1000 %" in err
 
 
 # ------------------------------------------------------------------------------------------ warnings

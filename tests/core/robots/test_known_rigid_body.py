@@ -149,7 +149,7 @@ def test_a_fit_with_absurd_links_is_warned_and_not_exported_unless_forced(known,
     r = free.to_dict()
     moment = next(n for n in system.rigid_names if n.startswith("joint_2.m"))
     r["params"][moment] *= 4.0
-    from frictionid_core.identification.orchestration import robot_plausibility
+    from frictionid_core.identification.plausibility import robot_plausibility
 
     block = robot_plausibility(r["params"], system, None)
     assert "joint_2" in block["implausible"] or "joint_3" in block["implausible"]

@@ -24,6 +24,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     from frictionid_core.identification import validate, window_record
+    from frictionid_core.identification.plausibility import check_metrics
     from frictionid_core.jsonfile import read_json
     from frictionid_core.systems import parse_joint_map
 
@@ -36,6 +37,7 @@ def run(args) -> int:
     metrics = validate(sources, params, system=args.system, joint_map=joint_map, joints=split_list(args.joints),
                        window=window_of(args))
     names = [s.source for s in sources]
+    check_metrics(metrics, f"cross-test of {args.params} on {', '.join(names)}: its")
     out = {"source": names[0] if len(names) == 1 else names, "params_file": str(args.params),
            "system": args.system or params.get("system"), "friction": params.get("friction"),
            "asymmetric": params.get("asymmetric"), "drive": params.get("drive"),

@@ -14,32 +14,22 @@ from frictionid_core.drive import drive_from_dict, load_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_rates
 from frictionid_core.identification.model import Sources, as_sources, build_model, model_metrics, preprocessing_record
+from frictionid_core.identification.plausibility import (
+    check_fit,
+    known_rigid_body_report,
+    robot_plausibility,
+    velocity_range,
+)
 from frictionid_core.identification.request import IdentifyRequest
 from frictionid_core.identification.result import IdentifyResult
-from frictionid_core.identification.solve import (
-    fit_model,
-    holdout_comparison,
-    linear_special_case,
-    special_case_parameters,
-    with_data_bounds,
-)
-from frictionid_core.identification.uncertainty import jacobian_std, robust_std, white_covariance
+from frictionid_core.identification.solve import fit_model, holdout_comparison, linear_fallback, with_data_bounds
+from frictionid_core.identification.uncertainty import jacobian_std, robust_std, uncertainty_record, white_covariance
 from frictionid_core.identification_model import IdentificationModel
 from frictionid_core.parallel import single_threaded_libraries
-from frictionid_core.robots.consistency_check import (
-    link_plausibility,
-    plausibility_warnings,
-    projection,
-    standard_from_record,
-)
+from frictionid_core.robots.consistency_check import plausibility_warnings
 from frictionid_core.systems import System, as_system
-from frictionid_core.systems.robot import LINK_TORQUE, KnownRigidBody, known_rigid_body
+from frictionid_core.systems.robot import LINK_TORQUE, known_rigid_body
 from frictionid_core.timeseries import JointSeries
-
-# A fit whose relative error on its own data exceeds this (10 × predicting nothing) is absurd: an error.
-ABSURD_RELERR_PCT = 1000.0
-# The metrics of a fit that must be finite (the noise floor may not be estimable: NaN).
-FIT_METRICS = ("relerr_pct", "rmse", "cost")
 
 
 def request_system(request: IdentifyRequest) -> System:
@@ -149,117 +139,6 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
         preprocessing=preprocessing_record(model.obs, metrics, sys_.preprocessing, settings), request=request,
         std_robust=std_robust, uncertainty=uncertainty_record(bandwidth, model), velocity_range=velocity_range(model),
         holdout=holdout, plausibility=plausibility)
-
-
-def linear_fallback(model: IdentificationModel, x: np.ndarray) -> tuple[np.ndarray, dict[str, float], float]:
-    """(``model``'s parameters at its linear special case (Coulomb) fitted in closed form, their
-    σ (Fs: Fc's; the dip's shape parameters: NaN, they have no effect), the condition number)."""
-    special, x_special = linear_special_case(model)
-    _, std_special, cond = special.fit_linear()
-    out = special_case_parameters(model, x, special, x_special)
-    std = {}
-    for i, name in enumerate(model.names):
-        base = name.rsplit("/", 1)[-1]
-        if name in std_special:
-            std[name] = std_special[name]
-        elif base.startswith("Fs"):
-            std[name] = std_special.get(name[: len(name) - len(base)] + "Fc" + base[2:], float("nan"))
-        else:
-            std[name] = 0.0 if i in model.fixed_values else float("nan")
-    return out, std, cond
-
-
-def check_fit(model: IdentificationModel, x: np.ndarray, metrics: dict, source: str) -> None:
-    """FrictionIdError (one line, exit 2) for a fit with a non-finite parameter or metric, or a
-    relative error above :data:`ABSURD_RELERR_PCT`: never a silent absurd result."""
-    bad = [n for n, v in zip(model.names, x) if not np.isfinite(v)]
-    bad += [f"metric {k}" for k in FIT_METRICS if not np.isfinite(metrics.get(k, 0.0))]
-    relerr = metrics.get("relerr_pct")
-    if bad:
-        raise FrictionIdError(f"{source}: the fit ended with non-finite {', '.join(bad[:8])}; check the data and "
-                              "the model (--friction coulomb --solver ls is the closed-form reference)")
-    if relerr is not None and relerr > ABSURD_RELERR_PCT:
-        raise FrictionIdError(f"{source}: the fit's relative error {relerr:.4g} % exceeds {ABSURD_RELERR_PCT:g} % "
-                              "(10 × predicting nothing): an absurd result, not returned; check the system, the "
-                              "drive and the effort units")
-
-
-def velocity_range(model: IdentificationModel) -> dict[str, list[float]]:
-    """{friction row (joint or motor): [slowest, fastest] |velocity| of its used rows} (rad/s or m/s)."""
-    obs, nd = model.obs, model.obs.n_samples
-    out = {}
-    for j, row in enumerate(obs.joints):
-        speed = np.abs(obs.velocity[obs.used[j * nd : (j + 1) * nd], j])
-        speed = speed[speed > 0.0]
-        if speed.size:
-            out[row] = [float(speed.min()), float(speed.max())]
-    return out
-
-
-def uncertainty_record(bandwidth: int | None, model: IdentificationModel) -> dict:
-    """The ``uncertainty`` block: how ``std`` and ``std_robust`` were obtained."""
-    rate = model.obs.report.get("analysis_rate_hz")
-    return {"std": "white residuals: std(e)·sqrt(diag((JᵀJ)⁻¹))",
-            "std_robust": "HAC sandwich (Newey–West, Bartlett kernel, bandwidth chosen from the data)",
-            "bandwidth_instants": bandwidth,
-            "bandwidth_s": None if bandwidth is None or not rate else bandwidth / float(rate)}
-
-
-def known_rigid_body_report(held: KnownRigidBody, model: IdentificationModel, x: np.ndarray, std: dict,
-                            std_robust: dict, white: tuple[list[str], np.ndarray],
-                            robust: tuple[list[str], np.ndarray | None]) -> tuple[dict, dict, dict, dict]:
-    """(params, std, std_robust, fixed) of a known-rigid-body fit in the robot system's terms: its
-    base parameters (the links' with the identified rotor inertias in them; σ from the rotor
-    inertias' covariance), each rotor inertia by its own name, then friction and offsets; fixed:
-    the base parameters no rotor inertia enters (at the model's values) and the user's fixed
-    values."""
-    value = dict(zip(model.names, x))
-    rotor = np.array([value[n] for n in held.rotor_names])
-    base = held.base_parameters(rotor)
-    params = dict(zip(held.system.rigid_names, map(float, base)))
-
-    def base_std(sd: dict, names: list[str], cov: np.ndarray | None) -> dict:
-        """σ of each base parameter: 0 where no free rotor inertia enters, NaN where one that does
-        has no σ (held at 0, undetermined), else from their covariance."""
-        out = {}
-        for name, row in zip(held.system.rigid_names, held.rotor_map):
-            enters = [(r, a) for r, a in zip(held.rotor_names, row) if a != 0.0 and sd[r] != 0.0]
-            if not enters:
-                out[name] = 0.0
-            elif cov is None or any(r not in names for r, _ in enters):
-                out[name] = float("nan")
-            else:
-                k = [names.index(r) for r, _ in enters]
-                a = np.array([c for _, c in enters])
-                out[name] = float(np.sqrt(max(a @ cov[np.ix_(k, k)] @ a, 0.0)))
-        return out
-
-    rest = [n for n in model.names if n != LINK_TORQUE and n not in held.rotor_names]
-    ordered = [*held.system.rigid_names, *(n for n in held.rotor_names if n not in params)]
-    params.update((n, float(value[n])) for n in held.rotor_names)
-    params.update((n, float(value[n])) for n in rest)
-    params = {n: params[n] for n in [*ordered, *rest]}
-    stds = []
-    for sd, (names, cov) in ((std, white), (std_robust, robust)):
-        out = base_std(sd, names, cov)
-        out.update((n, float(sd[n])) for n in [*held.rotor_names, *rest])
-        stds.append({n: out[n] for n in params})
-    fixed = {n: float(v) for n, v in zip(held.system.rigid_names, base) if n in held.held()}
-    fixed.update((model.names[i], v) for i, v in model.fixed_values.items() if model.names[i] != LINK_TORQUE)
-    return params, stds[0], stds[1], fixed
-
-
-def robot_plausibility(params: dict[str, float], sys_: System, standard: dict | None) -> dict:
-    """The ``plausibility`` block of a robot fit (``params`` by name): its links (the consistent fit's standard
-    parameters, else those reconstructed from its base parameters: the model's own corrected by
-    the least change, the rotor inertias, which URDFs seldom hold, taking up what they can
-    first) against the robot model's."""
-    info = sys_.robot
-    if standard is not None:
-        return link_plausibility(info, standard_from_record(info, standard), "the consistent fit's")
-    beta = np.array([params[n] for n in sys_.rigid_names])
-    pi, _ = projection(info.model, info.base, beta, rotors_first=True)
-    return link_plausibility(info, pi, "reconstructed from the base parameters")
 
 
 def result_warnings(model: IdentificationModel, x: np.ndarray, std: dict[str, float], notes: list[str],

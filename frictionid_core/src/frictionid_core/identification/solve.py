@@ -1,6 +1,7 @@
 """Solver glue: one fit of an identification model by its request's solver (closed form, an
-optimiser of :mod:`frictionid_core.optim`, or a polish from a previous point), and the problems
-the optimisers see."""
+optimiser of :mod:`frictionid_core.optim`, or a polish from a previous point), the problems the
+optimisers see, the bounds the data ground (:func:`data_bounds`) and a law's linear special case
+(Coulomb): its fit, the comparison on held-back rows and the fallback to it."""
 
 from __future__ import annotations
 
@@ -233,3 +234,21 @@ def holdout_comparison(model: IdentificationModel, x: np.ndarray, solver: Solver
     linear = float(np.linalg.norm(special.residuals(x_lin)[rows]))
     return {"held_back_rows": int(rows.sum()), "law_relerr_pct": 100.0 * law / scale,
             "linear_relerr_pct": 100.0 * linear / scale, "beats_linear": bool(law < linear)}
+
+
+def linear_fallback(model: IdentificationModel, x: np.ndarray) -> tuple[np.ndarray, dict[str, float], float]:
+    """(``model``'s parameters at its linear special case (Coulomb) fitted in closed form, their
+    σ (Fs: Fc's; the dip's shape parameters: NaN, they have no effect), the condition number)."""
+    special, x_special = linear_special_case(model)
+    _, std_special, cond = special.fit_linear()
+    out = special_case_parameters(model, x, special, x_special)
+    std = {}
+    for i, name in enumerate(model.names):
+        base = name.rsplit("/", 1)[-1]
+        if name in std_special:
+            std[name] = std_special[name]
+        elif base.startswith("Fs"):
+            std[name] = std_special.get(name[: len(name) - len(base)] + "Fc" + base[2:], float("nan"))
+        else:
+            std[name] = 0.0 if i in model.fixed_values else float("nan")
+    return out, std, cond

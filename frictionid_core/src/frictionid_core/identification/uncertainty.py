@@ -127,10 +127,24 @@ def robust_std(model: IdentificationModel, x: np.ndarray, held: set[str] = froze
     return std, cov, kept, bandwidth
 
 
-def white_covariance(model: IdentificationModel, x: np.ndarray, names: list[str]) -> np.ndarray:
+def white_covariance(model: IdentificationModel, x: np.ndarray, names: list[str]) -> np.ndarray | None:
     """s²·(JᵀJ)⁻¹ over the free parameters ``names`` (the others held), s² the residual variance
-    as :func:`jacobian_std` takes it."""
+    as :func:`jacobian_std` takes it; None without names or when JᵀJ is singular."""
     J, _ = parameter_jacobian(model, x)
     free = [model.names[i] for i in model.free_index]
     cols = [free.index(n) for n in names]
-    return np.var(model.residuals(x), ddof=1) * np.linalg.inv(J[:, cols].T @ J[:, cols])
+    if not cols:
+        return None
+    try:
+        return np.var(model.residuals(x), ddof=1) * np.linalg.inv(J[:, cols].T @ J[:, cols])
+    except np.linalg.LinAlgError:
+        return None
+
+
+def uncertainty_record(bandwidth: int | None, model: IdentificationModel) -> dict:
+    """The ``uncertainty`` block: how ``std`` and ``std_robust`` were obtained."""
+    rate = model.obs.report.get("analysis_rate_hz")
+    return {"std": "white residuals: std(e)·sqrt(diag((JᵀJ)⁻¹))",
+            "std_robust": "HAC sandwich (Newey–West, Bartlett kernel, bandwidth chosen from the data)",
+            "bandwidth_instants": bandwidth,
+            "bandwidth_s": None if bandwidth is None or not rate else bandwidth / float(rate)}
