@@ -32,7 +32,7 @@ class NameMap:
     """Column order of incoming messages → buffer columns, cached per name list.
 
     :meth:`index` returns None when the message's names are exactly ``joints`` (copy as is),
-    an index array into the message otherwise, or raises KeyError naming missing joints.
+    an index array into the message otherwise, or raises KeyError naming missing or repeated joints.
     """
 
     def __init__(self, joints: list[str]):
@@ -52,12 +52,33 @@ class NameMap:
             missing = [j for j in self.joints if j not in pos]
             if missing:
                 raise KeyError(f"message lacks joint(s) {missing} (it has {list(key)})")
+            problem = repeated_names(key)
+            if problem:
+                raise KeyError(problem)
             idx = None if list(key) == self.joints else np.array([pos[j] for j in self.joints], dtype=np.intp)
             if len(self._cache) > 64:  # pathological publishers: keep the cache bounded
                 self._cache.clear()
             self._cache[key] = idx
         self._last_names, self._last_index = list(names), idx
         return idx
+
+
+def repeated_names(names) -> str:
+    """Why a message naming a joint more than once is refused; "" when every name is unique."""
+    if len(set(names)) == len(names):
+        return ""
+    repeated = [n for n in dict.fromkeys(names) if list(names).count(n) > 1]
+    return f"message names joint(s) {repeated} more than once (it has {list(names)})"
+
+
+def long_fields(msg, n_names: int, fields=("position", "velocity", "effort")) -> str:
+    """Why a message whose ``fields`` hold more values than its ``n_names`` names is refused; ""
+    when none does."""
+    for field in fields:
+        size = len(getattr(msg, field))
+        if size > n_names:
+            return f"field '{field}' has {size} values for {n_names} names"
+    return ""
 
 
 def put(row: np.ndarray, src, idx: np.ndarray | None, n_names: int) -> bool:

@@ -12,7 +12,17 @@ import time
 
 import numpy as np
 
-from frictionid_ros.buffer import NO_EFFORT, NO_POSITION, NO_VELOCITY, JointRing, NameMap, put, stamp_ns
+from frictionid_ros.buffer import (
+    NO_EFFORT,
+    NO_POSITION,
+    NO_VELOCITY,
+    JointRing,
+    NameMap,
+    long_fields,
+    put,
+    repeated_names,
+    stamp_ns,
+)
 from frictionid_ros.feedforward import FeedForward
 
 LATENCY_WINDOW = 4096  # feed-forward latencies kept for the percentiles [samples]
@@ -89,9 +99,11 @@ class Inputs:
         """Buffer a sensor_msgs/JointState received at ``t_rx`` [ns]; True if it set the feed-forward velocity."""
         ring = self.ring
         names = msg.name
+        n = len(names)
         if ring is None:
-            if not names:
-                self.reject(f"'{self._settings().joint_states_topic}': JointState without joint names")
+            problem = "JointState without joint names" if not names else repeated_names(names)
+            if problem:
+                self.reject(f"'{self._settings().joint_states_topic}': {problem}")
                 return False
             self.setup(list(names))
             ring = self.ring
@@ -100,7 +112,10 @@ class Inputs:
         except KeyError as exc:
             self.reject(f"'{self._settings().joint_states_topic}': {exc.args[0]}")
             return False
-        n = len(names)
+        problem = long_fields(msg, n)
+        if problem:
+            self.reject(f"'{self._settings().joint_states_topic}': {problem}")
+            return False
         t_ns = _stamp_ns(msg)
         flags = 0
         with ring.lock:
@@ -144,6 +159,9 @@ class Inputs:
                 idx = self._effort_map.index(msg.name)
             except KeyError as exc:
                 return self.reject(f"'{topic}': {exc.args[0]}")
+            problem = long_fields(msg, len(msg.name), ("effort",))
+            if problem:
+                return self.reject(f"'{topic}': {problem}")
             t_ns, n, src = _stamp_ns(msg), len(msg.name), msg.effort
         else:  # no stamp: paired with the joint states by receipt time (same clock, same path)
             t_ns, idx, src, n = t_rx, None, msg.data, len(ring.joints)
@@ -169,6 +187,10 @@ class Inputs:
             self.reject(f"'{topic}': {exc.args[0]}")
             return False
         n = len(msg.name)
+        problem = long_fields(msg, n, ("position", "velocity"))
+        if problem:
+            self.reject(f"'{topic}': {problem}")
+            return False
         t_ns = _stamp_ns(msg)
         v = self.v
         if not put(v, msg.velocity, idx, n):  # no desired velocity: differentiate the desired position

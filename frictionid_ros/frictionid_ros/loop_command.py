@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import random
 import signal
 import subprocess
 import sys
@@ -25,6 +24,7 @@ from pathlib import Path
 
 from frictionid_core import FrictionIdError, write_json
 from frictionid_ros.realtime import AUTO_PRIORITY, realtime_priority
+from frictionid_ros.ros_domain import reserve_domain
 
 DESCRIPTION = """\
 Run a simulated arm (MuJoCo, hidden Stribeck friction), a PD + rigid-body controller and the
@@ -259,7 +259,8 @@ def _wait(seconds: float, procs: Processes) -> None:
 
 def offer_bad_parameters(client: Client, results_file: Path) -> bool:
     """Offer the active set with every Coulomb level negated and tripled to the gate (~/load);
-    True if the node refused it and none of its levels became active."""
+    True if the node refused it and did not activate it (the online re-identification may replace
+    the active set meanwhile: that is no sign of the offer)."""
     from frictionid_interfaces.srv import ParametersFile
 
     data = json.loads(results_file.read_text())
@@ -269,11 +270,9 @@ def offer_bad_parameters(client: Client, results_file: Path) -> bool:
     bad["params"] = {k: -3.0 * v if k.rsplit("/", 1)[-1].startswith("Fc") else v for k, v in bad["params"].items()}
     write_json(results_file.parent / "bad.json", bad)
     res = client.call(ParametersFile, "/frictionid/load", ParametersFile.Request(path="bad.json"))
-    # online re-identification may activate a new set meanwhile: what must hold is that no Coulomb level
-    # of the offered set (all negative) became active
-    after = json.loads(results_file.read_text())
-    active_fc = [v for p in after["per_joint"].values() for k, v in p["params"].items() if k.startswith("Fc")]
-    return (not res.success) and "safety gate" in res.message and min(active_fc) >= 0.0
+    params = lambda results: {joint: p["params"] for joint, p in results["per_joint"].items()}
+    active = params(json.loads(results_file.read_text()))
+    return (not res.success) and "safety gate" in res.message and active != params(bad)
 
 
 def run(args) -> tuple[dict, dict, dict]:
@@ -286,7 +285,8 @@ def run(args) -> tuple[dict, dict, dict]:
     robot = load_robot(args.robot)
     work = Path(tempfile.mkdtemp(prefix="frictionid-loop-"))
     (work / "results").mkdir()
-    domain = random.randint(1, 200)
+    lease = reserve_domain()  # held until the processes are stopped
+    domain = lease.id
     record_file = work / "record.npz"
     procs = Processes(work, domain, args.realtime)
     client = None
@@ -338,6 +338,7 @@ def run(args) -> tuple[dict, dict, dict]:
         if client is not None:
             client.close()
         procs.stop()
+        lease.release()
     if not record_file.exists():
         raise FrictionIdError(f"the controller wrote no record (see {work}/controller.err)")
     with np.load(record_file) as z:

@@ -18,6 +18,7 @@ import pytest
 from frictionid_core import parallel
 from frictionid_core.parallel import choose_threads, fixed_threads, run_chunks, split, threads_for
 from support.data import EMPS_ESTIMATION
+from support.waiting import wait_until
 
 
 @pytest.mark.parametrize("n_items, min_items, cpus, busy, expected", [
@@ -56,8 +57,7 @@ def test_competing_processes_take_the_second_thread_away():
     n = int(parallel.usable_cpus())
     spinners = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(n)]
     try:
-        time.sleep(0.3)  # started and runnable
-        assert parallel.busy_cpus() >= n
+        wait_until(lambda: parallel.busy_cpus() >= n, f"{n} runnable competitors")  # started
         assert threads_for(10**6, 1) == 1
     finally:
         for p in spinners:
@@ -80,10 +80,8 @@ def test_this_process_own_runnable_threads_are_counted_as_its_own():
     thread = threading.Thread(target=spin)
     thread.start()
     try:
-        deadline, seen = time.monotonic() + 2.0, 0
-        while seen < 2 and time.monotonic() < deadline:
-            seen = parallel._own_running()
-        assert seen >= 2  # the caller and the spinning thread
+        # the caller and the spinning thread (while it hashes: between two hashes it waits for the GIL)
+        wait_until(lambda: parallel._own_running() >= 2, "two runnable threads of this process", period=0.0)
     finally:
         stop.set()
         thread.join()

@@ -31,6 +31,8 @@ with warnings.catch_warnings():
             "run `make setup` (tools/build_interfaces.sh <venv>)"
         ) from exc
 
+from support.ros_harness import DOMAIN
+
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning:lark")
 
 
@@ -140,7 +142,8 @@ def test_field_types_are_enforced_when_checking():
         Identify.Request(check_fields=True, windows_seconds=5.0)  # typo in a field name
 
 
-def _sample_result(stamp=Time(sec=1700000000, nanosec=5)):
+def _sample_result():
+    stamp = Time(sec=1700000000, nanosec=5)
     jf = JointFriction(
         joint_name="joint1",
         system_model="emps",
@@ -184,8 +187,8 @@ def test_serialization_round_trip_keeps_nan():
 @pytest.mark.ros
 def test_identify_service_round_trip():
     ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    ns = "/fid_test_" + uuid.uuid4().hex[:8]  # isolate from concurrent tests/processes
+    rclpy.init(context=ctx, domain_id=DOMAIN)
+    ns = "/fid_test_" + uuid.uuid4().hex[:8]  # isolate from other processes on the domain
     executor = MultiThreadedExecutor(context=ctx)
     seen = []
 
@@ -213,12 +216,12 @@ def test_identify_service_round_trip():
         thread.start()
 
         cli = client_node.create_client(Identify, ns + "/server/identify")
-        assert cli.wait_for_service(timeout_sec=10.0), "Identify service not discovered"
+        assert cli.wait_for_service(timeout_sec=60.0), "Identify service not discovered"
         req = Identify.Request(
             joints=["joint_a"], friction_model="tustin", asymmetric=True, solver="de",
             budget=100, population=50, seed=42, window_seconds=5.0, dry_run=True,
         )
-        res = cli.call(req, timeout_sec=10.0)
+        res = cli.call(req, timeout_sec=60.0)
         assert res is not None, "Identify call timed out"
         assert res.success and res.message == "de/tustin seed=42"
         j = res.result.joints[0]
@@ -228,8 +231,8 @@ def test_identify_service_round_trip():
         assert seen[0].seed == 42 and seen[0].dry_run and seen[0].window_seconds == 5.0
 
         save = client_node.create_client(ParametersFile, ns + "/server/save")
-        assert save.wait_for_service(timeout_sec=10.0)
-        sres = save.call(ParametersFile.Request(path=""), timeout_sec=10.0)
+        assert save.wait_for_service(timeout_sec=60.0)
+        sres = save.call(ParametersFile.Request(path=""), timeout_sec=60.0)
         assert sres is not None and sres.success and sres.path == "/abs/default.json"
     finally:
         executor.shutdown(timeout_sec=5.0)

@@ -2,7 +2,8 @@
 topic with a reference velocity and a thread worker; the full TX40 replayed from its bag.
 
 A module of their own: each starts its own node, and none shares the CPU with the module-scoped
-node of tests/test_ros_node.py (a replay must arrive whole); the publishers are processes of their own, as a user runs them.
+node of tests/ros/test_node.py (a replay must arrive whole); the publishers are processes of their own, as a user
+runs them.
 """
 
 from __future__ import annotations
@@ -11,7 +12,6 @@ import signal
 import subprocess
 import sys
 import threading
-import time
 import warnings
 from pathlib import Path
 
@@ -20,6 +20,7 @@ import pytest
 
 from support import publish_unstamped_effort
 from support.ros_harness import DOMAIN, NS, RELIABLE, ROOT, NodeProcess, node_env
+from support.waiting import wait_until
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
@@ -80,18 +81,18 @@ def test_effort_topic_reference_velocity_and_thread_worker(ros, workdir):
     n.create_subscription(Float64MultiArray, f"{ns}/frictionid/friction_torque", got.append, RELIABLE)
     try:
         cli = n.create_client(Identify, f"{ns}/frictionid/identify")
-        deadline = time.monotonic() + 30
-        while not cli.wait_for_service(timeout_sec=0.2):
-            assert proc.alive() and time.monotonic() < deadline, proc.stderr()
+        wait_until(lambda: cli.wait_for_service(timeout_sec=0.2), "the node's ~/identify", 120, proc=proc)
         fv, fc = publish_unstamped_effort.FV, publish_unstamped_effort.FC  # joints a, b
         pub = subprocess.run([sys.executable, str(Path(publish_unstamped_effort.__file__)), ns], env=node_env(DOMAIN),
-                             capture_output=True, text=True, timeout=60)
+                             capture_output=True, text=True, timeout=300)
         assert pub.returncode == 0, pub.stderr
-        time.sleep(0.5)
+        # everything acknowledged by the node's readers: wait until its input thread has taken it in
+        for key in ("received", "effort_received"):
+            ros.wait_received(publish_unstamped_effort.N, status="opt/frictionid: joint buffer", key=key)
         done = threading.Event()
         fut = cli.call_async(Identify.Request())
         fut.add_done_callback(lambda _: done.set())
-        assert done.wait(60)
+        assert done.wait(120)
         res = fut.result()
         assert res.success, res.message
         joints = {j.joint_name: dict(zip(j.param_names, j.param_values)) for j in res.result.joints}
@@ -106,14 +107,17 @@ def test_effort_topic_reference_velocity_and_thread_worker(ros, workdir):
             assert 0.0 < joints[name]["Fc"] < 1.5 * fc[i], (name, joints)
         # feed-forward: desired velocities of the reference topic, published by the 50 Hz timer
         v_ref = np.array([0.1, -0.2])
-        ref.publish(JointState(name=["a", "b"], position=[0.0, 0.0], velocity=v_ref.tolist()))
-        deadline = time.monotonic() + 5
         want = [get_model("coulomb").torque([joints[j]["Fv"], joints[j]["Fc"]], [v_ref[i]])[0]
                 for i, j in enumerate(["a", "b"])]
-        while not (got and np.allclose(got[-1].data, want, rtol=1e-12, atol=0)):
-            assert time.monotonic() < deadline, (got[-1].data if got else None, want)
-            time.sleep(0.1)
+
+        def fed_forward() -> bool:  # the reference again each time: the node may not have matched it yet
             ref.publish(JointState(name=["a", "b"], position=[0.0, 0.0], velocity=v_ref.tolist()))
+            return bool(got) and np.allclose(got[-1].data, want, rtol=1e-12, atol=0)
+
+        try:
+            wait_until(fed_forward, "feed-forward of the reference velocity", period=0.1, proc=proc)
+        except AssertionError as exc:
+            raise AssertionError(f"{exc}: last {got[-1].data if got else None}, expected {want}") from None
         assert proc.stop(signal.SIGTERM) == 0 and "Traceback" not in proc.stderr(), proc.stderr()
     finally:
         if proc.alive():
@@ -142,17 +146,26 @@ def test_full_tx40_robot_from_a_replayed_bag(ros, workdir):
     proc = NodeProcess(workdir, ["--ros-args", "--params-file", str(params), "-r", f"__ns:={ns}"], "robot")
     try:
         cli = ros.node.create_client(Identify, f"{ns}/frictionid/identify")
-        deadline = time.monotonic() + 60
-        while not cli.wait_for_service(timeout_sec=0.2):
-            assert proc.alive() and time.monotonic() < deadline, proc.stderr()
+        wait_until(lambda: cli.wait_for_service(timeout_sec=0.2), "the node's ~/identify", 120, proc=proc)
         # replayed as a user does, from a process of its own, in real time (1000 msg/s)
         pub = subprocess.run([sys.executable, "-m", "frictionid_ros.replay", str(bag), "--rate", "1",
-                              "--publish-topic", f"{ns}/joint_states", "--depth", "2000"],
-                             env=node_env(DOMAIN), capture_output=True, text=True, timeout=120)
+                              "--publish-topic", f"{ns}/joint_states", "--depth", "2000", "--wait", "60"],
+                             env=node_env(DOMAIN), capture_output=True, text=True, timeout=300)
         assert pub.returncode == 0 and "warning" not in pub.stderr, pub.stderr
         stats = {"sent": len(replay.load_stream(bag))}
         assert f"published {stats['sent']} messages" in pub.stdout, pub.stdout
-        time.sleep(1.0)
+        # taken in by the node's input thread: every message, or at least 99 % once no more come
+        # (two /diagnostics in a row agree, the replay having ended)
+        counts = [-1]
+
+        def taken_in() -> bool:
+            counts.append(ros.received(status="robot/frictionid: joint buffer"))
+            return counts[-1] >= stats["sent"] or counts[-1] == counts[-2] >= 0.99 * stats["sent"]
+
+        try:
+            wait_until(taken_in, "joint states taken in by the node", period=0.0, proc=proc)
+        except AssertionError as exc:
+            raise AssertionError(f"{exc}: counts {counts[-3:]} of {stats['sent']} sent") from None
         res = ros.call(Identify, f"{ns}/frictionid/identify", Identify.Request(friction_model="coulomb"), 120)
         assert res.success, res.message
         r = res.result
@@ -178,11 +191,12 @@ def test_full_tx40_robot_from_a_replayed_bag(ros, workdir):
         msg = JointState(name=list(reversed(friction)), position=[0.0] * 6, velocity=v[::-1].tolist(),
                          effort=[0.0] * 6)  # another joint order than the node's
         msg.header.stamp = Time(sec=stamp // NS)
-        deadline = time.monotonic() + 15
-        while not any(m.header.stamp.sec == stamp // NS for m in list(got)):
-            assert time.monotonic() < deadline and proc.alive(), proc.stderr()
+
+        def fed_forward() -> bool:  # the state again each time: the node may not have matched it yet
             js.publish(msg)
-            time.sleep(0.1)
+            return any(m.header.stamp.sec == stamp // NS for m in list(got))
+
+        wait_until(fed_forward, "feed-forward of the TX40 joint state", period=0.1, proc=proc)
         state = next(m for m in list(got) if m.header.stamp.sec == stamp // NS)
         coulomb = get_model("coulomb")
         want = [coulomb.torque([p["Fv"], p["Fc"]], [v[k]], eps=EPS)[0] for k, p in enumerate(friction.values())]
@@ -199,16 +213,17 @@ def test_full_tx40_robot_from_a_replayed_bag(ros, workdir):
         res = ros.call(Identify, f"{ns}/frictionid/identify", Identify.Request(friction_model="coulomb", dry_run=True),
                        120)
         assert res.success and "; consistency: FEASIBLE (SDP " in res.message, res.message
-        deadline = time.monotonic() + 10
 
         def consistency() -> str:
             values = [{kv.key: kv.value for kv in st.values} for d in list(diags) for st in d.status
                       if st.name.endswith("identification")]
             return values[-1].get("consistency", "") if values else ""
 
-        while not consistency().startswith("FEASIBLE"):
-            assert time.monotonic() < deadline and proc.alive(), (consistency(), proc.stderr())
-            time.sleep(0.2)
+        try:
+            wait_until(lambda: consistency().startswith("FEASIBLE"), "FEASIBLE consistency in /diagnostics",
+                       period=0.2, proc=proc)
+        except AssertionError as exc:
+            raise AssertionError(f"{exc}: last '{consistency()}'") from None
         assert proc.stop(signal.SIGTERM) == 0 and "Traceback" not in proc.stderr(), proc.stderr()
     finally:
         if proc.alive():

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import threading
-import time
 import warnings
 
 import pytest
@@ -17,6 +16,7 @@ from frictionid_ros.service import IdentifyService
 from frictionid_ros.store import ActiveParameters, read_results
 from frictionid_ros.worker import JobControl
 from support.node_parts import FC, FV, HUGE, LOG, feed, make_inputs, node_config, service_with_parameters
+from support.waiting import wait_until
 
 
 def test_identify_service_answers_and_activates(tmp_path):
@@ -54,11 +54,11 @@ def test_cancel_stops_the_identification_and_keeps_the_parameters(tmp_path):
     control, box = JobControl(), {}
     t = threading.Thread(target=lambda: box.setdefault("answer", service.handle(Identify.Request(**HUGE), control)))
     t.start()
-    while control.progress[0] < 2:  # two generations done
-        time.sleep(0.01)
+    wait_until(lambda: control.progress[0] >= 2 or not t.is_alive(), "two generations of the identification")
+    assert t.is_alive(), box
     assert service.running is control and service.handle(Identify.Request()).message.startswith("busy")
     assert service.cancel_running("cancelled by the test")
-    t.join(30)
+    t.join(120)
     answer = box["answer"]
     assert not answer.ok and answer.cancelled and answer.identified is None
     assert answer.message.startswith("cancelled by the test after") and "active parameters unchanged" in answer.message

@@ -1,4 +1,4 @@
-"""Publisher process of tests/test_ros_node_options.py: stamped joint states and an unstamped
+"""Publisher process of tests/ros/test_node_options.py: stamped joint states and an unstamped
 Float64MultiArray effort at 500 Hz, for two joints published in the order ``b, a``.
 
 A process of its own so that nothing else (the test's client executor) runs between the two
@@ -32,6 +32,7 @@ def signals() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def main(ns: str) -> int:
     import rclpy
     from builtin_interfaces.msg import Time
+    from rclpy.duration import Duration
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
@@ -41,12 +42,14 @@ def main(ns: str) -> int:
     node = rclpy.create_node("unstamped_effort_publisher")
     js = node.create_publisher(JointState, f"{ns}/joint_states", reliable)
     eff = node.create_publisher(Float64MultiArray, f"{ns}/effort", reliable)
-    deadline = time.monotonic() + 30
+    deadline = time.monotonic() + 60
     while js.get_subscription_count() == 0 or eff.get_subscription_count() == 0:
         if time.monotonic() > deadline:
-            print("no subscriber to joint_states and effort within 30 s", file=sys.stderr)
+            print("no subscriber to joint_states and effort within 60 s", file=sys.stderr)
             return 1
         time.sleep(0.02)
+    # a head start: the node's readers may accept our samples a moment after this side sees them, and
+    # the effort is paired by receipt time (that every sample arrives, the acknowledgements check)
     time.sleep(0.3)
     t, q, tau = signals()
     m = JointState(name=["b", "a"])  # another order than the node's joints
@@ -60,7 +63,10 @@ def main(ns: str) -> int:
         delay = t0 + (k + 1) / RATE - time.monotonic()
         if delay > 0:
             time.sleep(delay)
-    time.sleep(0.5)  # reliable delivery of the tail before the process goes
+    for pub in (js, eff):  # a reliable writer destroyed before the acknowledgements drops the tail
+        if not pub.wait_for_all_acked(Duration(seconds=60)):
+            print(f"{pub.topic_name}: not everything acknowledged within 60 s", file=sys.stderr)
+            return 1
     node.destroy_node()
     rclpy.shutdown()
     return 0

@@ -1,10 +1,11 @@
 """Shared by the ROS tests: the node as a subprocess and an rclpy client in the test process,
-on a ROS domain of their own (DOMAIN, drawn once per session, discovery on this host only)."""
+on a ROS domain of their own (DOMAIN, reserved for the session: no other test run or
+``frictionid loop`` on this host takes it; discovery on this host only)."""
 
 from __future__ import annotations
 
+import itertools
 import os
-import random
 import signal
 import subprocess
 import sys
@@ -31,12 +32,29 @@ with warnings.catch_warnings():
     from std_msgs.msg import Float64MultiArray
     from std_srvs.srv import Trigger
 
+from frictionid_ros.ros_domain import DomainLease, reserve_domain
+from support.waiting import wait_until
+
 ROOT = Path(__file__).resolve().parents[2]
-DOMAIN = random.randint(1, 200)
 NS = 1_000_000_000
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2000, reliability=ReliabilityPolicy.RELIABLE)
 LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"  # the rclpy contexts of this process too
+_LEASES: dict[int, DomainLease] = {}
+
+
+def private_domain() -> int:
+    """A ROS domain of this test run's own, held until the run ends (and by the nodes started on it,
+    :class:`NodeProcess`, as long as they live: a node left behind keeps its domain from the next run)."""
+    lease = reserve_domain()
+    _LEASES[lease.id] = lease
+    return lease.id
+
+
+DOMAIN = private_domain()
 
 
 def node_env(domain: int) -> dict:
@@ -56,13 +74,14 @@ class NodeProcess:
         self.out = workdir / f"node-{tag}.out"
         self.err = workdir / f"node-{tag}.err"
         with open(self.out, "w") as out, open(self.err, "w") as err:
+            lease = _LEASES.get(domain)
             self.proc = subprocess.Popen([sys.executable, "-m", "frictionid_ros.node", *args], env=node_env(domain),
-                                         stdout=out, stderr=err, cwd=workdir)
+                                         stdout=out, stderr=err, cwd=workdir, pass_fds=(lease.fd,) if lease else ())
 
     def alive(self) -> bool:
         return self.proc.poll() is None
 
-    def stop(self, sig=signal.SIGTERM, timeout: float = 10.0) -> int:
+    def stop(self, sig=signal.SIGTERM, timeout: float = 30.0) -> int:
         if self.alive():
             self.proc.send_signal(sig)
         try:
@@ -70,7 +89,7 @@ class NodeProcess:
         except subprocess.TimeoutExpired:
             self.proc.kill()
             self.proc.wait(5)
-            raise AssertionError(f"node did not stop within {timeout} s after {sig!r}")
+            raise AssertionError(f"node did not stop within {timeout} s after {sig!r}") from None
 
     def stderr(self) -> str:
         return self.err.read_text()
@@ -102,6 +121,7 @@ class Ros:
         self._action = None
         self.lock = threading.Lock()
         self.ff, self.ff_state, self.params, self.diag = [], [], [], {}
+        self._probes = itertools.count()  # assert_alive's probe stamps, one µs apart
         self.node.create_subscription(Float64MultiArray, "/frictionid/friction_torque",
                                       lambda m: self._add(self.ff, m), RELIABLE)
         self.ff_state_at = {}  # header stamp [ns] → index in ff_state
@@ -129,9 +149,12 @@ class Ros:
             self.ff_state.append(m)
 
     def _on_diag(self, arr):
+        """Keep each status with the time the node made it, on this process's monotonic clock (the
+        header stamp is the node's system time): a message that waited in a queue is not fresh."""
+        made = time.monotonic() - max(0.0, time.time() - (arr.header.stamp.sec + arr.header.stamp.nanosec * 1e-9))
         with self.lock:
             for s in arr.status:
-                self.diag[s.name] = ({kv.key: kv.value for kv in s.values}, s, time.monotonic())
+                self.diag[s.name] = ({kv.key: kv.value for kv in s.values}, s, made)
 
     def close(self):
         self._stop.set()
@@ -141,12 +164,12 @@ class Ros:
         self.node.destroy_node()
         rclpy.shutdown(context=self.ctx)
 
-    def call(self, srv_type, name: str, req, timeout: float = 30.0):
+    def call(self, srv_type, name: str, req, timeout: float = 60.0):
         """call_async + wait with a timeout: a test never hangs on a dead node."""
         cli = self._clients.get(name)
         if cli is None:
             cli = self._clients[name] = self.node.create_client(srv_type, name)
-        assert cli.wait_for_service(timeout_sec=20.0), f"service {name} not available"
+        assert cli.wait_for_service(timeout_sec=60.0), f"service {name} not available"
         return self.wait(cli.call_async(req), timeout, name)
 
     @staticmethod
@@ -158,7 +181,7 @@ class Ros:
         return future.result()
 
     def wait_service(self, proc: NodeProcess, name: str = "/frictionid/identify", srv_type=Identify,
-                     timeout: float = 60.0) -> None:
+                     timeout: float = 120.0) -> None:
         """Wait until the node ``proc`` offers service ``name``."""
         cli = self.node.create_client(srv_type, name)
         deadline = time.monotonic() + timeout
@@ -171,14 +194,14 @@ class Ros:
         are appended to ``feedback``."""
         if self._action is None:
             self._action = ActionClient(self.node, IdentifyAction, "/frictionid/identify")
-        assert self._action.wait_for_server(timeout_sec=20.0), "action ~/identify not available"
+        assert self._action.wait_for_server(timeout_sec=60.0), "action ~/identify not available"
         on_feedback = None if feedback is None else (lambda m: self._add(feedback, m.feedback))
         handle = self.wait(self._action.send_goal_async(IdentifyAction.Goal(**fields), feedback_callback=on_feedback),
                            30.0, "send_goal")
         assert handle.accepted
         return handle
 
-    def identify(self, timeout: float = 60.0, **fields):
+    def identify(self, timeout: float = 120.0, **fields):
         return self.call(Identify, "/frictionid/identify", Identify.Request(**fields), timeout)
 
     def reset(self):
@@ -186,29 +209,33 @@ class Ros:
         assert res.success, res.message
 
     def diag_value(self, key: str, status: str = "frictionid: joint buffer", newer_than: float = 0.0,
-                   timeout: float = 10.0) -> str:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
+                   timeout: float = 30.0) -> str:
+        """Value ``key`` of the /diagnostics status ``status`` made after ``newer_than`` [s, monotonic]."""
+        def fresh():
             with self.lock:
                 entry = self.diag.get(status)
-            if entry and entry[2] > newer_than:
-                return entry[0][key]
-            time.sleep(0.02)
-        raise AssertionError(f"no /diagnostics status '{status}' within {timeout} s")
+            return entry if entry and entry[2] > newer_than else None
 
-    def received(self) -> int:
-        """Joint states the node has taken in so far (from a fresh /diagnostics)."""
-        return int(self.diag_value("received", newer_than=time.monotonic()))
+        return wait_until(fresh, f"/diagnostics status '{status}'", timeout)[0][key]
 
-    def wait_received(self, n: int, timeout: float = 15.0) -> int:
-        """Wait until the node's diagnostics report ``n`` joint states received."""
-        deadline = time.monotonic() + timeout
-        got = -1
-        while time.monotonic() < deadline:
-            got = self.received()
-            if got >= n:
-                return got
-        raise AssertionError(f"the node received {got} joint states, expected {n}")
+    def received(self, status: str = "frictionid: joint buffer", key: str = "received") -> int:
+        """Joint states (``key``: or efforts) the node has taken in so far (from a fresh /diagnostics)."""
+        return int(self.diag_value(key, status, newer_than=time.monotonic()))
+
+    def wait_received(self, n: int, timeout: float = 60.0, status: str = "frictionid: joint buffer",
+                      key: str = "received") -> int:
+        """Wait until the node's diagnostics report ``n`` joint states (``key``: or efforts) received."""
+        got = [-1]
+
+        def enough():
+            got[0] = self.received(status, key)
+            return got[0] >= n
+
+        try:
+            wait_until(enough, f"'{key}' = {n} in the node's diagnostics", timeout, period=0.0)
+        except AssertionError as exc:
+            raise AssertionError(f"{exc} (got {got[0]})") from None
+        return got[0]
 
     def publish_states(self, t_ns, position, velocity=None, effort=None, names=("emps",), rate_hz: float = 4000.0,
                        wait: bool = False):
@@ -229,44 +256,59 @@ class Ros:
         if wait:
             self.wait_received(before + len(t_ns))
 
-    def feedforward_for(self, stamp_ns: int, timeout: float = 5.0, resend=None):
-        """The (friction_torque_state, friction_torque) published for the joint state stamped ``stamp_ns``.
-
-        ``resend``: called every 0.25 s until then (a fresh node may not have matched our publisher yet).
-        """
-        deadline = time.monotonic() + timeout
-        last = time.monotonic()
-        while time.monotonic() < deadline:
-            if resend is not None and time.monotonic() - last > 0.25:
-                resend()
-                last = time.monotonic()
+    def feedforward_for(self, stamp_ns: int, timeout: float = 30.0) -> JointState:
+        """The friction_torque_state published for the joint state stamped ``stamp_ns``."""
+        def found():
             with self.lock:
                 i = self.ff_state_at.get(stamp_ns)
-                if i is not None:
-                    # both publishers send one message per input, in the same order
-                    return self.ff_state[i], (self.ff[i] if i < len(self.ff) else None)
-            time.sleep(0.01)
-        raise AssertionError(f"no feed-forward for the joint state stamped {stamp_ns}")
+                return None if i is None else self.ff_state[i]
 
-    def latched_parameters(self, timeout: float = 10.0) -> IdentifiedParameters:
+        return wait_until(found, f"feed-forward for the joint state stamped {stamp_ns}", timeout, period=0.01)
+
+    def torques(self, n: int) -> list[list[float]]:
+        """The last ``n`` friction_torque messages' data, oldest first (each topic keeps its own order)."""
+        with self.lock:
+            return [list(m.data) for m in self.ff[-n:]]
+
+    def probe(self, stamp_ns: int, velocity: float, timeout: float = 30.0) -> JointState:
+        """Publish the joint state of joint ``emps`` at ``velocity`` stamped ``stamp_ns`` and return its
+        feed-forward. While none is answered, the probe is sent again every 0.25 s, one ns later each
+        time (a fresh node may not have matched this publisher yet): the answer waited for is the one
+        of the last probe sent, so that no probe is still on its way into the node's buffer after this."""
+        sent = [stamp_ns]
+        send = lambda: self.publish_states([sent[-1]], [[0.0]], [[velocity]], [[0.0]])
+        send()
+        last = time.monotonic()
+
+        def answered():
+            nonlocal last
+            with self.lock:
+                if sent[-1] in self.ff_state_at:
+                    return self.ff_state[self.ff_state_at[sent[-1]]]
+                any_answered = any(s in self.ff_state_at for s in sent)
+            if not any_answered and time.monotonic() - last > 0.25:  # matched once answered: no loss after it
+                sent.append(sent[-1] + 1)
+                send()
+                last = time.monotonic()
+            return None
+
+        return wait_until(answered, f"feed-forward for the probe stamped {sent[-1]}", timeout, period=0.01)
+
+    def latched_parameters(self, timeout: float = 30.0) -> IdentifiedParameters:
         """A late subscriber of ~/parameters (transient local): the message it receives."""
         got = []
         # kept until the end (destroying a subscription the executor may be serving is racy)
         self.node.create_subscription(IdentifiedParameters, "/frictionid/parameters", got.append, LATCHED)
-        deadline = time.monotonic() + timeout
-        while not got and time.monotonic() < deadline:
-            time.sleep(0.02)
-        assert got, "no ~/parameters for a late subscriber (transient local)"
+        wait_until(lambda: got, "~/parameters for a late subscriber (transient local)", timeout)
         return got[-1]
 
     def assert_alive(self, proc: NodeProcess):
-        """Still running and still publishing: a fresh joint state yields a feed-forward."""
+        """Still running and still publishing: a fresh joint state yields a feed-forward. Stamped
+        5000 s + a few µs (outside the windows the tests name); none is on its way any more when this
+        returns (a ``~/reset`` after it leaves no probe in the buffer)."""
         assert proc.alive(), proc.stderr()
-        stamp = 5_000 * NS + random.randint(0, NS - 1)
-        send = lambda: self.publish_states([stamp], [[0.0]], [[0.05]], [[0.0]])
-        send()
         try:
-            self.feedforward_for(stamp, timeout=15.0, resend=send)
+            self.probe(5_000 * NS + next(self._probes) * 1_000, 0.05)
         except AssertionError as exc:
             with self.lock:
                 seen = (len(self.ff_state), self.ff_state[-1].header.stamp if self.ff_state else None,

@@ -110,9 +110,14 @@ def acceleration_warnings(report: dict, cutoff_hz: float, chosen: bool) -> list[
     return out
 
 
+# Words of the notes that report a repair of the data (each such note is a warning of the result).
+REPAIR_WORDS = ("stamp", "broken row", "spike")
+
+
 def stamp_warnings(notes: list[str]) -> list[str]:
-    """The notes that say stamps were repaired or samples resampled (with their counts)."""
-    return [n for n in notes if "stamp" in n]
+    """The notes that say the data were repaired, with their counts: stamps repaired, samples
+    resampled, the log cut into segments at gaps of its stamps, broken rows skipped, spikes replaced."""
+    return [n for n in notes if any(word in n for word in REPAIR_WORDS)]
 
 
 def direction_problems(obs, names: list[str]) -> tuple[list[str], list[str]]:

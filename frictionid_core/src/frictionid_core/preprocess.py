@@ -59,6 +59,10 @@ SMOOTH_RATE_PER_CUTOFF = 100.0  # smooth columns (robot regressor) computed at �
 _GRID = 20001  # frequency points of the noise integrals
 _FILTER_COLUMNS = 16  # columns per block of the anti-alias filter
 
+class TooFewSamples(InputError):
+    """A signal shorter than a filter (or the trims) needs."""
+
+
 FILTERS = ("butterworth", "none")  # zero-phase Butterworth on position | no position filter
 METRIC_EFFORTS = ("recorded", "filtered")  # metrics against the recorded effort | the decimated filtered one
 
@@ -109,13 +113,14 @@ class Preprocessing:
         speeds = self.min_speed.values() if isinstance(self.min_speed, dict) else [self.min_speed]
         # (name, value, lowest allowed, allowed itself)
         limits = [("cutoff_hz", self.cutoff_hz, 0, False), ("order", self.order, 1, True),
-                  ("decimate", self.decimate, 1, True), ("thin", self.thin, 1, True), ("trim_start_s", self.trim_start_s, 0, True),
-                  ("trim_end_s", self.trim_end_s, 0, True), *(("min_speed", v, 0, True) for v in speeds)]
+                  ("decimate", self.decimate, 1, True), ("thin", self.thin, 1, True),
+                  ("trim_start_s", self.trim_start_s, 0, True), ("trim_end_s", self.trim_end_s, 0, True),
+                  *(("min_speed", v, 0, True) for v in speeds)]
         bad = [f"{name} {value}" for name, value, low, inclusive in limits
                if value is not None and (value < low or (value == low and not inclusive))]
         if bad:
-            raise FrictionIdError(f"pre-processing: invalid {', '.join(bad)} (cut-off > 0, order, decimate and thin ≥ 1, "
-                                  "trims and min speed ≥ 0)")
+            raise FrictionIdError(f"pre-processing: invalid {', '.join(bad)} (cut-off > 0, order, decimate and thin "
+                                  "≥ 1, trims and min speed ≥ 0)")
 
     @property
     def resolved(self) -> bool:
@@ -165,7 +170,7 @@ def resample_uniform(series: JointSeries) -> JointSeries:
     if not off:
         return series
     t = series.t[0] + dt * np.arange(len(series))
-    interp = lambda a: None if a is None else np.column_stack(  # noqa: E731
+    interp = lambda a: None if a is None else np.column_stack(
         [np.interp(t, series.t, a[:, j]) for j in range(a.shape[1])])
     out = JointSeries(t, list(series.joints), interp(series.position), interp(series.effort),
                       interp(series.velocity), series.source,
@@ -192,7 +197,7 @@ def filtfilt(sos: np.ndarray, order: int, x: np.ndarray, what: str) -> np.ndarra
     reference figures depend on."""
     pad = 3 * order
     if x.shape[0] <= pad:
-        raise InputError(f"{x.shape[0]} samples are too few for {what} (needs more than {pad})")
+        raise TooFewSamples(f"{x.shape[0]} samples are too few for {what} (needs more than {pad})")
     return signal.sosfiltfilt(sos, x, axis=0, padlen=pad)
 
 
@@ -289,6 +294,9 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
     req = requested or Preprocessing()
     fs = 1.0 / series.dt
     joints = list(series.joints)
+    if req.cutoff_hz is not None and req.cutoff_hz >= fs / 2:
+        raise InputError(f"{series.source}: cut-off {req.cutoff_hz:g} Hz at or above the Nyquist frequency "
+                         f"{fs / 2:.6g} Hz of data sampled at {fs:.6g} Hz; give a lower one (--cutoff HZ)")
     n0 = noise_density(series.position, fs)
     sigma_q = np.sqrt(n0 * fs / 2)
     moving = np.ptp(series.position, axis=0) > MOVING_FACTOR * sigma_q
@@ -301,6 +309,10 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
                              f"(σ_q {_per_joint(joints, sigma_q)}): the cut-off cannot be chosen from the data; "
                              "give one (--cutoff HZ)")
         cutoff = float(min(CUTOFF_PER_BANDWIDTH * np.nanmax(bandwidth), MAX_CUTOFF_SHARE * fs))
+        if not cutoff > 0:  # a record too short to show its motion's frequencies
+            raise InputError(f"{series.source}: {len(series)} samples ({series.t[-1] - series.t[0]:.4g} s) show no "
+                             "motion bandwidth: the cut-off cannot be chosen from the data; record longer motion or "
+                             "give one (--cutoff HZ)")
         from_data.append("cutoff_hz")
     dec = req.decimate
     if dec is None:
@@ -389,7 +401,7 @@ def prepare(series: JointSeries, settings: Preprocessing, dt: float | None = Non
     start, end = (int(round(s * fs)) for s in (settings.trim_start_s, settings.trim_end_s))
     stop = n - end
     if stop - start < 3:
-        raise InputError(f"{series.source}: {n} samples ({(n - 1) * dt:.4g} s) leave nothing after trimming "
+        raise TooFewSamples(f"{series.source}: {n} samples ({(n - 1) * dt:.4g} s) leave nothing after trimming "
                          f"{settings.trim_start_s:g} s + {settings.trim_end_s:g} s")
     sl = slice(start, stop)
     return Prepared(series.t[sl], q[sl], qd[sl], qdd[sl], series.effort[sl], dt)
@@ -460,7 +472,8 @@ def column_stride(fs: float, settings: Preprocessing) -> int:
     if settings.filter == "none":
         return 1
     n = settings.decimate
-    return max(k for k in range(1, n + 1) if n % k == 0 and (k == 1 or fs / k >= SMOOTH_RATE_PER_CUTOFF * settings.cutoff_hz))
+    return max(k for k in range(1, n + 1)
+               if n % k == 0 and (k == 1 or fs / k >= SMOOTH_RATE_PER_CUTOFF * settings.cutoff_hz))
 
 
 def subsample(prepared: Prepared, stride: int) -> Prepared:
@@ -497,6 +510,10 @@ def preprocess(series: JointSeries, requested: Preprocessing | None = None
     share of the filtered q̈ variance that is differentiated position noise), and the notes of
     what was done to the stamps.
     """
+    order = (requested or Preprocessing()).order
+    if len(series) <= 3 * order:  # before any estimate from the data (a periodogram, a gradient)
+        raise TooFewSamples(f"{len(series)} samples are too few for the order-{order} Butterworth filter (needs more "
+                            f"than {3 * order})")
     uniform = resample_uniform(series)
     notes = uniform.notes[len(series.notes):]
     settings, report = choose_preprocessing(uniform, requested)

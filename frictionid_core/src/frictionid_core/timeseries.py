@@ -10,6 +10,15 @@ import numpy as np
 
 from frictionid_core.errors import InputError
 
+# An interval longer than this many sample periods and SEGMENT_GAP_S (a clock jump, a paused
+# recording) splits a series into segments that are filtered alone (:meth:`JointSeries.segments`).
+# Shorter gaps (messages lost in bursts) are interpolated by the resampling: cutting there costs
+# the filters' trims (5/fc at each side) and, on a stream losing a burst every fraction of a
+# second, most of the data (on the TX40 excitation with 20 bursts of 11–60 ms lost in 6 s: the
+# validation error 1.3 % interpolated, 15–17 % cut).
+SEGMENT_GAP_PERIODS = 10.0
+SEGMENT_GAP_S = 0.2
+
 
 @dataclass
 class JointSeries:
@@ -73,7 +82,7 @@ class JointSeries:
                 f"{self.source}: joint(s) {missing} not present; joints in the data: {self.joints}"
             )
         idx = [self.joints.index(j) for j in joints]
-        pick = lambda a: None if a is None else a[:, idx]  # noqa: E731
+        pick = lambda a: None if a is None else a[:, idx]
         extras = {k: (v[:, idx] if v.ndim == 2 and v.shape[1] == len(self.joints) else v)
                   for k, v in self.extras.items()}
         return JointSeries(self.t, list(joints), pick(self.position), pick(self.effort),
@@ -81,18 +90,32 @@ class JointSeries:
 
     def take(self, index: np.ndarray) -> JointSeries:
         """Samples at ``index`` (integer indices or a boolean mask of length N) as a new series."""
-        pick = lambda a: None if a is None else a[index]  # noqa: E731
+        pick = lambda a: None if a is None else a[index]
         return JointSeries(self.t[index], list(self.joints), self.position[index], self.effort[index],
                            pick(self.velocity), self.source, {k: v[index] for k, v in self.extras.items()},
                            dict(self.meta), list(self.notes))
 
     def slice(self, start: int, stop: int) -> JointSeries:
         """Samples ``start:stop`` (indices) as a new series."""
-        cut = lambda a: None if a is None else a[start:stop]  # noqa: E731
+        cut = lambda a: None if a is None else a[start:stop]
         return JointSeries(self.t[start:stop], list(self.joints), cut(self.position),
                            cut(self.effort), cut(self.velocity), self.source,
                            {k: v[start:stop] for k, v in self.extras.items()}, dict(self.meta),
                            list(self.notes))
+
+    def segment_bounds(self) -> list[tuple[int, int]]:
+        """(start, stop) sample indices of the pieces between the gaps of the stamps: intervals
+        longer than SEGMENT_GAP_PERIODS :func:`sample_period` and SEGMENT_GAP_S; one piece
+        without gaps."""
+        gap = max(SEGMENT_GAP_PERIODS * sample_period(self.t), SEGMENT_GAP_S)
+        cuts = np.flatnonzero(np.diff(self.t) > gap) + 1
+        edges = [0, *cuts.tolist(), len(self)]
+        return list(zip(edges[:-1], edges[1:]))
+
+    def segments(self) -> list[JointSeries]:
+        """The series cut at the gaps of its stamps (see :meth:`segment_bounds`), pieces in time order."""
+        bounds = self.segment_bounds()
+        return [self] if len(bounds) == 1 else [self.slice(a, b) for a, b in bounds]
 
     def window(self, start_s: float | None = None, end_s: float | None = None) -> JointSeries:
         """The samples from ``start_s`` to ``end_s`` (both included), in seconds from the first sample;
@@ -128,6 +151,21 @@ class JointSeries:
             out.notes.append(note)
             warnings.warn(note, stacklevel=2)
         return out
+
+
+def sample_period(t: np.ndarray) -> float:
+    """The typical interval of the stamps ``t`` (s): the mean of the positive intervals once those
+    longer than SEGMENT_GAP_PERIODS of it (gaps) are left out; 0 without a positive interval."""
+    dt = np.diff(np.asarray(t, dtype=float))
+    dt = dt[dt > 0]
+    period = float(dt.mean()) if dt.size else 0.0
+    while dt.size:
+        inside = dt <= SEGMENT_GAP_PERIODS * period
+        if inside.all():
+            break
+        dt = dt[inside]
+        period = float(dt.mean())
+    return period
 
 
 def _as_2d(a, name: str, source: str) -> np.ndarray:

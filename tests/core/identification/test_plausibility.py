@@ -127,7 +127,7 @@ def test_an_absurd_fit_is_an_error_not_a_result(tmp_path, capsys):
                       '"params": {"Fv": 2.0, "Fc": 1e6, "offset": 0.0}}')
     assert main(["validate", str(csv), "--params", str(params)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith(f"frictionid: error: cross-test of {params} on ") and "exceeds 1000 %" in err
+    assert err.startswith(f"frictionid: error: the cross-test of {params} on ") and "exceeds 1000 %" in err
 
 
 # ------------------------------------------------------------------------------------------ warnings

@@ -106,7 +106,7 @@ def test_delimiter_key_overrides_detection(tmp_path):
                                  "position: ['q 1']\neffort: ['tau 1']\n")
     with pytest.raises(InputError) as e:
         load(tmp_path / "log.txt", layout=lay)
-    assert "line 2, column 0 ('t'): '0 1.5 -2' is not a number" in str(e.value)
+    assert "all 3 rows are broken, the first at line 2: 1 cell(s) where the header has 3" in str(e.value)
     (tmp_path / "log.txt").write_text("t\tq 1\ttau 1\n0\t1.5\t-2\n0.5\t2.5\t-3\n1.0\t3.5\t-4\n")
     s = load(tmp_path / "log.txt", layout=lay)
     np.testing.assert_array_equal(s.position[:, 0], [1.5, 2.5, 3.5])
@@ -174,11 +174,11 @@ BODY = "joints: [a, b]\nposition: [p1, p2]\neffort: [e1, e2]\n"
 
 
 def error_of(tmp_path, layout_text, csv_text="time,p1,p2,e1,e2\n0,1,2,3,4\n1,1,2,3,4\n2,1,2,3,4\n",
-             source="log.csv") -> str:
+             source="log.csv", strict_rows: bool = False) -> str:
     (tmp_path / source).write_text(csv_text)
     lay = write_layout(tmp_path, layout_text)
     with pytest.raises(InputError) as e:
-        load(tmp_path / source, layout=lay)
+        load(tmp_path / source, layout=lay, strict_rows=strict_rows)
     msg = str(e.value)
     assert "\n" not in msg
     return msg
@@ -190,11 +190,13 @@ def error_of(tmp_path, layout_text, csv_text="time,p1,p2,e1,e2\n0,1,2,3,4\n1,1,2
     (HEAD + "rate_hz: 100\njoints: [a, b]\nposition: [p1]\neffort: [e1, e2]\n",
      ["key 'position' has 1 columns for 2 joints"]),
     (HEAD + "rate_hz: 100\njoints: [a, b]\nposition: [p1, q2]\neffort: [e1, e2]\n",
-     ["key 'position': column(s) ['q2'] not in the header of", "log.csv", "available: ['time', 'p1', 'p2', 'e1', 'e2']"]),
+     ["key 'position': column(s) ['q2'] not in the header of", "log.csv",
+      "available: ['time', 'p1', 'p2', 'e1', 'e2']"]),
     (HEAD + "rate_hz: 100\njoints: [a, b]\nposition: [p1, p2]\neffort: [3, 5]\n",
      ["key 'effort': column index(es) [5] out of range", "has 5 columns (indices 0…4)"]),
     (HEAD + "rate_hz: 100\nvelocity_cols: [1, 2]\n" + BODY, ["unknown key(s) ['velocity_cols']", "known keys: header"]),
-    (HEAD + "time: {column: time, unit: ms}\n" + BODY, ["key 'time': unknown key(s) ['unit']", "known keys: column, scale"]),
+    (HEAD + "time: {column: time, unit: ms}\n" + BODY,
+     ["key 'time': unknown key(s) ['unit']", "known keys: column, scale"]),
     (HEAD + "time: time\n" + BODY, ["key 'time' must be a mapping"]),
     (HEAD + "time: {column: time, scale: 0}\n" + BODY, ["key 'time: scale' must be a number > 0"]),
     (HEAD + "rate_hz: -5\n" + BODY, ["key 'rate_hz' must be a number > 0"]),
@@ -219,13 +221,18 @@ def test_effort_file_rows_must_match(tmp_path):
     assert "eff.csv: 2 rows but" in msg and "log.csv has 3" in msg and "'effort_file'" in msg
 
 
-def test_non_numeric_cell_names_file_line_and_column(tmp_path):
+def test_strict_rows_names_file_line_and_column_of_a_broken_row(tmp_path):
     msg = error_of(tmp_path, HEAD + "rate_hz: 100\n" + BODY,
-                   csv_text="time;p1;p2;e1;e2\n0;1;2;3;4\n1;1;2;3;4\n2;1;2,5;3;4\n")
-    assert msg.startswith(str(tmp_path / "log.csv")) and "line 4, column 2 ('p2'): '2,5' is not a number" in msg
+                   csv_text="time;p1;p2;e1;e2\n0;1;2;3;4\n1;1;2;3;4\n2;1;2,5;3;4\n", strict_rows=True)
+    assert msg.startswith(str(tmp_path / "log.csv"))
+    assert "broken row at line 4: column 2 ('p2'): '2,5' is not a number" in msg and "--strict-rows" in msg
     msg = error_of(tmp_path, "rate_hz: 100\njoints: [a]\nposition: [0]\neffort: [1]\n",
-                   csv_text="1 2\n3\n")
-    assert "line 2 has 1 columns, line 1 has 2" in msg
+                   csv_text="1 2\n3\n4 5\n", strict_rows=True)
+    assert "broken row at line 2: 1 cell(s) where the rows have 2" in msg
+    # without strict_rows the row is skipped: two rows are too few, and the error says why
+    with pytest.warns(UserWarning, match="1 broken row"):
+        msg = error_of(tmp_path, "rate_hz: 100\njoints: [a]\nposition: [0]\neffort: [1]\n", csv_text="1 2\n3\n4 5\n")
+    assert "only 2 samples" in msg and "1 broken row(s) skipped" in msg and "line 2" in msg
 
 
 def test_empty_file_and_a_binary_source(tmp_path):

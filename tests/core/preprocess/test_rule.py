@@ -1,7 +1,7 @@
 """Pre-processing chosen from the data, the ``joint`` system, honest metrics and warnings.
 
 Synthetic logs only: two independent joints τ = J·q̈ + Fv·q̇ + Fc·sign(q̇) + offset (+ noise), at
-94 Hz, 500 Hz and 5 kHz, and the slow single-joint TX40 recording of issue 14 (Pinocchio).
+94 Hz, 500 Hz and 5 kHz, and a slow single-joint TX40 recording (Pinocchio).
 """
 
 from __future__ import annotations
@@ -146,7 +146,7 @@ def test_relerr_does_not_move_with_the_decimation():
 def slow_joint2():
     """TX40 joint 2 alone at 500 Hz, Fourier motion of fundamental 0.08 Hz and 5 harmonics with
     a 0.05 rad peak around the upright arm (62.5 s), published noise (σ_q 1e-6 rad, σ_τ 0.05 N·m),
-    Coulomb friction: issue 14's slow case (the former 50 Hz default gives ZZ 40 % low)."""
+    Coulomb friction: the slow single-joint case (the former 50 Hz default gives ZZ 40 % low)."""
     from frictionid_core.robots.excitation import FourierTrajectory
     from frictionid_core.robots.synth import synthesize
     from frictionid_core.robots.tx40 import JOINTS, build_tx40
@@ -296,3 +296,14 @@ def test_results_with_trims_in_samples_still_validate(emps_estimation, emps_vali
     legacy = dict(r, preprocessing={"cutoff_hz": 100.0, "order": 4, "decimate": 10, "trim_start": 49, "trim_end": 0})
     assert validate(emps_validation, legacy)["relerr_pct"] == pytest.approx(5.98245, abs=5e-6)
     assert validate(emps_validation, r)["relerr_pct"] == pytest.approx(5.98245, abs=5e-6)
+
+
+@pytest.mark.parametrize("n", [3, 5])
+def test_a_record_too_short_to_show_its_bandwidth_is_an_error(n):
+    """A few samples of smooth motion (the node's window with min_samples 0): the periodogram puts
+    the motion's power at 0 Hz, so a cut-off of 10 × 0 Hz; one clear error instead of a division by 0."""
+    log = joint_log(1000.0, duration=n / 1000.0)
+    assert len(log) == n
+    with pytest.raises(InputError, match=rf"log1000: {n} samples \(0.00{n - 1} s\) show no motion bandwidth: the "
+                                         r"cut-off cannot be chosen from the data"):
+        choose_preprocessing(log)

@@ -17,6 +17,7 @@ from frictionid_core.errors import FrictionIdError
 
 EXIT_INPUT = 2  # bad input: one line on stderr
 EXIT_INTERNAL = 1  # a bug
+EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), as a shell reports it
 
 # ------------------------------------------------------------------- arguments
 def add_json_argument(p: argparse.ArgumentParser, what: str = "the result") -> None:
@@ -35,6 +36,9 @@ def add_source_arguments(p: argparse.ArgumentParser) -> None:
                    help="YAML layout of a CSV not in frictionid's own format (columns of time, positions, efforts…)")
     p.add_argument("--strict-time", action="store_true",
                    help="fail on duplicated or out-of-order time stamps instead of repairing them")
+    p.add_argument("--strict-rows", action="store_true",
+                   help="fail on a broken row of a CSV (malformed, not numeric, truncated) instead of skipping "
+                        "broken rows with a warning")
     p.add_argument("--start", type=float, metavar="S", help="use the data from S seconds after the first sample")
     p.add_argument("--end", type=float, metavar="S", help="use the data up to S seconds after the first sample")
     add_json_argument(p)
@@ -65,7 +69,8 @@ def load_sources(args) -> list:
     from frictionid_core.io import load
 
     return [load(source, topic=args.topic, joints=split_list(args.joints) or None, effort_topic=args.effort_topic,
-                 strict_time=args.strict_time, layout=args.layout) for source in args.source]
+                 strict_time=args.strict_time, layout=args.layout, strict_rows=args.strict_rows)
+            for source in args.source]
 
 
 def window_of(args) -> tuple[float | None, float | None] | None:
@@ -172,7 +177,8 @@ def preprocessing_line(p: dict) -> str:
     thinned = (f" ({p.get('fit_rows')} rows: at the rate each dip crossing needs, 1 in {thin} elsewhere)"
                if thin > 1 else "")
     parts += [f"decimation {p.get('decimate')}{rate}{mark('decimate')}{thinned}",
-              f"trims {fmt(p.get('trim_start_s'), 3)} + {fmt(p.get('trim_end_s'), 3)} s{mark('trim_start_s', 'trim_end_s')}",
+              f"trims {fmt(p.get('trim_start_s'), 3)} + {fmt(p.get('trim_end_s'), 3)} s"
+              f"{mark('trim_start_s', 'trim_end_s')}",
               f"min speed {speed}{mark('min_speed')}", f"velocity from {p.get('velocity', 'position')}"]
     if p.get("overridden"):
         parts.append(f"set: {', '.join(p['overridden'])}")
@@ -220,11 +226,90 @@ def save_json(path: Path | None, data) -> None:
         write_json(path, data)
 
 
+# ------------------------------------------------------------ inputs and outputs
+def source_inputs(args) -> dict[str, object]:
+    """The files the source options of :func:`add_source_arguments` read (label → path(s)): the
+    sources, ``--layout`` and the efforts file its layout names, and ``--drive``."""
+    inputs = {"SOURCE": [Path(s) for s in args.source], "--layout": args.layout,
+              "--drive": drive_file(getattr(args, "drive", None))}
+    if args.layout is not None and Path(args.layout).is_file():
+        from frictionid_core.io.layout import load_layout
+
+        effort_file = load_layout(args.layout).effort_file
+        if effort_file:
+            inputs["--layout's effort_file"] = [Path(s).parent / effort_file for s in args.source]
+    return inputs
+
+
+def drive_file(drive: str | None) -> Path | None:
+    """The file of ``--drive FILE|NAME`` (None: a bundled drive's name, or no drive)."""
+    return None if drive is None or not Path(drive).expanduser().is_file() else Path(drive)
+
+
+def system_file(system: str | None) -> Path | None:
+    """The URDF file of a ``urdf:PATH`` system name (also the packed ``urdf:PATH?map=…`` of older
+    results), else None."""
+    if not isinstance(system, str) or not system.startswith("urdf:"):
+        return None
+    return Path(system[len("urdf:"):].partition("?map=")[0])
+
+
+def refuse_overwriting(outputs: dict[str, Path | None], inputs: dict[str, object]) -> None:
+    """FrictionIdError naming both paths when an output is one of the ``inputs`` (label → path, list
+    of paths or None; a directory stands for itself and its files, such as a rosbag2 directory's
+    storage files) or two outputs are one file: a command never overwrites what it reads."""
+    read = []
+    for label, value in inputs.items():
+        for path in value if isinstance(value, (list, tuple)) else [value]:
+            if path is None:
+                continue
+            path = Path(path).expanduser()
+            read.append((label, path, path))
+            if path.is_dir():
+                read += [(label, path, f) for f in sorted(path.iterdir()) if f.is_file()]
+    written = []
+    for label, out in outputs.items():
+        if out is None:
+            continue
+        out = Path(out).expanduser()
+        for in_label, path, file in read:
+            if same_file(out, file):
+                inner = "" if file == path else f" (its file {file.name})"
+                raise FrictionIdError(f"{label} {out} is the input {in_label} {path}{inner}: refusing to overwrite "
+                                      "what this command reads; choose another output file")
+        for other_label, other in written:
+            if same_file(out, other):
+                raise FrictionIdError(f"{label} {out} is also {other_label}: give each output its own file")
+        written.append((label, out))
+
+
+def same_file(a: Path, b: Path) -> bool:
+    """True when the paths ``a`` and ``b`` name one file (after symbolic links; hard links too)."""
+    a, b = Path(a).expanduser(), Path(b).expanduser()
+    if a.absolute() == b.absolute() or a.resolve() == b.resolve():
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
+def output_folder(label: str, folder: Path, names: tuple[str, ...]) -> dict[str, Path]:
+    """The files a command writes into the output directory ``folder`` (option ``label``), each
+    labelled for :func:`refuse_overwriting`; FrictionIdError when ``folder`` exists and is not a
+    directory."""
+    folder = Path(folder).expanduser()
+    if folder.exists() and not folder.is_dir():
+        raise FrictionIdError(f"{label} {folder} is a file; expected a directory to write {', '.join(names)} into")
+    return {f"{label} ({name})": folder / name for name in names}
+
+
 # ---------------------------------------------------------------------- errors
 def run_handler(handler, args: argparse.Namespace) -> int:
     """``handler(args)``'s exit code; a FrictionIdError becomes one line on stderr and exit code 2,
     any other exception one line and exit code 1 (the traceback with FRICTIONID_DEBUG=1).
-    Library warnings are printed as ``frictionid: warning: …`` lines, each message once."""
+    Library warnings are printed as ``frictionid: warning: …`` lines, each message once, unless
+    the command fails on bad input: its one line then says what went wrong."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UserWarning)
         try:
@@ -235,12 +320,22 @@ def run_handler(handler, args: argparse.Namespace) -> int:
         except BrokenPipeError:  # output piped into head & co.
             sys.stderr.close()
             code = 0
+        except KeyboardInterrupt:  # Ctrl-C: one line and exit code 130, no traceback
+            code = interrupted()
         except Exception as exc:  # a bug, not bad input: one line unless debugging
             if os.environ.get("FRICTIONID_DEBUG"):
                 raise
             code = EXIT_INTERNAL
             print(f"frictionid: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} "
                   "(set FRICTIONID_DEBUG=1 for the traceback)", file=sys.stderr)
-        for message in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, UserWarning)):
-            print(f"frictionid: warning: {message}", file=sys.stderr)
+        if code != EXIT_INPUT:
+            for message in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, UserWarning)):
+                print(f"frictionid: warning: {message}", file=sys.stderr)
     return code
+
+
+def interrupted() -> int:
+    """Ctrl-C: one line on stderr, :data:`EXIT_INTERRUPTED` (a file being written keeps its old
+    content: the atomic writer removes its temporary file)."""
+    print("frictionid: interrupted", file=sys.stderr)
+    return EXIT_INTERRUPTED

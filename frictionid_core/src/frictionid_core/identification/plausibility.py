@@ -9,37 +9,40 @@ import numpy as np
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.metrics import check_finite
 from frictionid_core.robots.consistency_check import link_plausibility, projection, standard_from_record
 from frictionid_core.systems import System
 from frictionid_core.systems.robot import LINK_TORQUE, KnownRigidBody
 
 # A fit whose relative error on its own data exceeds this (10 × predicting nothing) is absurd: an error.
 ABSURD_RELERR_PCT = 1000.0
-# The metrics of a fit that must be finite (the noise floor may not be estimable: NaN).
-FIT_METRICS = ("relerr_pct", "rmse", "cost")
 
 
 def check_fit(model: IdentificationModel, x: np.ndarray, metrics: dict, source: str) -> None:
-    """FrictionIdError (one line, exit 2) for a fit with a non-finite parameter, or metrics that
-    :func:`check_metrics` refuses: never a silent absurd result."""
+    """FrictionIdError (one line, exit 2) for a fit with a non-finite parameter or an absurd
+    relative error (:func:`check_absurd`): never a silent absurd result. Non-finite metrics are
+    the caller's (:func:`frictionid_core.metrics.check_finite`)."""
     bad = [n for n, v in zip(model.names, x) if not np.isfinite(v)]
     if bad:
         raise FrictionIdError(f"{source}: the fit ended with non-finite {', '.join(bad[:8])}; check the data and "
                               "the model (--friction coulomb --solver ls is the closed-form reference)")
-    check_metrics(metrics, f"{source}: the fit's")
+    check_absurd(metrics, f"{source}: the fit")
+
+
+def check_absurd(metrics: dict, what: str) -> None:
+    """FrictionIdError naming ``what`` for a relative error above :data:`ABSURD_RELERR_PCT`."""
+    relerr = metrics.get("relerr_pct")
+    if relerr is not None and relerr > ABSURD_RELERR_PCT:
+        raise FrictionIdError(f"{what} gives a relative error of {relerr:.4g} %, which exceeds {ABSURD_RELERR_PCT:g} % "
+                              "(10 × predicting nothing): an absurd result; check the system, the drive and the effort "
+                              "units")
 
 
 def check_metrics(metrics: dict, what: str) -> None:
-    """FrictionIdError naming ``what`` (``"r.json on log: the cross-test's"``) for a non-finite
-    metric of :data:`FIT_METRICS` or a relative error above :data:`ABSURD_RELERR_PCT`."""
-    bad = [k for k in FIT_METRICS if k in metrics and not np.isfinite(metrics[k])]
-    if bad:
-        raise FrictionIdError(f"{what} {', '.join(bad)} {'is' if len(bad) == 1 else 'are'} not finite; check the "
-                              "data and the model (--friction coulomb --solver ls is the closed-form reference)")
-    relerr = metrics.get("relerr_pct")
-    if relerr is not None and relerr > ABSURD_RELERR_PCT:
-        raise FrictionIdError(f"{what} relative error {relerr:.4g} % exceeds {ABSURD_RELERR_PCT:g} % (10 × predicting "
-                              "nothing): an absurd result; check the system, the drive and the effort units")
+    """FrictionIdError naming ``what`` (``"the cross-test of r.json on log"``) for non-finite metrics
+    (:func:`~frictionid_core.metrics.check_finite`) or an absurd relative error."""
+    check_finite(metrics, what)
+    check_absurd(metrics, what)
 
 
 def velocity_range(model: IdentificationModel) -> dict[str, list[float]]:

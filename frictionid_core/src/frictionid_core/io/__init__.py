@@ -34,6 +34,7 @@ def load(
     strict_time: bool = False,
     extras: dict[str, tuple[str, str]] | None = None,
     layout: str | Path | Layout | None = None,
+    strict_rows: bool = False,
 ) -> JointSeries:
     """Load joint measurements from a MAT (EMPS), CSV, rosbag2 (MCAP/sqlite3) or ROS 1 bag.
 
@@ -47,6 +48,8 @@ def load(
         extras: bags only: {name: (topic, field)} side JointState signals kept in ``series.extras``.
         layout: a CSV (or other delimited text file) not in frictionid's own format: a
             :class:`~frictionid_core.io.layout.Layout` or its YAML file (see that module).
+        strict_rows: CSV and other text files: refuse a broken row (malformed, not numeric or
+            truncated) instead of skipping broken rows with a warning.
 
     Raises:
         InputError: naming the file, topic, joint or field at fault.
@@ -61,7 +64,8 @@ def load(
         if path.is_dir() or suffix == ".mat" or suffix in BAG_SUFFIXES:
             raise InputError(f"{path}: a layout applies to CSV and other delimited text files, not to "
                              f"{'a directory' if path.is_dir() else repr(suffix)}")
-        series = read_with_layout(path, layout if isinstance(layout, Layout) else load_layout(layout))
+        series = read_with_layout(path, layout if isinstance(layout, Layout) else load_layout(layout),
+                                  strict_rows=strict_rows)
     elif suffix == ".mat":
         from frictionid_core.io.mat import load_emps_mat
 
@@ -69,7 +73,7 @@ def load(
     elif suffix == ".csv":
         from frictionid_core.io.csv import load_csv
 
-        series = load_csv(path)
+        series = load_csv(path, strict_rows=strict_rows)
     elif path.is_dir() or suffix in BAG_SUFFIXES:
         from frictionid_core.io.bag import load_bag
 

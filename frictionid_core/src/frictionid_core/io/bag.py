@@ -93,7 +93,8 @@ def load_bag(path: Path, *, topic: str | None = None, effort_topic: str | None =
                 raise InputError(f"{path}: topic '{name}' not in the bag. Topics: {listing}")
             if want and topics[name] != want:
                 raise InputError(f"{path}: topic '{name}' is {topics[name]}, not {want}")
-        series, t0_ns = _read_joint_states(reader, path, topic, need=("position", "effort") if effort_topic is None else ("position",))
+        series, t0_ns = _read_joint_states(reader, path, topic,
+                                           need=("position", "effort") if effort_topic is None else ("position",))
         if effort_topic is not None:
             t_eff, eff = _read_effort(reader, path, effort_topic, topics[effort_topic], series.joints)
             series = align_effort(series, (t_eff - t0_ns) * 1e-9, eff, f"effort topic '{effort_topic}'")
@@ -138,17 +139,19 @@ def _read_joint_states(reader, path: Path, topic: str, *, need: tuple[str, ...])
     bag_ns = np.empty(n_msgs, dtype=np.int64)
     raws: list[bytes] = []
     msgtypes: list[str] = []
-    for k, (conn, ns, raw) in enumerate(reader.messages(connections=conns)):
+    for k, (conn, ns, raw) in enumerate(_messages(reader, path, topic, conns)):
         bag_ns[k] = ns
         raws.append(raw)
         msgtypes.append(conn.msgtype)
+    bag_ns = bag_ns[: len(raws)]
     decoded = None
     if reader.is2 and set(msgtypes) == {JOINT_STATE}:
         from frictionid_core.io.cdr import decode_joint_states
 
         decoded = decode_joint_states(raws)
-        if decoded is not None and not all(_agrees(decoded, k, reader.deserialize(raws[k], JOINT_STATE))
-                                           for k in (0, len(raws) - 1)):
+        if decoded is not None and not all(
+                _agrees(decoded, k, _deserialize(reader, path, topic, raws[k], JOINT_STATE, k, bag_ns[k] - bag_ns[0]))
+                for k in (0, len(raws) - 1)):
             decoded = None  # a layout rosbags reads otherwise: its reading is the reference
     if decoded is None:
         stamps, joints, arrays, short = _deserialize_joint_states(reader, path, topic, raws, msgtypes, bag_ns)
@@ -167,6 +170,42 @@ def _read_joint_states(reader, path: Path, topic: str, *, need: tuple[str, ...])
     series = JointSeries(t=(stamps - stamps[0]) * 1e-9, joints=joints, position=pos, effort=eff,
                          velocity=velocity, source=f"{path}:{topic}")
     return series, int(stamps[0])
+
+
+def _messages(reader, path: Path, topic: str, conns):
+    """(connection, bag time ns, raw bytes) of the messages of ``conns``; InputError naming the
+    topic and the message a storage error stops at (a corrupt chunk or record)."""
+    k = 0
+    try:
+        for item in reader.messages(connections=conns):
+            yield item
+            k += 1
+    except Exception as exc:  # rosbags raises reader- and storage-specific errors
+        raise InputError(f"{path}: topic '{topic}': message {k} cannot be read: the bag is corrupt there "
+                         f"({type(exc).__name__}: {exc})") from None
+
+
+def _deserialize(reader, path: Path, topic: str, raw: bytes, msgtype: str, k: int, after_ns: int):
+    """Message ``k`` of ``topic``, received ``after_ns`` after its first, deserialised; InputError
+    naming it when it is corrupt."""
+    try:
+        return reader.deserialize(raw, msgtype)
+    except Exception as exc:  # rosbags raises AnyReaderError and deserialiser-specific errors
+        raise InputError(f"{path}: topic '{topic}': message {k} (bag time {after_ns * 1e-9:.6g} s after the first) "
+                         f"is not a readable {msgtype} ({type(exc).__name__}: {exc})") from None
+
+
+def _check_names(path: Path, topic: str, names, k: int) -> None:
+    """InputError when message ``k`` names a joint more than once."""
+    if len(set(names)) != len(names):
+        repeated = [n for n in dict.fromkeys(names) if list(names).count(n) > 1]
+        raise InputError(f"{path}: topic '{topic}': message {k} names joint(s) {repeated} more than once "
+                         f"({list(names)}): which values belong to them is ambiguous")
+
+
+def _long_field(path: Path, topic: str, field: str, size: int, names, k: int) -> InputError:
+    return InputError(f"{path}: topic '{topic}': message {k}: field '{field}' has {size} values for "
+                      f"{len(names)} names {list(names)}: which values belong to which joint is ambiguous")
 
 
 def _agrees(decoded: dict, k: int, msg) -> bool:
@@ -188,13 +227,16 @@ def _decoded_joint_states(path: Path, topic: str, decoded: dict, bag_ns: np.ndar
     joints = list(decoded["names"])
     if not joints:
         raise _no_names(path, topic)
+    _check_names(path, topic, joints, 0)
     n_msgs, nj = bag_ns.size, len(joints)
     stamps = decoded["sec"] * 1_000_000_000 + decoded["nanosec"]
     stamps = np.where(stamps != 0, stamps, bag_ns)
     arrays, short = [], {}
     for field in ("position", "velocity", "effort"):
         values = decoded[field]
-        if values.shape[1] >= nj:
+        if values.shape[1] > nj:
+            raise _long_field(path, topic, field, values.shape[1], joints, 0)
+        if values.shape[1] == nj:
             arrays.append(np.ascontiguousarray(values[:, :nj]))
             short[field] = 0
         else:
@@ -213,11 +255,12 @@ def _deserialize_joint_states(reader, path: Path, topic: str, raws: list[bytes],
     order_cache: dict[tuple, np.ndarray] = {}
     short = {"position": 0, "velocity": 0, "effort": 0}
     for k, raw in enumerate(raws):
-        msg = reader.deserialize(raw, msgtypes[k])
+        msg = _deserialize(reader, path, topic, raw, msgtypes[k], k, bag_ns[k] - bag_ns[0])
         names = tuple(msg.name)
         if joints is None:
             if not names:
                 raise _no_names(path, topic)
+            _check_names(path, topic, names, k)
             joints = list(names)
             nj = len(joints)
             pos, vel, eff = (np.full((n_msgs, nj), np.nan) for _ in range(3))
@@ -228,11 +271,14 @@ def _deserialize_joint_states(reader, path: Path, topic: str, raws: list[bytes],
                 raise InputError(
                     f"{path}: topic '{topic}': message {k} lacks joint(s) {missing} (it has {list(names)})"
                 )
+            _check_names(path, topic, names, k)
             idx = order_cache[names] = np.array([names.index(j) for j in joints])
         stamps[k] = _stamp(msg, int(bag_ns[k]))
         for field, out in (("position", pos), ("velocity", vel), ("effort", eff)):
             arr = np.asarray(getattr(msg, field), dtype=float)
-            if arr.size >= len(names):
+            if arr.size > len(names):
+                raise _long_field(path, topic, field, arr.size, names, k)
+            if arr.size == len(names):
                 out[k] = arr[idx]
             else:
                 short[field] += 1
@@ -242,24 +288,29 @@ def _deserialize_joint_states(reader, path: Path, topic: str, raws: list[bytes],
 def _read_effort(reader, path: Path, topic: str, msgtype: str, joints: list[str]):
     conns = [c for c in reader.connections if c.topic == topic]
     t, rows = [], []
-    for conn, bag_ns, raw in reader.messages(connections=conns):
-        msg = reader.deserialize(raw, conn.msgtype)
+    first_ns = None
+    for conn, bag_ns, raw in _messages(reader, path, topic, conns):
+        first_ns = bag_ns if first_ns is None else first_ns
+        msg = _deserialize(reader, path, topic, raw, conn.msgtype, len(t), bag_ns - first_ns)
         if msgtype == JOINT_STATE:
             names = list(msg.name)
             missing = [j for j in joints if j not in names]
             if missing:
                 raise InputError(f"{path}: effort topic '{topic}' lacks joint(s) {missing} (it has {names})")
+            _check_names(path, topic, names, len(t))
             e = np.asarray(msg.effort, dtype=float)
+            if e.size > len(names):
+                raise _long_field(path, topic, "effort", e.size, names, len(t))
             if e.size < len(names):
-                raise InputError(f"{path}: effort topic '{topic}': field 'effort' is empty or short in message {len(t)}")
+                raise InputError(f"{path}: effort topic '{topic}': field 'effort' is empty or short in message "
+                                 f"{len(t)}")
             rows.append(e[[names.index(j) for j in joints]])
             t.append(_stamp(msg, bag_ns))
         elif msgtype == FLOAT_ARRAY:
             e = np.asarray(msg.data, dtype=float)
             if e.size != len(joints):
-                raise InputError(
-                    f"{path}: effort topic '{topic}': message {len(t)} has {e.size} values for {len(joints)} joints {joints}"
-                )
+                raise InputError(f"{path}: effort topic '{topic}': message {len(t)} has {e.size} values for "
+                                 f"{len(joints)} joints {joints}")
             rows.append(e)
             t.append(bag_ns)
         else:

@@ -1,4 +1,4 @@
-"""Sanity checks shared by every loader: finite samples, ordered unique stamps; lost samples."""
+"""Sanity checks shared by every loader: finite samples, ordered unique stamps, spikes; lost samples."""
 
 from __future__ import annotations
 
@@ -6,41 +6,94 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
 from frictionid_core.errors import InputError
-from frictionid_core.timeseries import JointSeries
+from frictionid_core.timeseries import SEGMENT_GAP_PERIODS, SEGMENT_GAP_S, JointSeries, sample_period
 
 MIN_SAMPLES = 3
 GAP_FACTOR = 1.5  # an interval longer than this many median periods is a gap
+# Spikes (see :func:`find_spikes`): a sample this many times further from the running median of
+# its SPIKE_WINDOW neighbours than the signal's own sample-to-sample changes is a spike. On the real
+# TX40, TIAGo and EMPS recordings no sample comes within 3.3 times of that scale; isolated glitches
+# (a sensor read as 1e6, a dropped sign) are thousands of times above it.
+SPIKE_FACTOR = 10.0
+SPIKE_WINDOW = 11  # samples: runs of up to 3 spike samples are found
+SPIKE_STEP_QUANTILE = 99.0  # the sample-to-sample change of a signal: this percentile of |Δx|
+SPIKE_FIELDS = ("position", "effort", "velocity")
+# No measured value (s, rad, m, N·m, N and their rates) comes near this; beyond it, squares and sums
+# of the fit overflow.
+MAX_MAGNITUDE = 1e15
 
 
 def check_series(series: JointSeries, *, strict_time: bool = False) -> JointSeries:
-    """Validate ``series``; repair stamp order/duplicates unless ``strict_time``.
+    """Validate ``series``; unless ``strict_time`` repair stamps (isolated wrong stamps, clock
+    jumps back, disorder, duplicates); replace spike samples by interpolation (:func:`find_spikes`).
 
     Repairs are recorded in ``series.notes`` and issued as a ``UserWarning``.
     """
     src = series.source
     if len(series) < MIN_SAMPLES:
-        raise InputError(f"{src}: only {len(series)} samples; at least {MIN_SAMPLES} are needed")
+        done = f" ({'; '.join(series.notes)})" if series.notes else ""
+        raise InputError(f"{src}: only {len(series)} samples; at least {MIN_SAMPLES} are needed{done}")
     if not np.all(np.isfinite(series.t)):
         bad = np.flatnonzero(~np.isfinite(series.t))
         raise InputError(f"{src}: {bad.size} non-finite time stamps (first at sample {bad[0]})")
+    if np.max(np.abs(series.t)) > MAX_MAGNITUDE:
+        raise InputError(f"{src}: time stamps up to {np.max(np.abs(series.t)):.3g} s are not seconds; a layout gives "
+                         "the time's unit with 'time: {column: …, scale: …}' (1e-9 for ns)")
     for name in ("position", "effort", "velocity"):
         arr = getattr(series, name)
         if arr is None:
             continue
-        bad = ~np.isfinite(arr)
-        if bad.any():
-            col = int(np.flatnonzero(bad.any(axis=0))[0])
-            rows = np.flatnonzero(bad[:, col])
-            raise InputError(
-                f"{src}: {int(bad.sum())} NaN/inf samples in field '{name}' "
-                f"(joint '{series.joints[col]}': {rows.size}, first at t = {series.t[rows[0]]:.6g} s)"
-            )
-    return _order_stamps(series, strict_time)
+        for bad, what in ((~np.isfinite(arr), "NaN/inf samples"),
+                          (np.abs(arr) > MAX_MAGNITUDE, f"samples beyond ±{MAX_MAGNITUDE:.0e} (not measured values)")):
+            if bad.any():
+                col = int(np.flatnonzero(bad.any(axis=0))[0])
+                rows = np.flatnonzero(bad[:, col])
+                raise InputError(f"{src}: {int(bad.sum())} {what} in field '{name}' (joint '{series.joints[col]}': "
+                                 f"{rows.size}, first at t = {series.t[rows[0]]:.6g} s)")
+    notes = []
+    if not strict_time:
+        series = _repair_stamps(series, notes)
+    series = _order_stamps(series, strict_time, notes)
+    series = _repair_spikes(series, notes)
+    for note in notes:
+        series.notes.append(note)
+        warnings.warn(note, stacklevel=2)
+    return series
 
 
-def _order_stamps(series: JointSeries, strict: bool) -> JointSeries:
+def _repair_stamps(series: JointSeries, notes: list[str]) -> JointSeries:
+    """Stamps out of line with both neighbours (spikes of the stamps) interpolated between them;
+    at a clock jump back longer than a gap (SEGMENT_GAP_PERIODS periods and SEGMENT_GAP_S), the
+    later stamps shifted to follow after a gap as long as the jump (the gap splits the series:
+    :meth:`JointSeries.segments`). Smaller steps back are disorder: :func:`_order_stamps` re-sorts them."""
+    src = series.source
+    t = series.t
+    spikes = find_spikes(t)
+    if spikes.size:
+        t = t.copy()
+        t[spikes] = _interpolated(np.arange(t.size, dtype=float), t, spikes)
+        notes.append(f"{src}: {spikes.size} time stamp(s) out of line with both neighbours (first at sample "
+                     f"{spikes[0]}) replaced by interpolation between them")
+    jumps = np.flatnonzero(np.diff(t) < -max(SEGMENT_GAP_PERIODS * sample_period(t), SEGMENT_GAP_S))
+    if jumps.size:
+        where = ", ".join(f"{t[k] - t[k + 1]:.6g} s back after t = {t[k] - t[0]:.6g} s" for k in jumps[:3])
+        more = f" and {jumps.size - 3} more" if jumps.size > 3 else ""
+        t = t.copy()
+        for k in jumps:
+            t[k + 1:] += 2.0 * (t[k] - t[k + 1])  # back by the jump → forward by the jump
+        notes.append(f"{src}: the clock of the time stamps jumps back {jumps.size} time(s) ({where}{more}): the "
+                     "stamps after a jump moved to follow after a gap as long as the jump, which cuts the log into "
+                     "segments there")
+    if t is series.t:
+        return series
+    return JointSeries(t, list(series.joints), series.position, series.effort, series.velocity, series.source,
+                       dict(series.extras), dict(series.meta), list(series.notes))
+
+
+def _order_stamps(series: JointSeries, strict: bool, notes: list[str]) -> JointSeries:
     dt = np.diff(series.t)
     n_back = int(np.count_nonzero(dt < 0))
     n_dup = int(np.count_nonzero(dt == 0))
@@ -57,18 +110,89 @@ def _order_stamps(series: JointSeries, strict: bool) -> JointSeries:
     idx = order[keep]
     n_dropped = len(series) - idx.size
     out = series.take(idx)
-    msgs = []
     if n_back:
-        msgs.append(f"{n_back} out-of-order time stamps: samples re-sorted by time")
+        notes.append(f"{src}: {n_back} out-of-order time stamps: samples re-sorted by time")
     if n_dropped:
-        msgs.append(f"{n_dropped} samples with duplicated time stamps dropped (first kept)")
-    for m in msgs:
-        note = f"{src}: {m}"
-        out.notes.append(note)
-        warnings.warn(note, stacklevel=3)
+        notes.append(f"{src}: {n_dropped} samples with duplicated time stamps dropped (first kept)")
     if len(out) < MIN_SAMPLES:
         raise InputError(f"{src}: only {len(out)} samples left after removing duplicated stamps")
     return out
+
+
+def find_spikes(x: np.ndarray) -> np.ndarray:
+    """Indices of the spike samples of the signal ``x`` (N,), increasing.
+
+    A sample is a spike when its distance to the median of the SPIKE_WINDOW samples around it
+    exceeds SPIKE_FACTOR times the largest of: the signal's sample-to-sample change (the
+    SPIKE_STEP_QUANTILE percentile of |Δx|), its resolution (the smallest nonzero |Δx|) and the
+    spread of the middle five of those samples (steps, reversals and noise bursts stay inside it).
+    The first and the last sample have neighbours on one side only, where a step (a synthetic
+    log's friction vanishing at rest) looks the same: they are spikes only when they also lie
+    further out than the span of the signal (its 0.5 to 99.5 percentiles).
+    """
+    x = np.asarray(x, dtype=float)
+    half = SPIKE_WINDOW // 2
+    if x.size < SPIKE_WINDOW:
+        return np.empty(0, dtype=np.intp)
+    step = np.abs(np.diff(x))
+    moving = step[step > 0]
+    if moving.size == 0:
+        return np.empty(0, dtype=np.intp)
+    scale = max(float(np.percentile(step, SPIKE_STEP_QUANTILE)), float(moving.min()))
+    del step, moving
+    residual = np.abs(x - ndimage.median_filter(x, size=SPIKE_WINDOW, mode="mirror"))
+    candidates = np.flatnonzero(residual > SPIKE_FACTOR * scale)
+    if candidates.size == 0:
+        return candidates
+    # the spread of the middle five of each candidate's window (mirrored at the ends, as the median)
+    padded = np.pad(x, half, mode="reflect")
+    window = np.sort(padded[candidates[:, None] + np.arange(SPIKE_WINDOW)], axis=1)
+    spread = window[:, half + 2] - window[:, half - 2]
+    spikes = candidates[residual[candidates] > SPIKE_FACTOR * np.maximum(scale, spread)]
+    ends = (spikes == 0) | (spikes == x.size - 1)
+    if ends.any():
+        low, high = np.percentile(x, [0.5, 99.5])
+        ends &= residual[spikes] <= high - low
+        spikes = spikes[~ends]
+    return spikes
+
+
+def _repair_spikes(series: JointSeries, notes: list[str]) -> JointSeries:
+    """``series`` with the spike samples of each field and joint (:func:`find_spikes`) replaced by
+    linear interpolation in time between the nearest samples that are not spikes."""
+    found = []
+    for name in SPIKE_FIELDS:
+        arr = getattr(series, name)
+        if arr is None:
+            continue
+        for j in range(arr.shape[1]):
+            spikes = find_spikes(arr[:, j])
+            if spikes.size:
+                found.append((name, j, spikes))
+    if not found:
+        return series
+    fields = {name: getattr(series, name).copy() for name in dict.fromkeys(name for name, *_ in found)}
+    parts = []
+    for name, j, spikes in found:
+        column = fields[name][:, j]
+        worst = spikes[np.argmax(np.abs(column[spikes] - np.median(column)))]
+        was = float(column[worst])
+        column[spikes] = _interpolated(series.t, column, spikes)
+        parts.append(f"joint '{series.joints[j]}' {name}: {spikes.size}, the largest {was:.6g} at "
+                     f"{series.t[worst] - series.t[0]:.6g} s from the start (neighbours: {column[worst]:.6g})")
+    total = sum(spikes.size for *_, spikes in found)
+    notes.append(f"{series.source}: {total} spike sample(s) replaced by linear interpolation between their "
+                 f"neighbours: {'; '.join(parts)}")
+    return JointSeries(series.t, list(series.joints), fields.get("position", series.position),
+                       fields.get("effort", series.effort), fields.get("velocity", series.velocity), series.source,
+                       dict(series.extras), dict(series.meta), list(series.notes))
+
+
+def _interpolated(t: np.ndarray, x: np.ndarray, bad: np.ndarray) -> np.ndarray:
+    """x at the indices ``bad``, interpolated linearly in ``t`` from the other samples."""
+    good = np.ones(x.size, dtype=bool)
+    good[bad] = False
+    return np.interp(t[bad], t[good], x[good])
 
 
 @dataclass(frozen=True)

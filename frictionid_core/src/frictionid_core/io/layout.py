@@ -98,7 +98,7 @@ class Layout:
         if self.effort_file is not None and not (isinstance(self.effort_file, str) and self.effort_file):
             raise InputError(f"{where}: key 'effort_file' must be a file name, got {self.effort_file!r}")
         if self.delimiter is not None:
-            if self.delimiter not in DELIMITERS:
+            if not isinstance(self.delimiter, str) or self.delimiter not in DELIMITERS:
                 raise InputError(f"{where}: key 'delimiter' is {self.delimiter!r}; choose one of "
                                  f"',', ';', tab, whitespace")
             fixed["delimiter"] = DELIMITERS[self.delimiter]
@@ -129,7 +129,8 @@ def layout_from_dict(data: dict, source: str = "") -> Layout:
         check_keys(time, TIME_KEYS, f"{where}: key 'time'", required=("column",))
     return Layout(joints=data["joints"], position=data["position"], effort=data["effort"],
                   header=data.get("header", False), time_column=None if time is None else time["column"],
-                  time_scale=1.0 if time is None else time.get("scale", 1.0), rate_hz=data.get("rate_hz"), velocity=data.get("velocity"),
+                  time_scale=1.0 if time is None else time.get("scale", 1.0), rate_hz=data.get("rate_hz"),
+                  velocity=data.get("velocity"),
                   effort_file=data.get("effort_file"), delimiter=data.get("delimiter"), source=source)
 
 
@@ -138,35 +139,66 @@ def load_layout(path: str | Path) -> Layout:
     return layout_from_dict(read_yaml(path, "a log layout"), str(Path(path).expanduser()))
 
 
-def read_with_layout(source: str | Path, layout: Layout) -> JointSeries:
-    """The log in ``source`` (and ``layout.effort_file``) as a :class:`JointSeries`, values as recorded."""
+def read_with_layout(source: str | Path, layout: Layout, *, strict_rows: bool = False) -> JointSeries:
+    """The log in ``source`` (and ``layout.effort_file``) as a :class:`JointSeries`, values as recorded.
+
+    Broken rows are skipped (see :func:`~frictionid_core.io.csv.read_table`; ``strict_rows``
+    refuses them); with an effort file, a row broken in either file is left out of both, and
+    with ``rate_hz`` the rows keep their times (row number / rate)."""
     path = Path(source)
     where = layout.source or "layout"
-    names, data = read_table(path, header=layout.header, delimiter=layout.delimiter)
-    notes = [f"read with layout {where}"]
+    own = {"time": [layout.time_column]} if layout.time_column is not None else {}
+    own["position"] = list(layout.position)
+    if layout.velocity is not None:
+        own["velocity"] = list(layout.velocity)
+    if not layout.effort_file:
+        own["effort"] = list(layout.effort)
+    table, at = _read(path, layout, own, where, strict_rows)
+    notes = [f"read with layout {where}", *table.notes]
+    data, rows = table.data, None
     if layout.effort_file:
         epath = path.parent / layout.effort_file
         if not epath.is_file():
             raise InputError(f"{epath}: no such file (key 'effort_file' of {where})")
-        enames, edata = read_table(epath, header=layout.header, delimiter=layout.delimiter)
-        if len(edata) != len(data):
-            raise InputError(f"{epath}: {len(edata)} rows but {path} has {len(data)}; the effort file "
+        etable, eat = _read(epath, layout, {"effort": list(layout.effort)}, where, strict_rows)
+        if etable.rows != table.rows:
+            raise InputError(f"{epath}: {etable.rows} rows but {path} has {table.rows}; the effort file "
                              f"(key 'effort_file' of {where}) must have the same rows")
-        notes.append(f"efforts from {epath}")
+        notes += [f"efforts from {epath}", *etable.notes]
+        edata = etable.data
+        if table.skipped.size or etable.skipped.size:  # the rows good in both files
+            rows, in_own, in_effort = np.intersect1d(table.row_numbers(), etable.row_numbers(), assume_unique=True,
+                                                     return_indices=True)
+            data, edata = data[in_own], edata[in_effort]
+            lost = table.rows - table.skipped.size - rows.size + etable.rows - etable.skipped.size - rows.size
+            if lost:
+                notes.append(f"{lost} row(s) broken in only one of {path} and {epath} left out of both")
+        effort = edata[:, eat["effort"]]
     else:
-        epath, enames, edata = path, names, data
-
-    def columns(key: str, refs, file: Path, names, table: np.ndarray) -> np.ndarray:
-        return table[:, _indices(refs, key, file, names, table.shape[1], where)]
-
+        effort = data[:, at["effort"]]
     if layout.rate_hz is not None:
-        t = np.arange(len(data)) / layout.rate_hz
+        t = (table.row_numbers() if rows is None else rows) / layout.rate_hz
     else:
-        t = columns("time", [layout.time_column], path, names, data)[:, 0] * layout.time_scale
-    velocity = None if layout.velocity is None else columns("velocity", layout.velocity, path, names, data)
-    return JointSeries(t, list(layout.joints), columns("position", layout.position, path, names, data),
-                       columns("effort", layout.effort, epath, enames, edata), velocity, source=str(path),
+        t = data[:, at["time"][0]] * layout.time_scale
+    velocity = None if layout.velocity is None else data[:, at["velocity"]]
+    return JointSeries(t, list(layout.joints), data[:, at["position"]], effort, velocity, source=str(path),
                        notes=notes)
+
+
+def _read(path: Path, layout: Layout, refs: dict[str, list], where: str, strict_rows: bool):
+    """(the table of the columns of ``refs`` {layout key: column references} in ``path``, {key:
+    positions of its columns in the table's data})."""
+    index: dict[str, list[int]] = {}
+
+    def columns(names: list[str] | None, ncols: int) -> list[int]:
+        for key, keyed in refs.items():
+            index[key] = _indices(keyed, key, path, names, ncols, where)
+        return sorted({i for keyed in index.values() for i in keyed})
+
+    table = read_table(path, header=layout.header, delimiter=layout.delimiter, columns=columns,
+                       strict_rows=strict_rows)
+    position = {column: k for k, column in enumerate(table.columns)}
+    return table, {key: [position[i] for i in keyed] for key, keyed in index.items()}
 
 
 def _indices(refs, key: str, file: Path, names: list[str] | None, ncols: int, where: str) -> list[int]:
@@ -175,10 +207,6 @@ def _indices(refs, key: str, file: Path, names: list[str] | None, ncols: int, wh
     if unknown:
         raise InputError(f"{where}: key '{key}': column(s) {unknown} not in the header of {file}; "
                          f"available: {names}")
-    repeated = [r for r in refs if isinstance(r, str) and names.count(r) > 1]
-    if repeated:
-        raise InputError(f"{where}: key '{key}': column name(s) {repeated} appear more than once in the header "
-                         f"of {file}; give 0-based indices")
     out = [names.index(r) if isinstance(r, str) else r for r in refs]
     beyond = [r for r in out if r >= ncols]
     if beyond:

@@ -5,7 +5,8 @@ columns are the robot's *base* regressor (Pinocchio's joint torque regressor, 10
 per body, plus one rotor-inertia column q̈_j per joint, reduced to the base parameters by QR
 with column pivoting): τ = W_b(q, q̇, q̈)·β + τ_f(q̇) + offset. Rows are the data's joints
 (joint-major); the data must hold every model joint (bag names matched to model names through
-the system's joint map). The columns of the data are checked for rank before any solve.
+the system's joint map). The columns of the data are checked for rank before any solve
+(:attr:`System.excitation`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.preprocess import Prepared, Preprocessing
-from frictionid_core.robots.base import base_parameter_names, check_excitation, robot_base_parameters
+from frictionid_core.robots.base import base_parameter_names, robot_base_parameters
 from frictionid_core.systems.system import RobotInfo, System
 
 # Robot data: every setting chosen from the data (frictionid_core.preprocess): the cut-off from
@@ -52,15 +53,16 @@ def robot_system(robot, name: str, joint_map: dict[str, str] | None = None, base
     bounds = {n: (-max(1.0, 10.0 * abs(v)), max(1.0, 10.0 * abs(v))) for n, v in zip(names, nominal)}
 
     def columns(p: Prepared, joints: list[str]) -> np.ndarray:
-        cols = info.base_columns(p.q, p.qd, p.qdd, joints)
+        return info.base_columns(p.q, p.qd, p.qdd, joints)
+
+    def excitation(cols: np.ndarray, p: Prepared, joints: list[str]) -> tuple[np.ndarray, list[str]]:
         if rows is None:
-            _check_rank(cols, p.qd, joints, list(names), name)
-        else:  # friction on each motor's referred velocity; data joints are in the drive's order
-            _check_rank(cols, drive.motor_velocity(p.qd), drive.motor_names(), list(names), name)
-        return cols
+            return _excitation_rows(cols, p.qd, joints, list(names))
+        # friction on each motor's referred velocity; data joints are in the drive's order
+        return _excitation_rows(cols, drive.motor_velocity(p.qd), drive.motor_names(), list(names))
 
     return System(name, tuple(robot.joints), columns, names, bounds, preprocessing, dict(joint_map or {}),
-                  robot=info, drive=drive)
+                  robot=info, drive=drive, excitation=excitation)
 
 
 def nominal_parameters(system: System) -> dict[str, float]:
@@ -127,23 +129,25 @@ def known_rigid_body(system: System) -> KnownRigidBody:
     names = (LINK_TORQUE, *(standard[i] for i in rotor))
 
     def columns(p: Prepared, joints: list[str]) -> np.ndarray:
-        cols = info.base_columns(p.q, p.qd, p.qdd, joints) @ transform
+        return info.base_columns(p.q, p.qd, p.qdd, joints) @ transform
+
+    def excitation(cols: np.ndarray, p: Prepared, joints: list[str]) -> tuple[np.ndarray, list[str]]:
+        """The rank test of the rotor columns (the held link torque column is known)."""
         if info.rows is None:
-            _check_rank(cols[:, 1:], p.qd, joints, list(names[1:]), system.name)
-        else:
-            drive = info.rows.drive
-            _check_rank(cols[:, 1:], drive.motor_velocity(p.qd), drive.motor_names(), list(names[1:]), system.name)
-        return cols
+            return _excitation_rows(cols[:, 1:], p.qd, joints, list(names[1:]))
+        drive = info.rows.drive
+        return _excitation_rows(cols[:, 1:], drive.motor_velocity(p.qd), drive.motor_names(), list(names[1:]))
 
     scale = np.maximum(1.0, 10.0 * np.abs(nominal[rotor]))
     bounds = {LINK_TORQUE: (0.0, 2.0), **{n: (0.0, float(s)) for n, s in zip(names[1:], scale)}}
-    fit = replace(system, columns=columns, rigid_names=names, rigid_bounds=bounds)
+    fit = replace(system, columns=columns, rigid_names=names, rigid_bounds=bounds, excitation=excitation)
     return KnownRigidBody(system, fit, tuple(names[1:]), beta_links, rotor_map)
 
 
-def _check_rank(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list[str], name: str) -> None:
-    """Raise when the rigid + Coulomb/viscous columns of the data are rank-deficient (``qd``:
-    each row block's friction velocity, ``joints``: the blocks' names)."""
+def _excitation_rows(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list[str]
+                     ) -> tuple[np.ndarray, list[str]]:
+    """(rows, names) of the rank test of the data: the rigid + Coulomb/viscous columns on a subset
+    of the samples (``qd``: each row block's friction velocity, ``joints``: the blocks' names)."""
     nj, n = len(joints), qd.shape[0]
     sel = np.arange(0, n, max(_CHECK_STRIDE, n // _CHECK_SAMPLES))
     rigid = np.concatenate([rows[j * n + sel] for j in range(nj)], axis=0)
@@ -153,4 +157,4 @@ def _check_rank(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list
         fric[j * sel.size : (j + 1) * sel.size, 2 * j] = v
         fric[j * sel.size : (j + 1) * sel.size, 2 * j + 1] = np.sign(v)
     fnames = [f"{j}/{p}" for j in joints for p in ("Fv", "Fc")]
-    check_excitation(np.hstack([rigid, fric]), names + fnames, f"system '{name}'")
+    return np.hstack([rigid, fric]), names + fnames

@@ -7,15 +7,26 @@ default (settings left None are chosen from the data: :mod:`frictionid_core.prep
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from frictionid_core.errors import InputError
-from frictionid_core.observation import Observation, build_observation
-from frictionid_core.preprocess import Prepared, Preprocessing, column_stride, preprocess, subsample
-from frictionid_core.timeseries import JointSeries
+from frictionid_core.observation import Observation, build_observation, concat_observations
+from frictionid_core.preprocess import (
+    TRIM_PERIODS,
+    Prepared,
+    Preprocessing,
+    TooFewSamples,
+    choose_preprocessing,
+    column_stride,
+    preprocess,
+    resample_uniform,
+    subsample,
+)
+from frictionid_core.timeseries import SEGMENT_GAP_PERIODS, SEGMENT_GAP_S, JointSeries
 
 if TYPE_CHECKING:
     from frictionid_core.drive import Drive
@@ -75,6 +86,9 @@ class System:
             drive's motors (see :func:`observe`); a robot system's columns are then its motor rows.
         per_joint: each joint has its own ``rigid_names`` (``<joint>/J`` with several joints),
             its columns acting on its own rows only.
+        excitation: (rigid columns, the prepared signals they are of, model joint names) →
+            (rows, column names) of the rank test :func:`observe` makes before any solve (over
+            every segment of a log at once); None: no test.
     """
 
     name: str
@@ -87,6 +101,7 @@ class System:
     robot: RobotInfo | None = None
     per_joint: bool = False
     drive: Drive | None = None
+    excitation: Callable[[np.ndarray, Prepared, list[str]], tuple[np.ndarray, list[str]]] | None = None
 
     @property
     def motor_rows(self) -> bool:
@@ -156,16 +171,108 @@ def observe(series: JointSeries, system: System, settings: Preprocessing | None 
     With friction on the motors the rows are the referred motor torques u = C⁻ᵀ·τ, named after
     the motors, with the referred velocity w = C·q̇ as each row's friction velocity (ẇ = C·q̈);
     a motor's slow-row threshold is the largest of the joints it turns with.
+
+    A series whose stamps have gaps (:meth:`JointSeries.segments`: a clock jump, a pause) is
+    observed segment by segment, the settings resolved on the longest, and the rows stacked;
+    segments too short to filter are left out, with a note.
     """
     drive = system.drive
     if drive is not None:
         series = drive.to_joint_side(series, system.joint_map)
+    system.check_joints(list(series.joints), series.source)
+    segments = series.segments()
+    if len(segments) == 1:
+        return _observe_segment(series, system, settings)
+    return _observe_segments(series, segments, system, settings)
+
+
+def _observe_segments(series: JointSeries, segments: list[JointSeries], system: System,
+                      settings: Preprocessing | None) -> Observation:
+    """The observation of a series cut at the gaps of its stamps: each segment pre-processed
+    alone (no filter runs across a gap) with the settings resolved on the longest, trimmed by
+    TRIM_PERIODS / cut-off at each gap (the filters' transients, as the rule trims a record's
+    ends), the observations stacked in time order; segments too short for that are left out
+    (noted). The system's rank test is made on the segments together."""
+    longest = max(range(len(segments)), key=lambda k: len(segments[k]))
+    resolved, chosen = choose_preprocessing(resample_uniform(segments[longest]), settings or system.preprocessing)
+    seam = TRIM_PERIODS / resolved.cutoff_hz
+    observed, dropped, excitation = {}, [], []
+    for k, segment in enumerate(segments):
+        trims = {"trim_start_s": seam if k > 0 else resolved.trim_start_s,  # the log's ends: its own trims
+                 "trim_end_s": seam if k < len(segments) - 1 else resolved.trim_end_s}
+        try:
+            observed[k] = _observe_segment(segment, system, replace(resolved, **trims), excitation)
+        except TooFewSamples:
+            if k == longest:
+                raise
+            dropped.append(segment)
+            continue
+        for o in (observed[k], observed[k].sampled):
+            if o is not None:
+                o.preprocessing = resolved  # stacked under one setting; the seams' trims are noted
+    if excitation:  # the segments together, not each alone, must excite every parameter
+        _check_excitation(system, excitation)
+    obs = concat_observations([observed[k] for k in sorted(observed)])
+    # the longest segment's report, with what the rule chose and the counts and extremes of them all
+    report = dict(observed[longest].report)
+    over = [o.report for o in observed.values()]
+    report.update(chosen_from_data=chosen["chosen_from_data"], from_data=chosen["from_data"], fit_rows=int(obs.y.size),
+                  slow_rows_excluded={j: sum(r["slow_rows_excluded"][j] for r in over)
+                                      for j in report["slow_rows_excluded"]},
+                  reversal_acceleration={j: max(r["reversal_acceleration"][j] or 0.0 for r in over)
+                                         for j in report["reversal_acceleration"]},
+                  segments={"used": len(observed), "left_out": len(dropped), "trim_at_gaps_s": seam})
+    for o in (obs, obs.sampled):
+        if o is not None:
+            o.report = report
+    t0 = series.t[0]
+    gaps = [(a.t[-1], b.t[0]) for a, b in zip(segments[:-1], segments[1:])]
+    listed = ", ".join(f"{end - start:.4g} s after {start - t0:.6g} s" for start, end in gaps[:3])
+    note = (f"{series.source}: the time stamps have {len(gaps)} gap(s) longer than {SEGMENT_GAP_PERIODS:g} sample "
+            f"periods and {SEGMENT_GAP_S:g} s ({listed}{', …' if len(gaps) > 3 else ''}): {len(segments)} segments, "
+            f"each filtered alone and trimmed by {seam:.3g} s at the gaps")
+    if dropped:
+        short = ", ".join(f"{s.t[0] - t0:.6g} s ({len(s)} samples, {s.t[-1] - s.t[0]:.4g} s)" for s in dropped[:5])
+        note += (f"; {len(dropped)} too short for that left out (from {short}{', …' if len(dropped) > 5 else ''}, "
+                 "s from the start)")
+    obs.notes.insert(0, note)
+    return obs
+
+
+def _observe_segment(series: JointSeries, system: System, settings: Preprocessing | None,
+                     excitation: list | None = None) -> Observation:
+    """:func:`observe` of a series without gaps, on the joint side; TooFewSamples names its source.
+    With ``excitation`` (a list) the rows of the system's rank test are appended to it, not tested."""
+    try:
+        return _observe_gapless(series, system, settings, excitation)
+    except TooFewSamples as exc:
+        if str(exc).startswith(f"{series.source}:"):
+            raise
+        raise TooFewSamples(f"{series.source}: {exc}") from None
+
+
+def _check_excitation(system: System, tests: list[tuple[np.ndarray, list[str]]]) -> None:
+    """The system's rank test on the rows ``tests`` of :attr:`System.excitation` together."""
+    from frictionid_core.robots.base import check_excitation
+
+    check_excitation(np.vstack([rows for rows, _ in tests]), tests[0][1], f"system '{system.name}'")
+
+
+def _observe_gapless(series: JointSeries, system: System, settings: Preprocessing | None,
+                     excitation: list | None) -> Observation:
+    drive = system.drive
     joints = list(series.joints)
-    system.check_joints(joints, series.source)
     prepared, resolved, report, notes = preprocess(series, settings or system.preprocessing)
     # a robot regressor is smooth in the filtered signals: computed at a fraction of the rate
     stride = column_stride(1.0 / prepared.dt, resolved) if system.robot is not None else 1
-    rigid = system.columns(subsample(prepared, stride), system.model_joints(joints))
+    sampled = subsample(prepared, stride)
+    rigid = system.columns(sampled, system.model_joints(joints))
+    if system.excitation is not None:
+        test = system.excitation(rigid, sampled, system.model_joints(joints))
+        if excitation is None:
+            _check_excitation(system, [test])
+        else:
+            excitation.append(test)
     report["rigid_column_stride"] = stride
     rows, row_names = prepared, joints
     min_speed = np.array([resolved.min_speed[j] for j in joints])
