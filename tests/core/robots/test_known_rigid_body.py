@@ -164,3 +164,19 @@ def test_a_fit_with_absurd_links_is_warned_and_not_exported_unless_forced(known,
         from frictionid_core.robots.export import export_data
 
         export_data(r, system)
+
+
+def test_a_rotor_inertia_is_negative_beyond_round_off_only():
+    """A reconstruction gives −1e-17 for a rotor inertia of 0: not a problem; −1e-3 kg·m² is one, named."""
+    from frictionid_core.robots.consistency_check import link_plausibility
+
+    info = get_system("tx40").robot
+    names = info.model.parameter_names()
+    pi = np.array(info.model.parameters(), dtype=float)
+    ia = names.index("joint_3.Ia")
+    pi[ia] = -1e-17
+    assert "joint_3" not in link_plausibility(info, pi, "test")["implausible"]
+    pi[ia] = -1e-3
+    block = link_plausibility(info, pi, "test")
+    assert block["implausible"] == ["joint_3"]
+    assert block["links"]["joint_3"]["problems"] == ["rotor inertia -0.001 kg·m² < 0"]

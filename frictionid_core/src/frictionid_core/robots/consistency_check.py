@@ -252,10 +252,12 @@ def report_for_result(result: dict, system, prior: str = "model") -> dict:
 # mass lies further from the model's than com_offset_share_of_reach × the link's reach (the farthest
 # child joint origin or the model's centre of mass; at least com_offset_min_m), or the trace of its
 # inertia about the centre of mass is outside inertia_trace_ratio × the model's by more than
-# inertia_trace_min_kgm2; a rotor inertia is implausible below 0. Recorded in the result's and the
+# inertia_trace_min_kgm2; a rotor inertia is implausible below 0 (by more than round-off,
+# rotor_inertia_roundoff_kgm2: a reconstruction gives −1e-17 for 0). Recorded in the result's and the
 # export's "plausibility" blocks.
 PLAUSIBILITY = {"mass_ratio": [0.5, 2.0], "com_offset_share_of_reach": 0.5, "com_offset_min_m": 0.1,
-                "inertia_trace_ratio": [0.2, 5.0], "inertia_trace_min_kgm2": 0.01}
+                "inertia_trace_ratio": [0.2, 5.0], "inertia_trace_min_kgm2": 0.01,
+                "rotor_inertia_roundoff_kgm2": 1e-9}
 
 
 def link_reach(robot) -> dict[str, float]:
@@ -298,7 +300,7 @@ def link_plausibility(info, pi: np.ndarray, source: str) -> dict:
         if abs(trace - trace0) > t["inertia_trace_min_kgm2"] and not low * trace0 <= trace <= high * trace0:
             problems.append(f"inertia about its centre of mass (trace) {trace:.3g} kg·m² vs the model's {trace0:.3g} "
                             f"(outside ×{low:g}–{high:g})")
-        if link["rotor"] and link["rotor_inertia"] < 0.0:
+        if link["rotor"] and link["rotor_inertia"] < -t["rotor_inertia_roundoff_kgm2"]:
             problems.append(f"rotor inertia {link['rotor_inertia']:.4g} kg·m² < 0")
         links[joint] = {"mass": m, "model_mass": m0, "com_offset_m": offset, "com_limit_m": limit,
                         "inertia_trace": trace, "model_inertia_trace": trace0,
