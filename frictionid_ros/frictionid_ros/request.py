@@ -102,8 +102,9 @@ def consistency_text(result: IdentifyResult) -> str:
     c = result.consistency
     if not c:
         return ""
+    weight = f" W={c['prior_weight']:g}" if c["prior"] != "none" else ""
     return (f"{'FEASIBLE' if c['feasible'] else 'NOT FEASIBLE'} (SDP {c['sdp_wall_s']:.2f} s, prior {c['prior']}"
-            f"{' W=%g' % c['prior_weight'] if c['prior'] != 'none' else ''}, cost +{c['cost_increase_pct']:.3g} %)")
+            f"{weight}, cost +{c['cost_increase_pct']:.3g} %)")
 
 
 def summary(job: Job, result: IdentifyResult, samples: int, seconds: float) -> str:

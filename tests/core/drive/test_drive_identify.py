@@ -121,8 +121,8 @@ def test_tx40_without_motor_friction_is_clearly_worse(tx40_logs, tx40_fit):
     from frictionid_core.io import load
 
     coupled, _ = tx40_fit
-    joint_side = identify(load(tx40_logs / "est"),
-                          IdentifyRequest(system="tx40", drive={**load_drive("tx40").to_dict(), "friction_on": "joint"}))
+    joint_drive = {**load_drive("tx40").to_dict(), "friction_on": "joint"}
+    joint_side = identify(load(tx40_logs / "est"), IdentifyRequest(system="tx40", drive=joint_drive))
     held = [n for n, v in joint_side.params.items() if n.endswith(".Ia") and v == 0.0]
     assert held and any(w.startswith("parameter(s) held at 0") and held[0] in w for w in joint_side.warnings)
     assert min(v for n, v in coupled["params"].items() if n.endswith(".Ia")) > 0

@@ -86,7 +86,8 @@ def test_short_data_unconstrained_infeasible_consistent_near_the_prior(short_fit
 
     free, cons = short_fits
     sys_ = get_system("tx40")
-    with pytest.raises(FrictionIdError, match=r"refused to export an inconsistent or implausible result: link 'joint_.*--force"):
+    refused = r"refused to export an inconsistent or implausible result: link 'joint_.*--force"
+    with pytest.raises(FrictionIdError, match=refused):
         export_data(free, sys_)  # the consistency check finds no witness
     assert cons["consistency"]["feasible"] and report_for_result(cons, sys_)["feasible"]
     # identify itself names the links the 2 s fit cannot be (reconstructed from its base parameters:
