@@ -50,7 +50,7 @@ def run(args) -> int:
         validation_record,
         window_record,
     )
-    from frictionid_core.metrics import check_finite
+    from frictionid_core.identification.plausibility import check_metrics
     from frictionid_core.systems import parse_joint_map
 
     result = read_result(args.params)
@@ -66,7 +66,7 @@ def run(args) -> int:
     model, x = model_from_result(sources, result, system=args.system, joint_map=joint_map,
                                  joints=split_list(args.joints), preprocessing=overrides, window=window_of(args))
     metrics = validation_metrics(model, x, names)
-    check_finite(metrics, f"the cross-test of {args.params} on {', '.join(names)}")
+    check_metrics(metrics, f"the cross-test of {args.params} on {', '.join(names)}")
     record = validation_record(model)
     out = {"source": names[0] if len(names) == 1 else names, "params_file": str(args.params),
            "system": args.system or result.system, "friction": result.friction,
