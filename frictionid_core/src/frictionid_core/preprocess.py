@@ -59,7 +59,6 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 from scipy import signal
 
-from frictionid_core.diagnostics import QDD_NOISE_SHARE_LIMIT
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.options import VELOCITY_SOURCES, check_choice
 from frictionid_core.timeseries import JointSeries
@@ -435,6 +434,8 @@ def clean_acceleration_cutoff(q: np.ndarray, fs: float, n0: np.ndarray, order: i
     """(J,) the highest cut-off (Hz, on the risk grid; nan if none) at which the position noise
     makes up at most QDD_NOISE_SHARE_LIMIT of each column's filtered q̈ variance (q̈ after
     ``differences`` central differences of the filtered signal q (N, J) of noise density n0)."""
+    from frictionid_core.diagnostics import QDD_NOISE_SHARE_LIMIT  # diagnostics imports the model, which imports us
+
     f, P = signal.periodogram(q, fs, window="hann", detrend="linear", axis=0)
     weight = (fs * np.sin(2 * np.pi * f / fs)) ** (2 * differences)
     df = f[1] - f[0]
@@ -729,6 +730,7 @@ def preprocess(series: JointSeries, requested: Preprocessing | None = None
     share = np.where(var > 0, noise / np.where(var > 0, var, 1.0), np.nan)
     report["qdd_noise_share"] = _per_joint(joints, share)
     # the cut-off a noise-dominated acceleration needs (named by the warning)
+    from frictionid_core.diagnostics import QDD_NOISE_SHARE_LIMIT
     noisy = [j for j, s in enumerate(share) if joints[j] in report["moving_joints"] and s > QDD_NOISE_SHARE_LIMIT]
     clean = np.full(len(joints), np.nan)
     if noisy and settings.filter != "none":
