@@ -11,7 +11,8 @@ import numpy as np
 
 from frictionid_core.friction import DEFAULT_BOUNDS, get_model
 from frictionid_core.identification.settings import SolverOptions
-from frictionid_core.identification_model import IdentificationModel, parameter_kind
+from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.parameter_names import parameter_kind
 
 if TYPE_CHECKING:
     from frictionid_core.optim.problem import OptimResult, Problem
@@ -130,7 +131,6 @@ FS_FLOOR_SHARE = 0.01
 # contiguous blocks, every HOLDOUT_EVERY-th held back (a quarter of the log, spread over it).
 HOLDOUT_BLOCKS = 20
 HOLDOUT_EVERY = 4
-HOLDOUT_MARGIN = 0.01  # the law beats its linear case when its held-back error is this share lower (Coulomb data: 1e-4)
 
 
 def linear_special_case(model: IdentificationModel) -> tuple[IdentificationModel, np.ndarray]:
@@ -210,8 +210,7 @@ def with_data_bounds(model: IdentificationModel) -> IdentificationModel:
 def holdout_comparison(model: IdentificationModel, x: np.ndarray, solver: SolverOptions) -> dict:
     """The law of ``model`` against its linear special case on held-back rows: both fitted again
     on the other rows (the law by an lm polish from ``x``, or in closed form when nothing is
-    searched; the Coulomb case in closed form), their relative errors [%] on the held-back rows;
-    the law beats it when its error is at least HOLDOUT_MARGIN lower (a tie is no evidence).
+    searched; the Coulomb case in closed form), their relative errors [%] on the held-back rows.
 
     Returns {held_back_rows, law_relerr_pct, linear_relerr_pct, beats_linear}, or {skipped: why}
     when the training rows cannot be fitted (e.g. a joint that no longer moves both ways)."""
@@ -235,7 +234,7 @@ def holdout_comparison(model: IdentificationModel, x: np.ndarray, solver: Solver
     law = float(np.linalg.norm(model.residuals(x_law)[rows]))
     linear = float(np.linalg.norm(special.residuals(x_lin)[rows]))
     return {"held_back_rows": int(rows.sum()), "law_relerr_pct": 100.0 * law / scale,
-            "linear_relerr_pct": 100.0 * linear / scale, "beats_linear": bool(law < (1.0 - HOLDOUT_MARGIN) * linear)}
+            "linear_relerr_pct": 100.0 * linear / scale, "beats_linear": bool(law < linear)}
 
 
 def linear_fallback(model: IdentificationModel, x: np.ndarray) -> tuple[np.ndarray, dict[str, float], float]:
