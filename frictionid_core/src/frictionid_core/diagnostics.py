@@ -107,10 +107,11 @@ def direction_problems(obs, names: list[str]) -> tuple[list[str], list[str]]:
         prefix = f"{joint}/" if nj > 1 else ""
         used = obs.used[j * nd : (j + 1) * nd]
         v = obs.velocity[used, j]
-        if v.size == 0:
-            speed = obs.report.get("min_speed_rows", {}).get(joint, obs.preprocessing.min_speed.get(joint, np.nan))
+        if not np.any(v):  # no used row, or none that moves (a noise-free log of a joint at rest)
+            speed = obs.report.get("min_speed_rows", {}).get(joint, np.nan)
             errors.append(f"{joint} never moves faster than its min speed {speed:.3g}: nothing to identify its "
-                          "friction from; lower --min-speed or leave the joint out (--joints)")
+                          "friction from; record it moving (back and forth), lower --min-speed, or leave it out of "
+                          "the fitted joints (--joints without it; a robot model still uses its logged position)")
             continue
         pos, neg = int(np.count_nonzero(v > 0)), int(np.count_nonzero(v < 0))
         minority = min(pos, neg)

@@ -114,7 +114,8 @@ def test_joint_columns_named_as_the_drive_are_reordered_and_log_names_kept():
     np.testing.assert_array_equal(out.position, d.to_joint_side(s).position)
 
 
-@pytest.mark.parametrize("joints, fragment", [(["a", "b"], "do not match"), (["a", "b", "x"], "missing ['c']")])
+@pytest.mark.parametrize("joints, fragment", [(["a", "b"], "coupling term(s) between the joints [('c', 'a')]"),
+                                              (["a", "b", "x"], "missing ['c']")])
 def test_data_joints_that_do_not_fit_the_drive(joints, fragment):
     s = random_series(joints)
     with pytest.raises(InputError) as e:

@@ -121,7 +121,8 @@ def test_identify_window_fits_only_the_window_and_records_it(tmp_path):
     late = run_json([*argv, "--start", 10.5], tmp_path / "b.json")
     whole = run_json(argv, tmp_path / "all.json")
     assert early["window"] == {"start_s": None, "end_s": 9.5} and late["window"] == {"start_s": 10.5, "end_s": None}
-    assert early["params"]["Fv"] == pytest.approx(2.0, rel=0.01) and late["params"]["Fv"] == pytest.approx(4.0, rel=0.01)
+    assert early["params"]["Fv"] == pytest.approx(2.0, rel=0.01)
+    assert late["params"]["Fv"] == pytest.approx(4.0, rel=0.01)
     assert 2.2 < whole["params"]["Fv"] < 3.8
     # both windows are 9.5 s of one smooth half, pre-processed alike (the whole log has a seam)
     assert early["metrics"]["samples"] == pytest.approx(late["metrics"]["samples"], rel=0.02)
@@ -173,15 +174,28 @@ def test_each_source_is_filtered_alone():
         assert stacked.params[name] == pytest.approx(alone.params[name], rel=0.05), name
 
 
-def test_sources_with_other_joints_are_refused(capsys, tmp_path):
-    a = friction_series(2.0, joints=("j1", "j2"), source="a")
-    b = friction_series(2.0, joints=("j1", "j3"), source="b")
-    with pytest.raises(InputError, match=r"^b: joints \['j1', 'j3'\] differ from those of a"):
-        identify([a, b], IdentifyRequest(system="friction-only"))
+def test_sources_with_other_joints_are_fitted_together(tmp_path):
+    """a holds j1, j2 and b holds j1, j3: one fit over j1, j2, j3, each joint from the sources
+    that hold it (j3's friction from b alone), as on the command line; a joint in no source is
+    refused naming the sources."""
+    coulomb = {**STRIBECK, "Fs": STRIBECK["Fc"]}
+    a = friction_series(10.0, params=coulomb, joints=("j1", "j2"), source="a")
+    b = friction_series(10.0, params={**coulomb, "Fv": 3.0}, joints=("j1", "j3"), phase=1.0, source="b")
+    b.effort[:, 0] = friction_series(10.0, params=coulomb, phase=1.0).effort[:, 0]  # j1 as in a
+    r = identify([a, b], IdentifyRequest(system="friction-only", friction="coulomb"))
+    assert r.joints == ["j1", "j2", "j3"] and r.source == ["a", "b"]
+    assert r.params["j3/Fv"] == pytest.approx(3.0, rel=0.01) and r.params["j2/Fv"] == pytest.approx(2.0, rel=0.01)
+    assert r.params["j1/Fv"] == pytest.approx(2.0, rel=0.01)
+    assert set(r.preprocessing["min_speed"]) == {"j1", "j2", "j3"}
+    v = validate([a, b], r)
+    assert v["relerr_pct"] == pytest.approx(r.metrics["relerr_pct"], rel=1e-9)
+    with pytest.raises(InputError, match=r"joint\(s\) \['j4'\] in none of the sources \(a: \['j1', 'j2'\]; b:"):
+        identify([a, b], IdentifyRequest(system="friction-only", joints=["j1", "j4"]))
     save_csv(a, tmp_path / "a.csv")
     save_csv(b, tmp_path / "b.csv")
-    msg = fails(["identify", tmp_path / "a.csv", tmp_path / "b.csv", "--system", "friction-only"], capsys)
-    assert "b.csv: joints" in msg and "--joints" in msg
+    cli = run_json(["identify", tmp_path / "a.csv", tmp_path / "b.csv", "--system", "friction-only", "--joints",
+                    "j2,j3"], tmp_path / "r.json")
+    assert cli["joints"] == ["j2", "j3"] and cli["params"]["j3/Fv"] == pytest.approx(3.0, rel=0.01)
 
 
 def test_cli_several_sources(tmp_path):
@@ -311,7 +325,7 @@ def test_box_quadratic_matches_bounded_least_squares():
                              method="bvls", tol=1e-14).x
             best = z[p].copy()
             best[free] = ref
-            cost = lambda v: float(np.sum((y[p] - A[p] @ v) ** 2))
+            cost = lambda v, y=y[p], A=A[p]: float(np.sum((y - A @ v) ** 2))
             assert cost(z[p]) <= cost(best) * (1 + 1e-10) + 1e-12
 
 

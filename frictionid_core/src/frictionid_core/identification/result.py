@@ -18,7 +18,7 @@ from frictionid_core.identification.request import IdentifyRequest, window_recor
 
 # Keys left out of the JSON when their field is None.
 OPTIONAL_KEYS = ("optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "output_error", "idm",
-                 "idm_params", "request")
+                 "idm_params", "identifiability", "held_joints", "no_effort_joints", "request")
 REQUIRED_KEYS = ("system", "friction", "asymmetric", "params")
 
 
@@ -50,6 +50,11 @@ class IdentifyResult:
         layout: the CSV layout file the source was read with (the command line), or None.
         output_error, idm, idm_params: an output-error identification: True, the IDM start's
             metrics and parameters (None otherwise).
+        identifiability: what the data resolve: {rank, columns, unresolved, action, …} (see
+            :class:`~frictionid_core.identification.identifiability.Identifiability`).
+        held_joints: robot systems: {model joint: position (rad or m)} held still in every
+            source (None for the other systems).
+        no_effort_joints: data joints that moved without a usable effort, left out of the fit.
         request: the request that produced it (None: built by hand).
     """
 
@@ -80,6 +85,9 @@ class IdentifyResult:
     output_error: bool | None = None
     idm: dict | None = None
     idm_params: dict[str, float] | None = None
+    identifiability: dict | None = None
+    held_joints: dict[str, float] | None = None
+    no_effort_joints: list[str] | None = None
     request: IdentifyRequest | None = None
 
     def to_dict(self) -> dict:
@@ -87,7 +95,7 @@ class IdentifyResult:
         head = ("system", "joint_map", "friction", "asymmetric", "solver", "source", "joints", "params", "std",
                 "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds", "optimizer", "varpro",
                 "warm_start", "consistency", "standard_parameters", "preprocessing", "layout", "output_error", "idm",
-                "idm_params", "request")
+                "idm_params", "identifiability", "held_joints", "no_effort_joints", "request")
         out = {}
         for key in head:
             value = getattr(self, key)
