@@ -98,9 +98,10 @@ def stamp_warnings(notes: list[str]) -> list[str]:
 
 
 def direction_problems(obs, names: list[str]) -> tuple[list[str], list[str]]:
-    """(errors, warnings) for joints that move in one direction only (or not at all) on the used
-    rows of ``obs``, given the model's free parameter ``names``: then a constant offset and the
-    Coulomb level (or the other branch of an asymmetric law) cannot be told apart."""
+    """(errors, warnings): errors for joints that never move on the used rows of ``obs``,
+    warnings for joints that move in one direction only, given the model's free parameter
+    ``names``: then a constant offset and the Coulomb level (or the other branch of an asymmetric
+    law) cannot be told apart, and the fit holds one of them (identifiability)."""
     errors, warnings = [], []
     nd, nj = obs.n_samples, len(obs.joints)
     for j, joint in enumerate(obs.joints):
@@ -128,6 +129,6 @@ def direction_problems(obs, names: list[str]) -> tuple[list[str], list[str]]:
             if not lost:
                 continue
             msg = f"{where}: {', '.join(lost)} are not identifiable; use a symmetric friction law (no --asymmetric)"
-        (errors if minority == 0 else warnings).append(msg)
+        warnings.append(msg)  # the fit drops the direction the data cannot resolve (identifiability)
     return errors, warnings
 

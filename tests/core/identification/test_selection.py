@@ -280,12 +280,20 @@ def test_fixed_names_full_base_and_family():
         build_model(s, "friction-only", "coulomb", False, fixed={"Fv": 9.0}, bounds={"Fv": (0.0, 5.0)})
 
 
-def test_one_direction_move_needs_the_offset_fixed(tmp_path, capsys):
-    """The issue's case: 'offset not identifiable' and no way out; --fix offset=0 is the way out."""
+def test_one_direction_move_drops_the_offset_or_takes_it_fixed(tmp_path, capsys):
+    """A move one way cannot separate the offset from the Coulomb level: the fit warns and drops the
+    offset (held at 0, as --fix offset=0 would), naming it; --fix offset=0 (or a zero-width bound)
+    gives the same parameters, as the user's choice."""
     save_csv(one_way_series(), tmp_path / "oneway.csv")
-    msg = fails(["identify", tmp_path / "oneway.csv"], capsys)
-    assert "moves in one direction" in msg and "--fix offset=0" in msg
+    dropped = run_json(["identify", tmp_path / "oneway.csv"], tmp_path / "d.json")
+    assert any("moves in one direction" in w and "--fix offset=0" in w for w in dropped["warnings"])
+    assert dropped["identifiability"]["unresolved"] == ["offset"] and dropped["identifiability"]["action"] == "dropped"
+    assert dropped["identifiability"]["folded_into"]["offset"] == {"Fc": pytest.approx(1.0, rel=1e-9)}
+    sigma = dropped["std"]["offset"]  # undetermined: NaN (null in the JSON)
+    assert dropped["params"]["offset"] == 0.0 and (sigma is None or np.isnan(sigma))
     r = run_json(["identify", tmp_path / "oneway.csv", "--fix", "offset=0"], tmp_path / "r.json")
+    assert r["identifiability"]["action"] == "fixed" and r["identifiability"]["unresolved"] == ["offset"]
+    assert r["params"] == pytest.approx(dropped["params"], rel=1e-9)
     assert r["fixed"] == {"offset": 0.0} and r["params"]["offset"] == 0.0 and r["std"]["offset"] == 0.0
     assert r["params"]["Fc"] == pytest.approx(20.0, rel=0.01) and r["params"]["M"] == pytest.approx(95.0, rel=0.01)
     out = capsys.readouterr().out

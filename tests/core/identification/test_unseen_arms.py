@@ -31,7 +31,8 @@ FINGER = 0.02  # m: where the fingers stay in the recordings
 
 def _link(name: str, mass: float, com: str, inertia: float) -> str:
     return (f'<link name="{name}"><inertial><origin xyz="{com}"/><mass value="{mass}"/>'
-            f'<inertia ixx="{inertia}" iyy="{1.3 * inertia}" izz="{0.7 * inertia}" ixy="0.001" ixz="0" iyz="0.002"/>'
+            f'<inertia ixx="{inertia}" iyy="{1.3 * inertia}" izz="{0.7 * inertia}" ixy="{0.05 * inertia}" ixz="0" '
+            f'iyz="{0.1 * inertia}"/>'
             "</inertial></link>")
 
 
@@ -144,68 +145,105 @@ def test_the_held_position_enters_the_dynamics(arm_urdf):
 
 
 # ------------------------------------------------------------------------ identifiability
+LIFTER = "".join([
+    '<robot name="lifter"><link name="base"/>',
+    _link("carriage", 5.0, "0 0 0.05", 0.05), _link("arm", 1.5, "0.2 0 0", 0.02), _link("tool", 0.3, "0.05 0 0", 0.001),
+    _joint("lift", "prismatic", "base", "carriage", "0 0 0.2", "0 0 1",
+           '<limit lower="0" upper="0.6" effort="200" velocity="0.5"/>'),
+    _joint("elbow", "revolute", "carriage", "arm", "0 0 0.1", "0 1 0",
+           '<limit lower="-2.5" upper="2.5" effort="30" velocity="3"/>'),
+    _joint("wrist", "revolute", "arm", "tool", "0.4 0 0", "1 0 0",
+           '<limit lower="-3" upper="3" effort="10" velocity="3"/>'),
+    "</robot>"])
+LIFT_SPEED = 0.03  # m/s, upwards the whole log
+LIFTER_FRICTION = {"lift": (40.0, 8.0, 0.5), "elbow": (1.0, 0.5, 0.1), "wrist": (0.4, 0.2, -0.05)}  # Fv, Fc, offset
+
+
 @pytest.fixture(scope="module")
-def wrist_still(arm_urdf):
-    """The wrist stays still at 0.3 rad in the log: fitting the shoulder and elbow rows (--joints),
-    the data cannot separate every body parameter the model keeps for a moving wrist."""
-    return recording(arm_urdf, ["shoulder", "elbow"], seed=3, noise=0.01)
+def lifter(tmp_path_factory):
+    """(URDF path, log): a vertical lift rising at constant speed under a swinging arm and wrist,
+    500 Hz, exact positions, torque noise 0.01. On these data the lift's gravity load (its mass
+    column, g), its Coulomb level and offset (1) and its viscous friction (q̇, constant) are one
+    direction: three of the four are unresolved."""
+    path = tmp_path_factory.mktemp("lifter") / "lifter.urdf"
+    path.write_text(LIFTER)
+    robot = load_urdf(path)
+    t = np.arange(6000) / 500.0
+    w = 2 * np.pi / 4
+    q = np.column_stack([0.1 + LIFT_SPEED * t, 0.8 * np.sin(w * t) + 0.3 * np.sin(3 * w * t + 1),
+                         1.2 * np.sin(2 * w * t + 0.5)])
+    qd = np.column_stack([np.full_like(t, LIFT_SPEED), 0.8 * w * np.cos(w * t) + 0.9 * w * np.cos(3 * w * t + 1),
+                          2.4 * w * np.cos(2 * w * t + 0.5)])
+    qdd = np.column_stack([np.zeros_like(t), -0.8 * w**2 * np.sin(w * t) - 2.7 * w**2 * np.sin(3 * w * t + 1),
+                           -4.8 * w**2 * np.sin(2 * w * t + 0.5)])
+    tau = robot.inverse_dynamics(q, qd, qdd)
+    for k, j in enumerate(robot.joints):
+        fv, fc, offset = LIFTER_FRICTION[j]
+        tau[:, k] += fv * qd[:, k] + fc * np.sign(qd[:, k]) + offset
+    tau += np.random.default_rng(5).normal(0.0, 0.01, tau.shape)
+    return path, JointSeries(t, list(robot.joints), q, tau, source="lifter")
 
 
-def request_of(arm_urdf, **fields):
-    return IdentifyRequest(system=f"urdf:{arm_urdf}", joints=["shoulder", "elbow"], hold_missing=True,
-                           hold={"finger_l": FINGER, "finger_r": FINGER}, **fields)
-
-
-def test_unresolved_directions_are_dropped_and_named(arm_urdf, wrist_still):
-    r = identify(wrist_still, request_of(arm_urdf))
+def test_unresolved_directions_are_dropped_and_named(lifter):
+    path, log = lifter
+    r = identify(log, IdentifyRequest(system=f"urdf:{path}"))
     ident = r.identifiability
-    assert ident["action"] == "dropped" and ident["unresolved"] and ident["rank"] < ident["columns"]
-    assert ident["rank"] + len(ident["unresolved"]) == ident["columns"]
+    assert ident["action"] == "dropped" and ident["rank"] + 3 == ident["columns"]
+    mass = next(n for n in ident["unresolved"] if not n.startswith("lift/"))
+    assert sorted(ident["unresolved"]) == sorted([mass, "lift/Fc", "lift/offset"])
+    # ties keep friction: each folds into the lift's viscous term (column q̇ = LIFT_SPEED)
+    assert ident["folded_into"]["lift/Fc"] == {"lift/Fv": pytest.approx(1 / LIFT_SPEED, rel=1e-6)}
+    assert ident["folded_into"]["lift/offset"] == {"lift/Fv": pytest.approx(1 / LIFT_SPEED, rel=1e-6)}
     for name in ident["unresolved"]:
         assert r.params[name] == 0.0 and np.isnan(r.std[name])
-        assert name in ident["folded_into"] or name in ident["no_effect"]
-    assert any("do not resolve" in w and ident["unresolved"][0] in w and "--prior urdf" in w for w in r.warnings)
+    assert any("do not resolve 3 direction(s)" in w and "lift/Fc" in w and "--prior urdf" in w for w in r.warnings)
+    assert any("lift moves in one direction only" in w for w in r.warnings)
     # as good as an independent least-squares fit of the same columns that drops what it cannot solve
-    model, x = model_from_result(wrist_still, r)
+    model, x = model_from_result(log, r)
     X, y = model.design(), model.obs.y
     theta = np.linalg.lstsq(X, y, rcond=1e-10)[0]
     independent = 100 * np.linalg.norm(y - X @ theta) / np.linalg.norm(y)
-    fitted = 100 * np.linalg.norm(y - model.predict(x)) / np.linalg.norm(y)
-    assert fitted == pytest.approx(independent, rel=1e-6)
-    for j in ("shoulder", "elbow"):
-        assert r.params[f"{j}/Fv"] == pytest.approx(FRICTION[j][0], rel=0.05), j
+    assert 100 * np.linalg.norm(y - model.predict(x)) / np.linalg.norm(y) == pytest.approx(independent, rel=1e-6)
+    for j in ("elbow", "wrist"):
+        assert r.params[f"{j}/Fc"] == pytest.approx(LIFTER_FRICTION[j][1], rel=0.05), j
 
 
-def test_unresolved_directions_held_at_the_urdf_or_fixed(arm_urdf, wrist_still):
-    dropped = identify(wrist_still, request_of(arm_urdf))
-    unresolved = dropped.identifiability["unresolved"]
-    prior = identify(wrist_still, request_of(arm_urdf, prior="urdf"))
-    assert prior.identifiability["action"] == "prior" and prior.identifiability["unresolved"] == unresolved
-    restricted = dict(zip(prior.params, prior.params.values()))
-    from frictionid_core.identification.plan import Holds, plan_fit
-
-    plan = plan_fit([wrist_still], get_system(f"urdf:{arm_urdf}"), ["shoulder", "elbow"],
-                    Holds({"finger_l": FINGER, "finger_r": FINGER}, True))
-    nominal = nominal_parameters(plan.system)
-    assert any(nominal[n] != 0.0 for n in unresolved)
-    for name in unresolved:
-        assert restricted[name] == nominal[name] and np.isnan(prior.std[name])
+def test_unresolved_directions_held_at_the_urdf_or_fixed(lifter):
+    """--prior urdf holds the lift's gravity load at the URDF's mass (the friction and offset
+    columns resolved first); --fix covers the same directions by the user's values; with
+    --consistent the prior makes the program well posed."""
+    path, log = lifter
+    system = f"urdf:{path}"
+    dropped = identify(log, IdentifyRequest(system=system))
+    prior = identify(log, IdentifyRequest(system=system, prior="urdf"))
+    ident = prior.identifiability
+    nominal = nominal_parameters(get_system(system))
+    mass = [n for n in ident["unresolved"] if not n.startswith("lift/")]
+    assert ident["action"] == "prior" and len(mass) == 1 and nominal[mass[0]] > 1.0
+    assert ident["held"] == {mass[0]: nominal[mass[0]], "lift/Fc": 0.0, "lift/offset": 0.0}
+    assert prior.params[mass[0]] == nominal[mass[0]] and np.isnan(prior.std[mass[0]])
+    # the lift's friction now carries only what the mass does not: Fv·v = Fv_true·v + Fc_true + offset_true
+    fv, fc, offset = LIFTER_FRICTION["lift"]
+    assert prior.params["lift/Fv"] * LIFT_SPEED == pytest.approx(fv * LIFT_SPEED + fc + offset, rel=1e-3)
     # the prediction is the same: the held directions fold into the others either way
     assert prior.metrics["relerr_pct"] == pytest.approx(dropped.metrics["relerr_pct"], rel=1e-6)
-    fixed = identify(wrist_still, request_of(arm_urdf, fixed=dict.fromkeys(unresolved, 0.0)))
-    assert fixed.identifiability["action"] == "fixed" and fixed.identifiability["unresolved"] == unresolved
-    assert fixed.fixed == dict.fromkeys(unresolved, 0.0) and not any("do not resolve" in w for w in fixed.warnings)
-    consistent = identify(wrist_still, request_of(arm_urdf, prior="urdf", consistent=True))
-    assert consistent.consistency["feasible"]
+    fixes = {"lift/Fc": fc, "lift/offset": offset, "lift/Fv": fv}
+    fixed = identify(log, IdentifyRequest(system=system, fixed=fixes))
+    assert fixed.identifiability["action"] == "fixed"
+    assert fixed.fixed == fixes and not any("do not resolve" in w for w in fixed.warnings)
+    assert fixed.params[mass[0]] == pytest.approx(nominal[mass[0]], rel=1e-3)  # the mass, once friction is known
+    consistent = identify(log, IdentifyRequest(system=system, prior="urdf", consistent=True))
+    assert consistent.consistency["feasible"] and consistent.params[mass[0]] == pytest.approx(nominal[mass[0]])
     assert consistent.metrics["relerr_pct"] < 1.05 * dropped.metrics["relerr_pct"]
 
 
-def test_fix_takes_rigid_body_names_with_a_slash(arm_urdf, wrist_still):
-    r = identify(wrist_still, request_of(arm_urdf))
+def test_fix_takes_rigid_body_names_with_a_slash(lifter):
+    path, log = lifter
+    r = identify(log, IdentifyRequest(system=f"urdf:{path}"))
     name = next(n for n in r.params if n.startswith("elbow.") and n not in r.identifiability["unresolved"])
     joint, _, p = name.partition(".")
     alias = f"{joint}/{p.removesuffix('R')}"
-    fixed = identify(wrist_still, request_of(arm_urdf, fixed={alias: 0.1}))
+    fixed = identify(log, IdentifyRequest(system=f"urdf:{path}", fixed={alias: 0.1}))
     assert fixed.params[name] == 0.1 and fixed.fixed == {name: 0.1} and fixed.std[name] == 0.0
 
 

@@ -166,8 +166,8 @@ def test_trajectory_beyond_the_limits_is_refused(tx40):
 
 def test_joints_that_never_move_are_refused_by_name_and_can_be_left_out(tx40):
     """Only joint 2 moves: the full-robot fit refuses naming a joint that never moves and the way
-    out; fitting joint 2 alone (--joints joint_2) works, the other joints' logged positions still
-    in the model, its few resolved directions found from the data (noise free: exact torque)."""
+    out; fitting joint 2 alone (--joints joint_2) works, the other joints held at their logged
+    positions: the thesis model of joint 2, with its fit."""
     from frictionid_core.identification import IdentifyRequest, identify
 
     traj = FourierTrajectory(list(tx40.joints), np.zeros(6), np.zeros((6, 2)), np.zeros((6, 2)), 2 * np.pi / 2, 3.0)
@@ -176,12 +176,10 @@ def test_joints_that_never_move_are_refused_by_name_and_can_be_left_out(tx40):
     with pytest.raises(InputError, match=r"joint_1 never moves faster than its min speed.*record it moving.*--joints"):
         identify(series, IdentifyRequest(system="tx40"))
     r = identify(series, IdentifyRequest(system="tx40", joints=["joint_2"]))
-    assert r.joints == ["joint_2"] and r.held_joints == {}
-    ident = r.identifiability
-    assert ident["columns"] == len(r.params) and ident["rank"] == ident["columns"] - len(ident["unresolved"])
-    assert ident["action"] == "dropped" and all(r.params[n] == 0.0 and np.isnan(r.std[n]) for n in ident["unresolved"])
-    # what the data resolve is the thesis model of joint 2: ZZ, MX, MY (base combinations), Fv, Fc, offset
-    assert ident["rank"] == 6
+    # the joints that do not move are held where the log has them: the model is that of joint 2
+    assert r.joints == ["joint_2"] and r.held_joints == {j: 0.0 for j in tx40.joints if j != "joint_2"}
+    # its inertia about the axis, two gravity moments (base combinations), Fv, Fc, offset
+    assert r.identifiability == {**r.identifiability, "rank": 6, "columns": 6, "unresolved": [], "action": None}
     thesis = identify(series.select(["joint_2"]), IdentifyRequest(system="tx40-j2"))
     assert r.metrics["relerr_pct"] == pytest.approx(thesis.metrics["relerr_pct"], rel=1e-3)
     for name in ("Fv", "Fc"):

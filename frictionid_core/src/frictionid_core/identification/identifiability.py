@@ -7,8 +7,9 @@ below :data:`ZERO_TOL` of the largest has no effect; each other one is scaled to
 QR with column pivoting (``scipy.linalg.qr``) orders them by how much each adds to those before
 it, and a pivot |R_kk| below :data:`RANK_TOL` (the first is ≈ 1) ends the rank:
 the columns left after it are the unresolved directions, named by their parameters. Exact ties
-(structurally equal columns) go to the parameter that comes first in the model's order (rigid
-body, then friction, then offsets), so the names do not depend on round-off.
+(columns equal on these data) keep friction before rigid-body parameters before offsets, so the
+names do not depend on round-off (a joint moving one way keeps its Coulomb level and drops its
+offset, as ``--fix offset=0`` would).
 
 An unresolved parameter is held (as a fixed value, moved to the right-hand side) so that the
 others are the base combinations of these data: at 0 (``dropped``: its effect folds into the
@@ -40,7 +41,7 @@ RANK_TOL = 1e-6
 ZERO_TOL = 1e-10
 # A parameter named among a direction's dominant ones carries at least this share of its largest term.
 DOMINANT_SHARE = 0.1
-# Tie-break between equal columns: the k-th of C columns is scaled by 1 − TIE_BREAK·k/C.
+# Tie-break between equal columns: the k-th of C columns (in the tie order) is scaled by 1 − TIE_BREAK·k/C.
 TIE_BREAK = 1e-12
 _LISTED = 8  # unresolved parameters named in the warning
 
@@ -100,27 +101,34 @@ class Identifiability:
 def identifiability(model: IdentificationModel, prior: dict[str, float] | None = None) -> Identifiability:
     """The identifiability of ``model``'s linear parameters on its used rows (see the module doc);
     ``prior``: {parameter: value} to hold unresolved parameters at (action ``prior``; a parameter
-    it lacks is held at 0), else they are dropped."""
+    it lacks is held at 0), else they are dropped.
+
+    The columns are resolved in groups, each against those resolved before it: without a prior
+    all free columns at once (ties to friction, then rigid body, then offsets), with a prior the
+    friction and offset columns first and the rigid-body ones after them (so what stays
+    unresolved is what the prior knows), the user's fixed columns last."""
     from scipy import linalg
 
     cols = [k for k, t in enumerate(model._terms) if t.fixed is not None]
     index = model.linear_index[cols]
     names = [model.names[i] for i in index]
-    used = model.obs.used
-    X = model._fixed[used][:, cols]
+    rigid = np.array([model._terms[k].joint < 0 for k in cols], dtype=bool)
+    offset = np.array([n.rsplit("/", 1)[-1] == "offset" for n in names], dtype=bool)
+    X = model._fixed[model.obs.used][:, cols]
     norms = np.linalg.norm(X, axis=0)
     user_fixed = np.array([i in model.fixed_values for i in index], dtype=bool)
     zero = norms <= ZERO_TOL * norms.max(initial=0.0)
-    weights = 1.0 - TIE_BREAK * np.arange(len(cols)) / max(1, len(cols))
-    # the triangular factor of the scaled columns keeps their relations in C rows instead of R
+    # the triangular factor of the unit-norm columns keeps their relations in C rows instead of R
     S = np.linalg.qr(X / np.where(zero, 1.0, norms), mode="r")
-    scaled = S * weights
-    # the free columns first, then the user's fixed ones: a fixed column is unresolved only when
-    # the free ones do not already span it
+    tie = np.empty(len(cols))  # each column's place in the tie order: friction, rigid body, offsets
+    tie[np.lexsort((np.arange(len(cols)), np.where(offset, 2, np.where(rigid, 1, 0))))] = np.arange(len(cols))
+    scaled = S * (1.0 - TIE_BREAK * tie / max(1, len(cols)))
+    live = ~zero & ~user_fixed
+    groups = [live & ~rigid, live & rigid] if prior is not None else [live]
     unresolved: list[int] = [int(k) for k in np.flatnonzero(zero & ~user_fixed)]
     rank = 0
     basis = np.zeros((S.shape[0], 0))
-    for group in (np.flatnonzero(~zero & ~user_fixed), np.flatnonzero(~zero & user_fixed)):
+    for group in [np.flatnonzero(g) for g in groups] + [np.flatnonzero(~zero & user_fixed)]:
         if group.size == 0:
             continue
         A = scaled[:, group]

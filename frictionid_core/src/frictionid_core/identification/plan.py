@@ -2,7 +2,9 @@
 joints it holds still, and the joints whose logged effort is unusable.
 
 * **Rows.** The request's joints (default: every data joint) are the rows fitted. A robot system
-  also keeps the source's other model joints: their motion enters the fitted joints' dynamics.
+  also keeps the source's other model joints: their motion enters the fitted joints' dynamics; one
+  that does not move (range within MOVING_FACTOR × its position noise) is held still at its
+  logged (median) position, so that its noise makes no columns of its own.
 * **Held joints** (robot systems, :class:`Holds`): a model joint the source lacks stays still at a
   position (q̇ = q̈ = 0 in the regressor): ``hold`` names it with its position (a logged column of
   it is then not used), ``hold_missing`` holds every absent one at 0 (at the drive's
@@ -172,18 +174,35 @@ def _source_plan(s: JointSeries, system: System, wanted: list[str] | None, holds
         keep = [j for j in keep if mapped[j] not in holds.values]  # held: its logged column is not used
         keep += [j for j in s.joints if j not in keep and mapped[j] in model and mapped[j] not in holds.values
                  and (drive is None or mapped[j] in drive)]
-    if not keep:
-        raise InputError(f"{s.source}: none of the joints {wanted} (data joints: {list(s.joints)})")
-    series = s if keep == list(s.joints) else s.select(keep)
     candidates = [j for j in keep if wanted is None or j in wanted]
+    if not candidates:
+        raise InputError(f"{s.source}: none of the joints to fit {wanted} (data joints: {list(s.joints)})")
+    series = s if keep == list(s.joints) else s.select(keep)
     no_effort = no_effort_joints(series, candidates) if judge_effort else {}
     rows = [j for j in candidates if j not in no_effort]
     if not rows:
         raise InputError(f"{s.source}: no joint to fit with a usable effort (joints {candidates}; "
                          + "; ".join(f"{j}: {why}" for j, why in no_effort.items()) + ")")
-    held = holds.resolve(system, [mapped[j] for j in keep]) if robot else {}
+    held = {}
+    if robot:
+        moving = dict(zip(series.joints, moving_joints(series)))
+        still = [j for j in series.joints if j not in candidates and not moving[j]]
+        if still:
+            held = {mapped[j]: float(np.median(series.position[:, series.joints.index(j)])) for j in still}
+            series = series.select([j for j in series.joints if j not in still])
+        held.update(holds.resolve(system, [mapped[j] for j in series.joints] + list(held)))
     system.check_joints(list(series.joints), s.source, held)
     return SourcePlan(series, rows, held, no_effort)
+
+
+def moving_joints(series: JointSeries) -> np.ndarray:
+    """(J,) True for the joints of ``series`` whose range exceeds MOVING_FACTOR × their position
+    noise (the pre-processing's rule of a moving joint)."""
+    t, q = series.t, series.position
+    if len(t) < 3:
+        return np.ptp(q, axis=0) > 0
+    fs = (len(t) - 1) / (t[-1] - t[0])
+    return np.ptp(q, axis=0) > MOVING_FACTOR * np.sqrt(noise_density(q, fs) * fs / 2)
 
 
 def no_effort_joints(series: JointSeries, candidates: list[str]) -> dict[str, str]:
@@ -194,8 +213,7 @@ def no_effort_joints(series: JointSeries, candidates: list[str]) -> dict[str, st
     t, q, e = series.t, series.position, series.effort
     if len(t) < 3:
         return {}
-    fs = (len(t) - 1) / (t[-1] - t[0])
-    sigma_q = np.sqrt(noise_density(q, fs) * fs / 2)
+    moves = moving_joints(series)
     speed = np.abs(np.gradient(q, t, axis=0))
     spread_all = np.std(e, axis=0)
     out = {}
@@ -203,7 +221,7 @@ def no_effort_joints(series: JointSeries, candidates: list[str]) -> dict[str, st
         k = series.joints.index(j)
         top = np.percentile(speed[:, k], 99)
         moving = speed[:, k] > MOVING_SPEED_SHARE * top
-        if np.ptp(q[:, k]) <= MOVING_FACTOR * sigma_q[k] or top <= 0 or moving.sum() < 10:
+        if not moves[k] or top <= 0 or moving.sum() < 10:
             continue  # a joint that does not move is not judged here
         x = e[moving, k]
         spread = float(np.std(x))

@@ -29,9 +29,8 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
     System, joint map, joints, friction, drive, pre-processing and held joints come from the
     result; each argument given overrides its part (``joint_map`` goes with ``system`` when both
     are given). ``window`` cuts ``series`` (s from the first sample); the result's own window is
-    not reused. The joints the result held still are held again (the base parameters are those of
-    that regressor); a joint it held for want of data (``hold_missing``) is taken from ``series``
-    where present.
+    not reused. The joints the result held still are held again where it held them (the base
+    parameters are those of that regressor; a logged column of such a joint is not used).
     """
     if isinstance(result, IdentifyResult):
         result = result.to_dict()
@@ -53,7 +52,7 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
     sources = as_sources(series, window)  # on the recorded side: the system's drive converts them
     if preprocessing is None and result.get("preprocessing"):
         preprocessing = Preprocessing.from_dict(result["preprocessing"], 1.0 / sources[0].dt)
-    holds = Holds(dict(asked.get("hold") or {}), bool(asked.get("hold_missing")), held)
+    holds = Holds({**(asked.get("hold") or {}), **held}, bool(asked.get("hold_missing")))
     plan = plan_fit(sources, sys_, list(joints) if joints else None, holds, structure=held, judge_effort=False)
     model = build_model(plan, plan.system, friction, asymmetric, preprocessing)
     missing = [n for n in model.names if n not in values]
