@@ -260,6 +260,9 @@ def test_joint_wise_sweeps_are_fitted_together(arm_urdf, tmp_path, capsys):
         identify(sweeps[0], request)
     r = identify(sweeps, request)
     assert r.source == [s.source for s in sweeps] and r.joints == ARM
+    # each joint judged where it moves: no joint's still q̈ in another sweep reads as noise-dominated
+    assert not any("the acceleration is noise-dominated" in w for w in r.warnings), r.warnings
+    assert set(r.preprocessing["moving_joints"]) == set(ARM)
     for j in ARM:
         assert r.params[f"{j}/Fv"] == pytest.approx(FRICTION[j][0], rel=0.05), j
         assert r.params[f"{j}/Fc"] == pytest.approx(FRICTION[j][1], rel=0.05), j

@@ -114,11 +114,18 @@ def _on_rows(obs: Observation, joints: list[str], names: list[str], per_joint: b
 
 
 def _merged_report(reports: list[dict]) -> dict:
-    """The first source's report, its per-joint entries completed by the other sources'."""
+    """The first source's report, each per-joint entry taken from the first source in which that
+    joint moves (else the first that has it): a joint-wise sweep's still joints say nothing of
+    their motion."""
     out = dict(reports[0])
-    for key, value in out.items():
+    for key, value in reports[0].items():
         if isinstance(value, dict):
-            out[key] = {**{k: v for r in reversed(reports) for k, v in (r.get(key) or {}).items()}, **value}
+            merged = {}
+            for joint in dict.fromkeys(j for r in reports for j in (r.get(key) or {})):
+                having = [r for r in reports if joint in (r.get(key) or {})]
+                moving = [r for r in having if joint in r.get("moving_joints", [])]
+                merged[joint] = (moving or having)[0][key][joint]
+            out[key] = merged
         elif key == "moving_joints":
             out[key] = list(dict.fromkeys(j for r in reports for j in r.get(key, [])))
     return out
