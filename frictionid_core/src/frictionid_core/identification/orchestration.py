@@ -89,7 +89,8 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
                                     bound_overrides=model.bound_overrides, fixed={**request.fixed, **held})
     model, (x, std, cond, res) = fit_at_dip_rates(
         model, settings, rebuild, lambda m, previous=None: fit_model(m, solver, progress, previous))
-    warnings = plan.warnings() + resolved.warning() + warnings + dip_warnings(model, x)
+    inertia_warnings = list(sys_.robot.model.inertia_warnings) if sys_.robot is not None else []
+    warnings = inertia_warnings + plan.warnings() + resolved.warning() + warnings + dip_warnings(model, x)
     if res is not None:
         std, design = jacobian_std(model, x)
         cond = float(np.linalg.cond(design))
