@@ -203,7 +203,10 @@ def test_unresolved_directions_are_dropped_and_named(lifter):
     X, y = model.design(), model.obs.y
     theta = np.linalg.lstsq(X, y, rcond=1e-10)[0]
     independent = 100 * np.linalg.norm(y - X @ theta) / np.linalg.norm(y)
-    assert 100 * np.linalg.norm(y - model.predict(x)) / np.linalg.norm(y) == pytest.approx(independent, rel=1e-6)
+    # (the sign constraints of the one constraint policy may hold a parameter the free fit puts just
+    # below 0: never better than the free fit, and within 0.1 % of it)
+    relerr = 100 * np.linalg.norm(y - model.predict(x)) / np.linalg.norm(y)
+    assert independent * (1 - 1e-9) <= relerr <= independent * 1.001
     for j in ("elbow", "wrist"):
         assert r.params[f"{j}/Fc"] == pytest.approx(LIFTER_FRICTION[j][1], rel=0.05), j
 

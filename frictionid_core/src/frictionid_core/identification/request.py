@@ -59,6 +59,11 @@ class IdentifyRequest:
         hold_missing: robot systems: every model joint absent from a source is held still at 0
             (or at the drive's ``position_offset`` of that joint).
         gravity: system ``joint``: each joint also gets ``g_sin``·sin q + ``g_cos``·cos q.
+        known_rigid_body: robot systems: the robot model's rigid body held (its links as
+            modelled), the rotor inertia (armature) of each joint or motor identified (≥ 0) with
+            the friction and offsets; the result's base parameters are the links' with the
+            identified rotor inertias in them, each rotor inertia also by its own name
+            (``<joint>.Ia``). The node's ``known_rigid_body`` parameter.
     """
 
     system: str = "emps"
@@ -79,6 +84,7 @@ class IdentifyRequest:
     hold: dict[str, float] = field(default_factory=dict)
     hold_missing: bool = False
     gravity: bool = False
+    known_rigid_body: bool = False
 
     def __post_init__(self) -> None:
         from frictionid_core.friction import FRICTIONS
@@ -102,7 +108,7 @@ class IdentifyRequest:
 
     def _check_consistency(self) -> None:
         set_ = object.__setattr__
-        for name in ("consistent", "stribeck_order", "hold_missing", "gravity"):
+        for name in ("consistent", "stribeck_order", "hold_missing", "gravity", "known_rigid_body"):
             set_(self, name, flag(name, getattr(self, name)))
         hold = {k: number(f"hold.{k}", v) for k, v in mapping("hold", self.hold).items()}
         bad = [k for k, v in hold.items() if not math.isfinite(v)]
@@ -129,6 +135,13 @@ class IdentifyRequest:
             raise FieldError("gravity", f": adds g_sin·sin q + g_cos·cos q to the one-joint model (system 'joint'); "
                                         f"system '{self.system}' "
                              + ("has its own gravity terms" if robot else "has none"))
+        if self.known_rigid_body:
+            if not robot:
+                raise FieldError("known_rigid_body", f": needs a robot system ({ROBOT_SYSTEMS}) whose model has the "
+                                                     f"rigid body; system '{self.system}' has none")
+            if self.consistent:
+                raise FieldError("known_rigid_body", ": holds the model's rigid body, which consistent fits; "
+                                                     "choose one")
 
     @classmethod
     def from_dict(cls, data: Mapping, where: str = "request field", names: Mapping[str, str] | None = None
