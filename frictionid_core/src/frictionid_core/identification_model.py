@@ -242,11 +242,11 @@ class IdentificationModel:
 
     def _resolve(self, overrides: dict, what: str) -> dict[int, object]:
         """{parameter index: value} of ``overrides`` keyed by a full name, a base name or a family
-        (the first of these that a parameter matches); FrictionIdError for a key matching none."""
+        (the first of :func:`parameter_keys` that a parameter matches); FrictionIdError for a key
+        matching none."""
         out, unknown = {}, set(overrides)
         for i, name in enumerate(self.names):
-            base = name.rsplit("/", 1)[-1]
-            for key in (name, base, base.removesuffix("_pos").removesuffix("_neg"), base.rsplit(".", 1)[-1]):
+            for key in parameter_keys(name):
                 if key in overrides:
                     out[i] = overrides[key]
                     unknown.discard(key)
@@ -490,6 +490,22 @@ class IdentificationModel:
             sd[free], cond = fit.std, fit.cond
         x[self.linear_index] = coef
         return x, {**dict(zip(names, map(float, sd))), **std}, cond
+
+
+def parameter_keys(name: str) -> list[str]:
+    """The names a user may give parameter ``name`` by, most specific first: the full name, the
+    base name (``joint_2/vs_pos`` → ``vs_pos``) and the family (``vs``); a robot's rigid-body
+    parameter ``<joint>.<p>`` (``R``-suffixed when others regroup into it) also as ``<joint>/<p>``,
+    without the ``R``, and ``<p>`` for that parameter of every body."""
+    base = name.rsplit("/", 1)[-1]
+    keys = [name, base, base.removesuffix("_pos").removesuffix("_neg")]
+    joint, dot, p = name.rpartition(".")
+    if dot and "/" not in name:
+        from frictionid_core.robots.robot_model import BODY_PARAMS, ROTOR_PARAM
+
+        stems = [p] + ([p[:-1]] if p.endswith("R") and p[:-1] in (*BODY_PARAMS, ROTOR_PARAM) else [])
+        keys += [f"{joint}{sep}{stem}" for stem in stems for sep in "./"] + stems
+    return list(dict.fromkeys(keys))
 
 
 def box_quadratic(G: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
