@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from frictionid_core.identification_model import parameter_kind
+from frictionid_core.parameter_names import parameter_kind
 
 # A parameter is at a bound when it lies within this many σ of it (judged against its own σ, not
 # the width of the search range); without a finite σ, when it is at the bound to round-off.

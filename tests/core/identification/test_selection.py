@@ -24,8 +24,8 @@ from frictionid_core.identification import (
     model_from_result,
     validate,
 )
-from frictionid_core.identification_model import box_quadratic
 from frictionid_core.io.csv import save_csv
+from frictionid_core.linear import box_quadratic
 from frictionid_core.observation import concat_observations
 from frictionid_core.preprocess import Preprocessing
 from frictionid_core.systems import get_system, observe

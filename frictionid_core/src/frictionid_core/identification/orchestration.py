@@ -14,7 +14,13 @@ from frictionid_core.drive import drive_from_dict, load_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_rates
 from frictionid_core.identification.identifiability import identifiability
-from frictionid_core.identification.model import Sources, as_sources, build_model, model_metrics, preprocessing_record
+from frictionid_core.identification.model_building import (
+    Sources,
+    as_sources,
+    build_model,
+    model_metrics,
+    preprocessing_record,
+)
 from frictionid_core.identification.plan import Holds, plan_fit
 from frictionid_core.identification.plausibility import (
     check_fit,

@@ -9,7 +9,7 @@ import numpy as np
 
 from frictionid_core.drive import result_drive
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.identification.model import Sources, as_sources, build_model, metric_model, model_metrics
+from frictionid_core.identification.model_building import Sources, as_sources, build_model, metric_model, model_metrics
 from frictionid_core.identification.plan import Holds, plan_fit
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification_model import IdentificationModel
