@@ -11,7 +11,8 @@ import numpy as np
 
 from frictionid_core.drive import result_drive
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.identification.model import Sources, as_sources, build_model, metric_model, model_metrics
+from frictionid_core.identification.model_building import Sources, as_sources, build_model, metric_model, model_metrics
+from frictionid_core.identification.plan import Holds, plan_fit
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.settings import PreprocessingOverrides
 from frictionid_core.identification_model import IdentificationModel
@@ -107,13 +108,14 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
     written by hand or by an earlier version) on ``series`` (one source or several) and its
     identified parameters (k,).
 
-    System, joint map, joints, friction, drive and pre-processing come from the result, the
-    settings it chose from its data chosen again from ``series`` where they can
+    System, joint map, joints, friction, drive, pre-processing and held joints come from the
+    result, the settings it chose from its data chosen again from ``series`` where they can
     (:func:`validation_settings`; which: the observation report's ``rechosen``, ``kept``,
-    ``kept_why``, ``set``); each argument given overrides
-    its part (``preprocessing``: settings the user fixes; ``joint_map`` goes with ``system`` when
-    both are given). ``window`` cuts ``series`` (s from the first sample); the result's own window
-    is not reused.
+    ``kept_why``, ``set``); each argument given overrides its part (``preprocessing``: settings
+    the user fixes; ``joint_map`` goes with ``system`` when both are given). ``window`` cuts
+    ``series`` (s from the first sample); the result's own window is not reused. The joints the
+    result held still are held again where it held them (the base parameters are those of that
+    regressor; a logged column of such a joint is not used).
     """
     if isinstance(result, IdentifyResult):
         result = result.to_dict()
@@ -127,18 +129,21 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         friction, asymmetric = result["friction"], bool(result["asymmetric"])
         joints = joints or result.get("joints")  # None (a hand-written file): the data's joints
         values = result["params"]
+        asked = result.get("request") or {}
+        held = dict(result.get("held_joints") or {})
     except KeyError as exc:
         raise FrictionIdError(f"parameter file lacks {exc}; expected the JSON written by "
                               "'frictionid identify'") from None
     sources = as_sources(series, window)  # on the recorded side: the system's drive converts them
-    if joints:
-        sources = [s.select(list(joints)) for s in sources]
+    holds = Holds({**(asked.get("hold") or {}), **held}, bool(asked.get("hold_missing")))
+    plan = plan_fit(sources, sys_, list(joints) if joints else None, holds, structure=held, judge_effort=False)
     if result.get("preprocessing"):
-        settings, which = validation_settings(result["preprocessing"], rule_series(sources[0], sys_), preprocessing)
+        settings, which = validation_settings(result["preprocessing"], rule_series(plan.sources[0].series, sys_),
+                                              preprocessing)
     else:  # a hand-written file: the system's pre-processing, the user's settings over it
         settings, which = (preprocessing or PreprocessingOverrides()).apply(sys_.preprocessing), None
     try:
-        model = build_model(sources, sys_, friction, asymmetric, settings)
+        model = build_model(plan, plan.system, friction, asymmetric, settings)
     except InputError as exc:  # these data cannot choose (nothing moves): the result's own settings
         if which is None or not which["rechosen"] or "cannot be chosen from the data" not in str(exc):
             raise
@@ -146,7 +151,7 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         settings = replace(Preprocessing.from_dict(result["preprocessing"], 1.0 / sources[0].dt), **given)
         why = {**which["kept_why"], **dict.fromkeys(which["rechosen"], "these data cannot choose it")}
         which = {"rechosen": [], "kept": list(why), "kept_why": why, "set": which["set"]}
-        model = build_model(sources, sys_, friction, asymmetric, settings)
+        model = build_model(plan, plan.system, friction, asymmetric, settings)
     if which is not None:
         model.obs.report.update(which)
     missing = [n for n in model.names if n not in values]
