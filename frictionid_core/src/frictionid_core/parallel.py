@@ -279,3 +279,20 @@ def restore_malloc_thresholds() -> bool:
     if done:
         del os.environ[MALLOC_TRIM_VARIABLE]  # child processes start with glibc's own rule
     return done
+
+
+def exit_with_parent() -> None:
+    """End this process when its parent ends (Linux ``PR_SET_PDEATHSIG``): a pool worker must not outlive
+    a coordinator that was killed (SIGKILL leaves it no time to stop its pool)."""
+    if not sys.platform.startswith("linux"):
+        return
+    import ctypes
+    import signal
+
+    parent = os.getppid()
+    try:
+        ctypes.CDLL("libc.so.6").prctl(1, int(signal.SIGTERM))  # 1: PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # not glibc
+        return
+    if os.getppid() != parent:  # the parent ended before the call
+        os._exit(1)

@@ -13,9 +13,10 @@ a numba warm-up) — by the pool's initialiser, or by a Dask worker's first task
 
 Local: a spawn-context ``ProcessPoolExecutor`` (fresh interpreters: no inherited threads or locks),
 two tasks in flight per worker, each worker's address space capped at ``memory_mb`` (a log too large
-for it fails with MemoryError instead of swapping the machine). A worker that dies (killed, out of
-memory) breaks the pool: it is rebuilt and the tasks that were in flight are rerun one at a time, so
-the one that kills its worker is found and recorded as failed while the others complete.
+for it fails with MemoryError instead of swapping the machine), each ending with its coordinator. A
+worker that dies (killed, out of memory) breaks the pool: it is rebuilt and the tasks that were in
+flight are rerun one at a time, so the one that kills its worker is found and recorded as failed
+while the others complete.
 
 Dask: a ``distributed.Client`` at ``scheduler`` (the scheduler reruns the tasks of a worker that dies).
 Its workers should run one thread each (``dask worker --nthreads 1``) and bound their own memory
@@ -72,6 +73,14 @@ def setup_worker(setup: Callable[[], None] | None = None, memory_mb: float | Non
         if setup is not None:
             setup()
         _setup_done = True
+
+
+def _init_pool_worker(setup: Callable[[], None] | None, memory_mb: float | None) -> None:
+    """A local pool worker's initialiser: it ends with the coordinator, then :func:`setup_worker`."""
+    from frictionid_core.parallel import exit_with_parent
+
+    exit_with_parent()
+    setup_worker(setup, memory_mb)
 
 
 def guarded(fn: Callable[[object], dict], payload, setup: Callable[[], None] | None = None) -> dict:
@@ -133,7 +142,7 @@ class LocalBackend:
         from concurrent.futures import ProcessPoolExecutor
 
         self.pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                        initializer=setup_worker, initargs=(self.setup, self.memory_mb))
+                                        initializer=_init_pool_worker, initargs=(self.setup, self.memory_mb))
 
     def sees(self, path: str) -> bool:
         """True: the workers read this machine's files."""

@@ -10,7 +10,7 @@ deleted or forged), a record the caller's ``validate`` refuses, an incomplete la
 write). Each goes to ``<name>.set-aside.jsonl`` beside the store with its line number and reason, the
 store is rewritten without it, and the check returns one line per record set aside: the caller
 recomputes what they held, so a damaged store costs the work of its damaged records, never a wrong
-number or an internal error.
+number or an internal error. :meth:`RecordStore.read` finds the same without changing the file.
 
 One store serves the fleet (``fits.jsonl``) and the EMPS study (``runs.jsonl``). One run at a time
 writes a store: :class:`RecordStore` holds an exclusive lock on ``.<name>.lock`` while it is open.
@@ -111,19 +111,33 @@ class RecordStore:
             self._lock_fd = None
 
     # -------------------------------------------------------------------- reading
+    def read(self) -> StoreCheck:
+        """The sound records, and one line per unsound one (left out), leaving the file as it is."""
+        records, _, bad, _ = self._scan()
+        return StoreCheck(records, [f"{self.path.name} line {n}: {problem}; left out" for n, _, problem in bad])
+
     def check(self) -> StoreCheck:
-        """The sound records; every other line set aside (module doc) and reported."""
-        found = StoreCheck()
+        """The sound records; every other line set aside (module doc) and reported. Inside ``with``."""
+        if self._lock_fd is None:
+            raise RuntimeError("RecordStore.check outside 'with RecordStore(…)'")
+        records, kept, bad, torn = self._scan()
+        if bad or torn:
+            self._rewrite(kept, [_rejected(n, raw, problem) for n, raw, problem in bad])
+        return StoreCheck(records, [f"{self.path.name} line {n}: {problem}; set aside in {self.set_aside_path.name}, "
+                                    "its work will be redone" for n, _, problem in bad])
+
+    def _scan(self) -> tuple[list[dict], list[bytes], list[tuple[int, bytes, str]], bool]:
+        """(sound records, their lines, [(line number, bytes, problem)] of the others, whether the file
+        ends without a newline)."""
         try:
             data = self.path.read_bytes()
         except FileNotFoundError:
-            return found
+            return [], [], [], False
         except OSError as exc:
             raise FrictionIdError(f"{self.path}: cannot read ({exc.strerror or exc})") from None
-        kept: list[bytes] = []
-        rejected: list[dict] = []
+        records, kept, bad = [], [], []
         lines = data.split(b"\n")
-        torn = lines.pop() if lines else b""  # the bytes after the last newline: an interrupted write
+        torn = lines.pop()  # the bytes after the last newline: an interrupted write
         numbered = [(n, raw, False) for n, raw in enumerate(lines, 1)]
         if torn.strip():
             numbered.append((len(lines) + 1, torn, True))
@@ -133,14 +147,10 @@ class RecordStore:
             record, problem = self._parse(raw, is_torn)
             if problem is None:
                 kept.append(raw)
-                found.records.append(record)
+                records.append(record)
             else:
-                rejected.append(_rejected(number, raw, problem))
-                found.set_aside.append(f"{self.path.name} line {number}: {problem}; set aside in "
-                                       f"{self.set_aside_path.name}, its work will be redone")
-        if rejected or torn:
-            self._rewrite(kept, rejected)
-        return found
+                bad.append((number, raw, problem))
+        return records, kept, bad, bool(torn)
 
     def _parse(self, raw: bytes, torn: bool) -> tuple[dict | None, str | None]:
         """(record without its checksum, None), or (None, what is wrong with the line)."""
