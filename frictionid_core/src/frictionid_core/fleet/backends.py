@@ -54,16 +54,21 @@ def failed(error: str) -> dict:
     return {"status": "failed", "error": one_line(error)}
 
 
-def setup_worker(setup: Callable[[], None] | None = None, memory_mb: float | None = None) -> None:
-    """Set up this worker process once (module doc); ``memory_mb``: cap its address space (MB)."""
+def setup_worker(setup: Callable[[], None] | None = None, memory_mb: float | None = None,
+                 coordinator_pid: int | None = None) -> None:
+    """Set up this worker process once (module doc); ``memory_mb``: cap its address space (MB). A
+    worker thread inside the coordinator's own process (``coordinator_pid``: a Dask cluster with
+    ``processes=False``) only runs ``setup``: the process's environment and limits stay the caller's."""
     global _setup_done
     with _setup_lock:
         if _setup_done:
             return
         from frictionid_core.parallel import init_worker_process
 
-        init_worker_process()
-        if memory_mb:
+        in_coordinator = coordinator_pid is not None and os.getpid() == coordinator_pid
+        if not in_coordinator:
+            init_worker_process()
+        if memory_mb and not in_coordinator:
             import resource
 
             limit = int(memory_mb * 1024 * 1024)
@@ -83,12 +88,17 @@ def _init_pool_worker(setup: Callable[[], None] | None, memory_mb: float | None)
     setup_worker(setup, memory_mb)
 
 
-def guarded(fn: Callable[[object], dict], payload, setup: Callable[[], None] | None = None) -> dict:
-    """``fn(payload)`` in a worker, as ``{**record, "status": "ok"}``, or :func:`failed` with the
-    error's one line (an input error's own words; another exception's type and message)."""
-    setup_worker(setup)
+def guarded(fn: Callable[[object], dict], payload, setup: Callable[[], None] | None = None,
+            coordinator_pid: int | None = None) -> dict:
+    """``fn(payload)`` in a worker with the BLAS on one thread, as ``{**record, "status": "ok"}``, or
+    :func:`failed` with the error's one line (an input error's own words; another exception's type and
+    message)."""
+    from frictionid_core.parallel import single_threaded_libraries
+
+    setup_worker(setup, coordinator_pid=coordinator_pid)
     try:
-        record = fn(payload)
+        with single_threaded_libraries():
+            record = fn(payload)
     except FrictionIdError as exc:
         return failed(str(exc))
     except MemoryError:
@@ -244,7 +254,7 @@ class DaskBackend:
 
         def fill() -> None:
             while running.count() < IN_FLIGHT_PER_WORKER * self.workers and (item := todo.take()) is not None:
-                future = self.client.submit(guarded, fn, prepare(item[1]), self.setup, pure=False)
+                future = self.client.submit(guarded, fn, prepare(item[1]), self.setup, os.getpid(), pure=False)
                 items[future.key] = item
                 running.add(future)
 
