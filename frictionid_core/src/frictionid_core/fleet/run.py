@@ -34,6 +34,7 @@ FITS_CSV = "fits.csv"
 ALARMS_JSON = "alarms.json"
 FAILED_JSON = "failed.json"
 INDEX_HTML = "index.html"
+OUTPUT_FILES = (STORE_FILE, FITS_CSV, ALARMS_JSON, FAILED_JSON, INDEX_HTML)
 FITS_HEADER = ("robot", "log", "start_time", "joint", "parameter", "value", "sigma")
 
 # progress(done, total, record): after each attempt of this run; done counts the logs whose last attempt
