@@ -171,3 +171,48 @@ def test_the_workers_read_files_even_after_the_cwd_changes(fleet, tmp_path, monk
     assert all(Path(source).is_absolute() and Path(source).exists() for r in config.robots for _, source in r.logs)
     assert [name for name, _ in config.robots[0].logs][:2] == ["arm01/day_001.mcap", "arm01/day_002.mcap"]
 
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.mark.slow
+def test_a_dask_cluster_gives_the_same_fits_and_a_killed_worker_loses_nothing(fleet, first_run, tmp_path):
+    # a scheduler and two one-thread workers (each under its nanny, as `dask worker` starts them); one
+    # worker process is killed after the third record: its nanny restarts it, the scheduler reruns its task
+    import psutil
+
+    from frictionid_core.fleet.config import read_fleet
+    from frictionid_core.fleet.run import run_fleet
+
+    dask = str(Path(sys.executable).parent / "dask")
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    port = address.rsplit(":", 1)[1]
+    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", port, "--no-dashboard"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)]
+    procs += [subprocess.Popen([dask, "worker", address, "--nthreads", "1", "--no-dashboard"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+              for _ in range(2)]
+    killed = []
+
+    def kill_a_worker(done: int, total: int, record: dict) -> None:
+        if done == 3 and not killed:
+            children = psutil.Process(procs[1].pid).children(recursive=True)
+            worker = next(c for c in children if "python" in c.name().lower())
+            worker.kill()
+            killed.append(worker.pid)
+
+    try:
+        result = run_fleet(read_fleet(fleet), tmp_path / "out", scheduler=address, progress=kill_a_worker)
+    finally:
+        for proc in procs:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert killed
+    assert result.fitted_now == ROBOTS * LOGS - len(BROKEN) and len(result.failed) == len(BROKEN)
+    assert (tmp_path / "out" / "fits.csv").read_text() == first_run[1]
