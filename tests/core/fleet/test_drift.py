@@ -88,7 +88,7 @@ def test_realistic_drifts_alarm_within_five_logs(size, ramp):
     # 1σ of a 10-log MAD is ~40 %), and hardly any on the steady joints before the drift.
     rng = np.random.default_rng(int(size * 100))
     start, delays, early = 25, [], 0
-    for r in range(200):
+    for _ in range(200):
         values = 4.0 * (1 + 0.005 * rng.standard_normal((40, 3)))
         values[:, 1] *= 1 + size * np.clip((np.arange(40) - start + 1) / ramp, 0, 1)
         tests = fleet_drift(config(["arm"], 0.001), records(values, np.full((40, 3), 0.012), "arm",

@@ -60,7 +60,8 @@ def test_a_fleet_run_writes_its_files_alarms_the_drift_and_lists_the_broken_logs
     assert all(float(r[6]) > 0 for r in rows[1:])
     assert rows[1][2].startswith("2026-01-01T") and rows[1][2].endswith("+00:00")
     failed = json.loads((out / "failed.json").read_text())
-    assert {(f["robot"], f["log"]) for f in failed} == {("arm01", "arm01/day_003.mcap"), ("arm02", "arm02/day_005.mcap")}
+    assert {(f["robot"], f["log"]) for f in failed} == {("arm01", "arm01/day_003.mcap"),
+                                                        ("arm02", "arm02/day_005.mcap")}
     assert all(f["attempts"] == 2 and "not a readable bag" in f["error"] for f in failed)
     # the identified Fc follows the truth (each fit resolves it to ~1 %)
     truth = json.loads((fleet.parent / "truth.json").read_text())["robots"]["arm02"]["logs"]

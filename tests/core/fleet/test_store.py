@@ -63,7 +63,7 @@ def test_every_damaged_line_is_set_aside_and_reported(tmp_path):
 def test_a_record_the_caller_refuses_is_set_aside(tmp_path):
     path = tmp_path / "s.jsonl"
     _filled(path, 2)
-    refuse_odd = lambda record: "odd value" if record["value"] == 1.5 else None  # noqa: E731
+    refuse_odd = lambda record: "odd value" if record["value"] == 1.5 else None
     with RecordStore(path, validate=refuse_odd) as store:
         found = store.check()
     assert [r["key"] for r in found.records] == ["k0"] and "line 2: odd value" in found.set_aside[0]

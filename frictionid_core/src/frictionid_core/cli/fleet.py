@@ -45,8 +45,8 @@ def run(args) -> int:
     from frictionid_core.fleet.run import OUTPUT_FILES, per_log_cost, run_fleet
 
     config = read_fleet(args.fleet)
-    refuse_overwriting(output_folder("--out", args.out, OUTPUT_FILES),
-                       {"FLEET": args.fleet, "logs": [Path(source) for robot in config.robots for _, source in robot.logs]})
+    logs = [Path(source) for robot in config.robots for _, source in robot.logs]
+    refuse_overwriting(output_folder("--out", args.out, OUTPUT_FILES), {"FLEET": args.fleet, "logs": logs})
     progress = _ProgressLine()
     result = run_fleet(config, args.out, workers=args.workers, scheduler=args.scheduler, refit=args.refit,
                        memory_mb=args.worker_memory, progress=progress)
