@@ -50,7 +50,6 @@ _LENGTH = struct.Struct("<Q")  # an out-of-band buffer's length
 _FRAME = struct.Struct("<QQ")  # a message's pickle length and number of out-of-band buffers
 PROGRESS_PERIOD_S = 0.1  # shortest interval between two progress messages of the child [s]
 CANCEL_GRACE_S = 0.25  # a cancelled child still running after this long is killed [s]
-START_TIMEOUT_S = 60.0  # a child not ready this long after its start while a job waits for it is stuck: killed [s]
 KILLED_NOTE = "the identification worker did not stop: killed and restarted"
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
@@ -78,7 +77,8 @@ class JobControl:
     registers how, :meth:`on_cancel`); :meth:`check_wall` cancels it once it has run longer than
     ``wall_s`` [s]. :attr:`progress` is the optimiser's last report (generation, evaluations, best
     cost); :attr:`stopped_at` is set when the identification ended [s, ``time.monotonic``];
-    :attr:`killed`: its worker child did not stop after the cancel and was killed.
+    :attr:`overrun`: cancelled by the wall-time limit; :attr:`killed`: its worker child did not
+    stop after the cancel (or, overrun, never became ready) and was killed.
     """
 
     def __init__(self, wall_s: float = math.inf):
@@ -87,6 +87,7 @@ class JobControl:
         self.reason = ""
         self.cancelled_at = 0.0
         self.stopped_at = 0.0
+        self.overrun = False
         self.killed = False
         self.progress: tuple[int, int, float] = (0, 0, math.inf)
         self._interrupt = None
@@ -110,7 +111,7 @@ class JobControl:
     def check_wall(self) -> None:
         """Cancel the identification once it has run longer than :attr:`wall_s`."""
         if not self.reason and time.monotonic() - self.t_start > self.wall_s:
-            self.cancel(f"stopped: over the wall-time limit max_wall_s = {self.wall_s:g} s")
+            self.overrun = self.cancel(f"stopped: over the wall-time limit max_wall_s = {self.wall_s:g} s")
 
     def on_cancel(self, interrupt) -> None:
         """Call ``interrupt()`` on :meth:`cancel` (at once if already cancelled)."""
@@ -342,7 +343,6 @@ class WorkerProcess:
     def __init__(self, nice: int = 0):
         self._nice = int(nice)
         self._proc: subprocess.Popen | None = None
-        self._started_at = 0.0  # when the child was started [s, monotonic]
         self._jobs: queue.Queue = queue.Queue()
         self._outbox: queue.Queue = queue.Queue()  # (child, message or None: close its stdin) | None: end
         self._lock = threading.Lock()  # the child, the job in hand and job.sent
@@ -370,7 +370,7 @@ class WorkerProcess:
         proc = subprocess.Popen([sys.executable, "-m", "frictionid_ros.worker"], stdin=subprocess.PIPE,
                                 stdout=subprocess.PIPE, env=env, close_fds=True)
         with self._lock:
-            self._proc, self._started_at = proc, time.monotonic()
+            self._proc = proc
         return proc
 
     def _retire(self, proc: subprocess.Popen | None) -> None:
@@ -455,11 +455,11 @@ class WorkerProcess:
             self._outbox.put((proc, ("cancel", job.id)))
 
     def _kill(self, job: _Job) -> None:
-        """Kill the child if it still runs ``job``, or is starting for longer than START_TIMEOUT_S while
-        ``job`` waits for it (the owner thread then starts a new one)."""
+        """Kill the child if it still runs ``job``, or if ``job`` overran its wall-time limit waiting
+        for the child to start (the owner thread then starts a new one)."""
         with self._lock:
             proc = self._proc if self._current is job else None
-            stuck = job.sent or time.monotonic() - self._started_at > START_TIMEOUT_S
+            stuck = job.sent or job.control.overrun
         if proc is not None and stuck and proc.poll() is None:
             job.control.killed = True
             proc.kill()  # SIGKILL: a stopped child too; its pipes then break, freeing the owner and the writer
@@ -487,7 +487,7 @@ class WorkerProcess:
                 with self._lock:
                     sent = job.sent
                 if not sent:  # still waiting for the child: the owner thread will skip it
-                    self._kill(job)  # only a child stuck in its start
+                    self._kill(job)  # only a child that did not start within the wall-time limit
                     control.stopped_at = time.monotonic()
                     return ("cancelled", control.reason)
                 if time.monotonic() - control.cancelled_at > CANCEL_GRACE_S:

@@ -1,0 +1,40 @@
+"""The worker's watchdog: a child that stops responding (SIGSTOP) is killed at the wall-time limit and
+replaced, and no call waits on its pipe."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+from frictionid_core.identification import IdentifyRequest
+from frictionid_ros.worker import JobControl, WorkerProcess
+from support.node_parts import ROOT
+from support.waiting import wait_until
+
+
+@pytest.mark.slow
+def test_a_worker_stopped_before_it_is_ready_is_killed_at_the_wall_time_limit():
+    """Stopped while it starts (imports, warm-up), the child never says ready: the job is answered at
+    its wall-time limit, the child killed, and the next job runs on a new one."""
+    from frictionid_core.io import load
+
+    emps = load(ROOT / "bags" / "emps_estimation").slice(0, 4000)
+    worker = WorkerProcess()
+    pid = None
+    try:
+        pid = wait_until(lambda: worker.pid, "the worker's child")
+        os.kill(pid, signal.SIGSTOP)
+        control = JobControl(wall_s=1.0)
+        assert worker.run(emps, IdentifyRequest(system="emps"), control) == (
+            "cancelled", "stopped: over the wall-time limit max_wall_s = 1 s")
+        assert control.overrun and control.killed
+        assert worker.run(emps, IdentifyRequest(system="emps"))[0] == "ok" and worker.pid not in (None, pid)
+    finally:
+        worker.stop()
+        if pid is not None:
+            try:
+                os.kill(pid, signal.SIGCONT)
+            except ProcessLookupError:
+                pass
