@@ -23,7 +23,9 @@ lifecycle services; without it (the default) it configures and activates itself.
 
 Online re-identification (``online_period_s`` > 0, :mod:`.online`): the recent window is identified
 and its result activated only if the safety gate accepts it; ``~/load`` is gated too; every
-decision is in ``/diagnostics`` ("safety gate").
+decision is in ``/diagnostics`` ("safety gate"). Every parameter set passes the safety screen first
+and the feed-forward is clamped (:class:`.store.Screen`); a node of the same name on the graph at
+start: refused (``unique_name``).
 
 Concurrency: the input callbacks (joint states, effort, reference, feed-forward) run on a hidden
 helper node ``_frictionid_input`` spun in its own thread by rclpy's EventsExecutor (or a
