@@ -93,7 +93,7 @@ class Inputs:
         ff = self.ff
         if ff is None:
             return []
-        limit = np.broadcast_to(np.asarray(self._clamp(ff.joints, per_joint), dtype=float), ff.limit.shape).copy()
+        limit = np.broadcast_to(np.asarray(self._clamp(ff.joints, per_joint), dtype=float), ff.limit.shape)
         ff.limit = np.minimum(ff.limit, limit)  # the lower clamp while the parameters change (another thread reads)
         problems = ff.set_params(per_joint)
         ff.limit = limit
