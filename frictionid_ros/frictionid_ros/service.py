@@ -9,7 +9,8 @@ import traceback
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from frictionid_core import FrictionIdError, Limit, data_limits
+from frictionid_core import FrictionIdError
+from frictionid_core.safety import Limit, data_limits
 from frictionid_ros.inputs import Inputs
 from frictionid_ros.request import Job, consistency_text, parse_request, summary
 from frictionid_ros.store import ActiveParameters, Results, split_identification
@@ -174,7 +175,7 @@ class IdentifyService:
 
     def limits(self, result: IdentifyResult, series) -> dict[str, Limit]:
         """{owner: Limit} of the data ``series`` an identification ``result`` ran on
-        (:func:`frictionid_core.data_limits`, through the node's drive), kept with its parameters."""
+        (:func:`frictionid_core.safety.data_limits`, through the node's drive), kept with its parameters."""
         try:
             return data_limits(series, self._settings().drive, result.friction_rows())
         except FrictionIdError:  # joints that do not match the drive: the screen's default limit then

@@ -6,7 +6,7 @@ The results file is JSON: the last identification exactly as ``IdentifyResult.to
 * ``per_joint``: {joint: {system, friction, asymmetric, solver, params, std, metrics, samples,
   stamp_ns[, limit]}} — the *active* parameters of every joint, names without the ``<joint>/``
   prefix; ``limit``: {effort, speed, source} of the data they were identified on
-  (:func:`frictionid_core.data_limits`), the limits of the safety screen and the clamp when the
+  (:func:`frictionid_core.safety.data_limits`), the limits of the safety screen and the clamp when the
   robot model gives none;
 * ``window_start_ns``, ``window_end_ns``, ``window_samples``, ``stamp_ns``: the data window
   of the last identification and when it ran [ns since the epoch].
@@ -17,7 +17,7 @@ Files are written atomically (temporary file + ``os.replace``), never over a fil
 not write; requests name files inside the node's results folder only (:func:`request_path`).
 :class:`ActiveParameters` holds the node's active parameters and saves them; every set it is given
 (an identification, ``~/load``, the ``results_file`` at start, an online candidate) passes the
-safety screen first (:class:`Screen`, :func:`frictionid_core.screen_parameters`).
+safety screen first (:class:`Screen`, :func:`frictionid_core.safety.screen_parameters`).
 """
 
 from __future__ import annotations
@@ -32,18 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from frictionid_core import (
-    YAML_SUFFIXES,
-    FrictionIdError,
-    IdentifyResult,
-    Limit,
-    explicit_bounds,
-    get_model,
-    read_json,
-    robot_limits,
-    screen_parameters,
-    write_json,
-)
+from frictionid_core import YAML_SUFFIXES, FrictionIdError, IdentifyResult, get_model, read_json, write_json
+from frictionid_core.safety import Limit, explicit_bounds, robot_limits, screen_parameters
 from frictionid_ros.config import PARAMETERS
 
 FORMAT = "frictionid_ros/1"
@@ -243,9 +233,9 @@ def read_results(path: Path) -> Results:
 class Screen:
     """The node's safety screen and the feed-forward's clamp.
 
-    Every parameter set that would become active passes :func:`frictionid_core.screen_parameters`
+    Every parameter set that would become active passes :func:`frictionid_core.safety.screen_parameters`
     with ``max_abs`` (gate_max_abs) against a limit per joint: the robot model's (``system``, a robot
-    system: :func:`frictionid_core.robot_limits`), else the one recorded with the parameters (the
+    system: :func:`frictionid_core.safety.robot_limits`), else the one recorded with the parameters (the
     data they were identified on), else ``feedforward_max``. The feed-forward of a joint is clamped
     to ±min(feedforward_max, that limit) (:meth:`clamp`).
     """

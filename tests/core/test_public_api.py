@@ -10,8 +10,7 @@ import frictionid_core
 PUBLIC = {"load", "identify", "validate", "FrictionModel", "JointSeries", "FrictionIdError", "InputError",
           "OptimError", "load_drive", "Drive", "friction_rows", "FRICTIONS", "get_model", "check_choice",
           "read_json", "write_json", "YAML_SUFFIXES", "IdentifyRequest", "IdentifyResult", "SolverOptions",
-          "PreprocessingOverrides", "read_request", "budget_field", "Limit", "screen_parameters", "result_refusals",
-          "robot_limits", "data_limits", "explicit_bounds"}
+          "PreprocessingOverrides", "read_request", "budget_field"}
 CONSTANTS = {"FRICTIONS", "YAML_SUFFIXES"}  # documented in the package docstring
 # Modules a bare ``import frictionid_core`` must not load (the CLI's --help must stay fast).
 HEAVY = ("numpy", "scipy", "numba", "sklearn", "skopt", "matplotlib", "rosbags", "pinocchio",
@@ -53,14 +52,6 @@ def test_public_names_are_the_library_objects():
     from frictionid_core.io import load
     from frictionid_core.jsonfile import YAML_SUFFIXES, read_json, write_json
     from frictionid_core.options import check_choice
-    from frictionid_core.safety import (
-        Limit,
-        data_limits,
-        explicit_bounds,
-        result_refusals,
-        robot_limits,
-        screen_parameters,
-    )
     from frictionid_core.timeseries import JointSeries
 
     expected = {"load": load, "identify": identify, "validate": validate, "FrictionModel": FrictionModel,
@@ -70,9 +61,7 @@ def test_public_names_are_the_library_objects():
                 "write_json": write_json, "YAML_SUFFIXES": YAML_SUFFIXES, "IdentifyRequest": IdentifyRequest,
                 "IdentifyResult": IdentifyResult, "SolverOptions": SolverOptions,
                 "PreprocessingOverrides": PreprocessingOverrides, "read_request": read_request,
-                "budget_field": budget_field, "Limit": Limit, "screen_parameters": screen_parameters,
-                "result_refusals": result_refusals, "robot_limits": robot_limits, "data_limits": data_limits,
-                "explicit_bounds": explicit_bounds}
+                "budget_field": budget_field}
     for name, obj in expected.items():
         assert getattr(frictionid_core, name) is obj, name
     # The function lives in the submodule frictionid_core.identification: no name clash.

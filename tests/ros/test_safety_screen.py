@@ -18,7 +18,8 @@ with warnings.catch_warnings():
     from frictionid_interfaces.srv import Identify
     from sensor_msgs.msg import JointState
 
-from frictionid_core import FrictionIdError, Limit
+from frictionid_core import FrictionIdError
+from frictionid_core.safety import Limit
 from frictionid_ros.config import PARAMETERS, make_config
 from frictionid_ros.inputs import Inputs
 from frictionid_ros.request import parse_request

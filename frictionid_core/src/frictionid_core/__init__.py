@@ -50,18 +50,11 @@ _LAZY = {
     "read_json": "frictionid_core.jsonfile",
     "write_json": "frictionid_core.jsonfile",
     "YAML_SUFFIXES": "frictionid_core.jsonfile",
-    "Limit": "frictionid_core.safety",
-    "screen_parameters": "frictionid_core.safety",
-    "result_refusals": "frictionid_core.safety",
-    "robot_limits": "frictionid_core.safety",
-    "data_limits": "frictionid_core.safety",
-    "explicit_bounds": "frictionid_core.safety",
 }
 
 __all__ = ["FRICTIONS", "YAML_SUFFIXES", "Drive", "FrictionIdError", "FrictionModel", "IdentifyRequest",
-           "IdentifyResult", "InputError", "JointSeries", "Limit", "OptimError", "PreprocessingOverrides",
-           "SolverOptions", "budget_field", "check_choice", "data_limits", "explicit_bounds", "friction_rows",
-           "get_model", "identify", "load", "load_drive", "read_json", "read_request", "result_refusals",
-           "robot_limits", "screen_parameters", "validate", "write_json"]
+           "IdentifyResult", "InputError", "JointSeries", "OptimError", "PreprocessingOverrides", "SolverOptions",
+           "budget_field", "check_choice", "friction_rows", "get_model", "identify", "load", "load_drive",
+           "read_json", "read_request", "validate", "write_json"]
 
 __getattr__, __dir__ = _lazy.lazy_names(__name__, _LAZY)

@@ -10,19 +10,16 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from frictionid_core import (
-    FrictionIdError,
-    IdentifyRequest,
-    JointSeries,
+from frictionid_core import FrictionIdError, IdentifyRequest, JointSeries, identify
+from frictionid_core.robots import tx40
+from frictionid_core.safety import (
     Limit,
     data_limits,
     explicit_bounds,
-    identify,
     result_refusals,
     robot_limits,
     screen_parameters,
 )
-from frictionid_core.robots import tx40
 from frictionid_core.systems import get_system
 
 EMPS = {"emps": Limit(300.0, 0.25, "the data")}

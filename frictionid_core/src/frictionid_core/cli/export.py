@@ -36,14 +36,13 @@ def run(args) -> int:
     if not data.feasible:
         print("frictionid: warning: exporting an inconsistent result (--force): " + "; ".join(data.problems))
     urdf = urdf_text(data) if (args.urdf or args.mujoco) else None
-    parameters = yaml_text(data) if args.yaml else None  # the safety screen's refusal: nothing written
     outputs = []
     if args.urdf:
         outputs.append(write_text(args.urdf, urdf))
     if args.mujoco:
         outputs.append(write_text(args.mujoco, mujoco_text(data, urdf)))
     if args.yaml:
-        outputs.append(write_text(args.yaml, parameters))
+        outputs.append(write_text(args.yaml, yaml_text(data)))
     for path in outputs:
         print(f"wrote {path}")
     return 0
