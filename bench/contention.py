@@ -69,7 +69,7 @@ log, median = ob.log, ob.median
 
 def in_turn(run: int, pair: tuple) -> tuple:
     """``pair`` in alternate order from run to run: an order effect falls on both alike (the first
-    run after the competitors start is measurably slower on this VM, up to 1.7x for the very same
+    run after the competitors start is measurably slower on a shared virtual machine, up to 1.7x for the very same
     single-thread path)."""
     return pair if run % 2 == 0 else pair[::-1]
 

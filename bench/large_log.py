@@ -1,4 +1,4 @@
-"""A large log through the command line: 5 kHz × 6 TX40 joints × 60 s (issue 15; not a test).
+"""A large log through the command line: 5 kHz × 6 TX40 joints × 60 s (not a test).
 
     .venv/bin/python bench/large_log.py [--keep DIR] [--runs stribeck,coulomb]
 

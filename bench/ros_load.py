@@ -223,7 +223,7 @@ def run_floor(duration: float, cpu: int, out: Path) -> None:
 
 
 def steal_s() -> float:
-    """CPU time the hypervisor has taken from this machine's CPUs so far (/proc/stat steal) [s]."""
+    """CPU time the hypervisor has taken from the CPUs so far (/proc/stat steal) [s]."""
     try:
         with open("/proc/stat") as f:
             return int(f.readline().split()[8]) / os.sysconf("SC_CLK_TCK")

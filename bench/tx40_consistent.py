@@ -1,4 +1,4 @@
-"""Consistent parameters on the real Stäubli TX40 through the command line (issue 16 acceptance; not a test).
+"""Consistent parameters on the real Stäubli TX40 through the command line (not a test).
 
     .venv/bin/python bench/tx40_consistent.py [DATA_DIR]     # default ../shared/data/tx40_real
 

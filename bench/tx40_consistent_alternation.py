@@ -1,4 +1,4 @@
-"""Stribeck + consistent parameters on the real TX40: does an alternation help? (issue 16; not a test)
+"""Stribeck + consistent parameters on the real TX40: does an alternation help? (not a test)
 
     .venv/bin/python bench/tx40_consistent_alternation.py [DATA_DIR]   # default ../shared/data/tx40_real
 

@@ -1,4 +1,4 @@
-"""What the URDF prior buys on short, poorly exciting data (issue 16; not a test).
+"""What the URDF prior buys on short, poorly exciting data (not a test).
 
     .venv/bin/python bench/tx40_prior_short.py
 

@@ -1,4 +1,4 @@
-"""The real Stäubli TX40 recording through the command line only (issue 14 acceptance; not a test).
+"""The real Stäubli TX40 recording through the command line only (not a test).
 
     .venv/bin/python bench/tx40_real.py [DATA_DIR]     # default ../shared/data/tx40_real
 

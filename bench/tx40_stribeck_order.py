@@ -1,4 +1,4 @@
-"""Should the consistent fit impose Fs ≥ Fc? The synthetic TX40 says no (issue 16; not a test).
+"""Should the consistent fit impose Fs ≥ Fc? The synthetic TX40 says no (not a test).
 
     .venv/bin/python bench/tx40_stribeck_order.py
 

@@ -10,7 +10,7 @@ import frictionid_core
 PUBLIC = {"load", "identify", "validate", "FrictionModel", "JointSeries", "FrictionIdError", "InputError",
           "OptimError", "load_drive", "Drive", "friction_rows", "FRICTIONS", "get_model", "check_choice",
           "read_json", "write_json", "YAML_SUFFIXES", "IdentifyRequest", "IdentifyResult", "SolverOptions",
-          "PreprocessingOverrides", "read_request", "budget_field"}
+          "PreprocessingOverrides", "read_request", "read_result", "budget_field"}
 CONSTANTS = {"FRICTIONS", "YAML_SUFFIXES"}  # documented in the package docstring
 # Modules a bare ``import frictionid_core`` must not load (the CLI's --help must stay fast).
 HEAVY = ("numpy", "scipy", "numba", "sklearn", "skopt", "matplotlib", "rosbags", "pinocchio",

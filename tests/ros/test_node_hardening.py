@@ -1,4 +1,4 @@
-"""What a client on the ROS domain cannot do to the node (issue 18), across processes with real rclpy.
+"""What a client on the ROS domain cannot do to the node, across processes with real rclpy.
 
 The node runs as a subprocess fed the first 8 s of the EMPS estimation bag. Each abuse attempt
 is refused with a message naming the rule or limit and changes no file; a running

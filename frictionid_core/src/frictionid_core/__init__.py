@@ -15,7 +15,8 @@ The public API::
 Also public: the parts of a request (``SolverOptions``, ``PreprocessingOverrides``, ``budget_field``,
 ``check_choice``), the
 friction laws (``FRICTIONS``, ``get_model``), a drive (``Drive``, ``friction_rows``: who owns a result's
-friction parameters) and result files (``read_json``, ``write_json``, ``YAML_SUFFIXES``). Subpackages
+friction parameters) and result files (``read_result``: an identification result, every key checked;
+``read_json``, ``write_json``, ``YAML_SUFFIXES``). Subpackages
 export their own names (``frictionid_core.io``, ``.systems``, ``.loop``, ``.optim``, ``.robots``, ``.cli``):
 a module that is not a package is private.
 
@@ -41,6 +42,7 @@ _LAZY = {
     "SolverOptions": "frictionid_core.identification",
     "PreprocessingOverrides": "frictionid_core.identification",
     "read_request": "frictionid_core.identification",
+    "read_result": "frictionid_core.identification",
     "FrictionModel": "frictionid_core.friction",
     "FRICTIONS": "frictionid_core.friction",
     "get_model": "frictionid_core.friction",
@@ -55,6 +57,6 @@ _LAZY = {
 __all__ = ["FRICTIONS", "YAML_SUFFIXES", "Drive", "FrictionIdError", "FrictionModel", "IdentifyRequest",
            "IdentifyResult", "InputError", "JointSeries", "OptimError", "PreprocessingOverrides", "SolverOptions",
            "budget_field", "check_choice", "friction_rows", "get_model", "identify", "load", "load_drive",
-           "read_json", "read_request", "validate", "write_json"]
+           "read_json", "read_request", "read_result", "validate", "write_json"]
 
 __getattr__, __dir__ = _lazy.lazy_names(__name__, _LAZY)

@@ -35,7 +35,7 @@ threads that :mod:`frictionid_core.parallel` allows).
 
 from __future__ import annotations
 
-import math
+import functools
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -43,7 +43,8 @@ import numpy as np
 from numba import njit
 
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.friction import COULOMB, STRIBECK, THRELFALL, TUSTIN, FrictionModel, get_model
+from frictionid_core.friction import FrictionModel, get_model
+from frictionid_core.friction.kernels import SOURCE_DIGEST, dip_ends, law_parts, members_friction
 from frictionid_core.options import CLOCKS
 from frictionid_core.parallel import run_chunks
 from frictionid_core.preprocess import central_difference, lowpass_position
@@ -57,7 +58,6 @@ REFERENCE_TOPIC = "/joint_reference"
 PULSES_TOPIC = "/drive_pulses"
 METRIC_KEYS = ("position_relerr_pct", "velocity_relerr_pct", "acceleration_relerr_pct", "force_relerr_pct")
 
-_E3 = 1.0 - math.exp(-3.0)
 MIN_CHUNK_MEMBERS = 8  # members per thread: the kernel vectorises across them
 
 
@@ -147,193 +147,103 @@ def _as_data(data) -> EmpsData:
 
 # -------------------------------------------------------------------------- kernel
 # Members of the population sit in the innermost loops (structure of arrays) so that the
-# compiler vectorises across them; chunks of members run in parallel threads.
-@njit(cache=True)
-def _friction_into(law, asym, eps, th, off, cut, v, sg, out):
-    """out[i] = τ_f(v[i]; th[:, i]) + off[i]: friction of member i under the law with code
-    ``law`` (same formulas and parameter order as friction.py; th is (kf, m), the ``_neg``
-    block in its lower half).
-    cut (2, m): speeds (v > 0, v < 0) above which the Stribeck term is below e^−40 of
-    (Fs − Fc) and skipped (see _stribeck_cutoffs). sg is scratch for sign(v) or tanh(v/eps)."""
-    nb = th.shape[0] // 2 if asym else 0
-    m = v.shape[0]
-    if eps > 0.0:
-        for i in range(m):
-            sg[i] = math.tanh(v[i] / eps)
-    else:
-        for i in range(m):
-            sg[i] = (1.0 if v[i] > 0.0 else 0.0) - (1.0 if v[i] < 0.0 else 0.0)
-    if law == COULOMB:
-        for i in range(m):
-            vi = v[i]
-            neg = vi < 0.0
-            fv = th[nb, i] if neg else th[0, i]
-            fc = th[nb + 1, i] if neg else th[1, i]
-            out[i] = fv * vi + fc * sg[i] + off[i]
-        return
-    for i in range(m):
-        vi = v[i]
-        neg = vi < 0.0
-        o = nb if neg else 0
-        a = abs(vi)
-        fc = th[o + 1, i]
-        level = fc
-        if law == THRELFALL:
-            v0 = th[o + 2, i]
-            if a <= v0:
-                level = fc * (1.0 - math.exp(-3.0 * a / v0)) / _E3
-        elif a < cut[1 if neg else 0, i]:
-            if law == TUSTIN:
-                level = fc + (th[o + 2, i] - fc) * math.exp(-a / th[o + 3, i])
-            else:
-                level = fc + (th[o + 2, i] - fc) * math.exp(-((a / th[o + 3, i]) ** th[o + 4, i]))
-        out[i] = th[o, i] * vi + level * sg[i] + off[i]
+# compiler vectorises across them; chunks of members run in parallel threads. The friction is
+# the law's own (frictionid_core.friction.kernels.members_friction), compiled into a kernel per law.
+@functools.cache
+def _simulation_kernel(friction: str):
+    """The simulator compiled for the law ``friction`` (numba caches one kernel per law)."""
+    dip, dip_end, n_linear = law_parts(friction)
+    digest = SOURCE_DIGEST
 
+    @njit(cache=True, nogil=True)
+    def simulate_chunk(asym, eps, th, mass, off, gtau, kp, kv, sat, periods, t_ctrl, qg, ext, pulse_k,
+                       q0, v0, q_prev0, qf_prev0, u0, nsub, full, out_q, out_v, out_a, out_u):  # pragma: no cover
+        """Simulate m members (columns of th (kf, m), mass (m,), off (m,)) over the N samples.
 
-@njit(cache=True)
-def _stribeck_cutoffs(law, asym, th):
-    """(2, m) speeds (v > 0, v < 0) where the Stribeck exponent reaches 40: vs·40^(1/δ)."""
-    m = th.shape[1]
-    cut = np.full((2, m), np.inf)
-    if law == TUSTIN or law == STRIBECK:
-        nb = th.shape[0] // 2 if asym else 0
-        for b in range(2):
-            o = nb * b
+        ext: (N−1, 2·nsub+1) external voltage at the half sub-steps of each period, or (0, 0);
+        pulse_k: (N,) external voltage at the samples. Writes q (m, N) and, if full, v, a, u;
+        a diverging member (|q| ≥ 1e6 m or NaN) gets NaN from then on.
+        """
+        digest  # noqa: B018 - a cell of the closure: part of the cache key (see friction.kernels)
+        m = mass.shape[0]
+        n = qg.shape[0]
+        has_ext = ext.shape[0] > 0
+        cut = dip_ends(dip_end, n_linear, asym, th)
+        inv_m = 1.0 / mass
+        q = np.full(m, q0)
+        v = np.full(m, v0)
+        q_prev = np.full(m, q_prev0)
+        qf_prev = np.full(m, qf_prev0)
+        uc = np.full(m, u0)
+        u_now = np.empty(m)
+        fu = np.empty(m)
+        f = np.empty(m)
+        a1 = np.empty(m)  # RK4 stages
+        a2 = np.empty(m)
+        a3 = np.empty(m)
+        v2 = np.empty(m)
+        v3 = np.empty(m)
+        v4 = np.empty(m)
+        for k in range(n):
+            alive = 0
             for i in range(m):
-                cut[b, i] = th[o + 3, i] * (40.0 if law == TUSTIN else 40.0 ** (1.0 / th[o + 4, i]))
-    return cut
-
-
-@njit(cache=True, inline="always")
-def _coulomb_into(asym, th, off, v, out):
-    """The Coulomb + viscous case of _friction_into with a hard sign, inlined into the kernel."""
-    nb = th.shape[0] // 2 if asym else 0
-    for i in range(v.shape[0]):
-        vi = v[i]
-        neg = vi < 0.0
-        fv = th[nb, i] if neg else th[0, i]
-        fc = th[nb + 1, i] if neg else th[1, i]
-        out[i] = fv * vi + fc * ((1.0 if vi > 0.0 else 0.0) - (1.0 if neg else 0.0)) + off[i]
-
-
-@njit(cache=True)
-def friction_batch(law, asym, eps, theta, v):
-    """The kernel's friction for checks: law code, (P, kf) parameters × (N,) velocities → (P, N)."""
-    P = theta.shape[0]
-    out = np.empty((P, v.shape[0]))
-    th = np.ascontiguousarray(theta.T)
-    zero = np.zeros(P)
-    col = np.empty(P)
-    sg = np.empty(P)
-    vv = np.empty(P)
-    cut = _stribeck_cutoffs(law, asym, th)
-    for j in range(v.shape[0]):
-        vv[:] = v[j]
-        _friction_into(law, asym, eps, th, zero, cut, vv, sg, col)
-        out[:, j] = col
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _simulate_chunk(law, asym, eps, th, mass, off, gtau, kp, kv, sat, periods, t_ctrl, qg, ext, pulse_k,
-                    q0, v0, q_prev0, qf_prev0, u0, nsub, full, out_q, out_v, out_a, out_u):
-    """Simulate m members (columns of th (kf, m), mass (m,), off (m,)) over the N samples.
-
-    ext: (N−1, 2·nsub+1) external voltage at the half sub-steps of each period, or (0, 0);
-    pulse_k: (N,) external voltage at the samples. Writes q (m, N) and, if full, v, a, u;
-    a diverging member (|q| ≥ 1e6 m or NaN) gets NaN from then on.
-    """
-    m = mass.shape[0]
-    n = qg.shape[0]
-    has_ext = ext.shape[0] > 0
-    fast = law == COULOMB and eps == 0.0
-    cut = _stribeck_cutoffs(law, asym, th)
-    inv_m = 1.0 / mass
-    q = np.full(m, q0)
-    v = np.full(m, v0)
-    q_prev = np.full(m, q_prev0)
-    qf_prev = np.full(m, qf_prev0)
-    uc = np.full(m, u0)
-    u_now = np.empty(m)
-    fu = np.empty(m)
-    f = np.empty(m)
-    sg = np.empty(m)
-    a1 = np.empty(m)  # RK4 stages
-    a2 = np.empty(m)
-    a3 = np.empty(m)
-    v2 = np.empty(m)
-    v3 = np.empty(m)
-    v4 = np.empty(m)
-    for k in range(n):
-        alive = 0
-        for i in range(m):
-            if not abs(q[i]) < 1e6:
-                q[i] = np.nan
-                v[i] = np.nan
-            else:
-                alive += 1
-            out_q[i, k] = q[i]
-            u_now[i] = min(max(uc[i], -sat), sat)
-            fu[i] = gtau * u_now[i]
-            qf = 0.5 * q[i] + 0.5 * q_prev[i]
-            uc[i] = kv * (kp * (qg[k] - q[i]) - (qf - qf_prev[i]) / t_ctrl)
-            q_prev[i] = q[i]
-            qf_prev[i] = qf
-        if k == n - 1:
-            if full:
-                _friction_into(law, asym, eps, th, off, cut, v, sg, f)
+                if not abs(q[i]) < 1e6:
+                    q[i] = np.nan
+                    v[i] = np.nan
+                else:
+                    alive += 1
+                out_q[i, k] = q[i]
+                u_now[i] = min(max(uc[i], -sat), sat)
+                fu[i] = gtau * u_now[i]
+                qf = 0.5 * q[i] + 0.5 * q_prev[i]
+                uc[i] = kv * (kp * (qg[k] - q[i]) - (qf - qf_prev[i]) / t_ctrl)
+                q_prev[i] = q[i]
+                qf_prev[i] = qf
+            if k == n - 1:
+                if full:
+                    members_friction(dip, n_linear, asym, eps, th, off, cut, v, f)
+                    for i in range(m):
+                        out_v[i, k] = v[i]
+                        out_u[i, k] = u_now[i]
+                        out_a[i, k] = (fu[i] + gtau * pulse_k[k] - f[i]) * inv_m[i]
+                break
+            if alive == 0:
+                out_q[:, k + 1 :] = np.nan
+                if full:
+                    out_v[:, k:] = np.nan
+                    out_a[:, k:] = np.nan
+                    out_u[:, k:] = np.nan
+                break
+            h = periods[k] / nsub
+            for s in range(nsub):
+                j = 2 * s
+                e1 = gtau * ext[k, j] if has_ext else 0.0
+                e2 = gtau * ext[k, j + 1] if has_ext else 0.0
+                e4 = gtau * ext[k, j + 2] if has_ext else 0.0
+                members_friction(dip, n_linear, asym, eps, th, off, cut, v, f)
                 for i in range(m):
-                    out_v[i, k] = v[i]
-                    out_u[i, k] = u_now[i]
-                    out_a[i, k] = (fu[i] + gtau * pulse_k[k] - f[i]) * inv_m[i]
-            break
-        if alive == 0:
-            out_q[:, k + 1 :] = np.nan
-            if full:
-                out_v[:, k:] = np.nan
-                out_a[:, k:] = np.nan
-                out_u[:, k:] = np.nan
-            break
-        h = periods[k] / nsub
-        for s in range(nsub):
-            j = 2 * s
-            e1 = gtau * ext[k, j] if has_ext else 0.0
-            e2 = gtau * ext[k, j + 1] if has_ext else 0.0
-            e4 = gtau * ext[k, j + 2] if has_ext else 0.0
-            if fast:
-                _coulomb_into(asym, th, off, v, f)
-            else:
-                _friction_into(law, asym, eps, th, off, cut, v, sg, f)
-            for i in range(m):
-                a1[i] = (fu[i] + e1 - f[i]) * inv_m[i]
-                v2[i] = v[i] + 0.5 * h * a1[i]
-            if fast:
-                _coulomb_into(asym, th, off, v2, f)
-            else:
-                _friction_into(law, asym, eps, th, off, cut, v2, sg, f)
-            for i in range(m):
-                a2[i] = (fu[i] + e2 - f[i]) * inv_m[i]
-                v3[i] = v[i] + 0.5 * h * a2[i]
-            if fast:
-                _coulomb_into(asym, th, off, v3, f)
-            else:
-                _friction_into(law, asym, eps, th, off, cut, v3, sg, f)
-            for i in range(m):
-                a3[i] = (fu[i] + e2 - f[i]) * inv_m[i]
-                v4[i] = v[i] + h * a3[i]
-            if fast:
-                _coulomb_into(asym, th, off, v4, f)
-            else:
-                _friction_into(law, asym, eps, th, off, cut, v4, sg, f)
-            if full and s == 0:  # outputs at the sample: state, held input, acceleration
+                    a1[i] = (fu[i] + e1 - f[i]) * inv_m[i]
+                    v2[i] = v[i] + 0.5 * h * a1[i]
+                members_friction(dip, n_linear, asym, eps, th, off, cut, v2, f)
                 for i in range(m):
-                    out_v[i, k] = v[i]
-                    out_u[i, k] = u_now[i]
-                    out_a[i, k] = a1[i]
-            for i in range(m):
-                a4 = (fu[i] + e4 - f[i]) * inv_m[i]
-                q[i] += h / 6.0 * (v[i] + 2.0 * v2[i] + 2.0 * v3[i] + v4[i])
-                v[i] += h / 6.0 * (a1[i] + 2.0 * a2[i] + 2.0 * a3[i] + a4)
+                    a2[i] = (fu[i] + e2 - f[i]) * inv_m[i]
+                    v3[i] = v[i] + 0.5 * h * a2[i]
+                members_friction(dip, n_linear, asym, eps, th, off, cut, v3, f)
+                for i in range(m):
+                    a3[i] = (fu[i] + e2 - f[i]) * inv_m[i]
+                    v4[i] = v[i] + h * a3[i]
+                members_friction(dip, n_linear, asym, eps, th, off, cut, v4, f)
+                if full and s == 0:  # outputs at the sample: state, held input, acceleration
+                    for i in range(m):
+                        out_v[i, k] = v[i]
+                        out_u[i, k] = u_now[i]
+                        out_a[i, k] = a1[i]
+                for i in range(m):
+                    a4 = (fu[i] + e4 - f[i]) * inv_m[i]
+                    q[i] += h / 6.0 * (v[i] + 2.0 * v2[i] + 2.0 * v3[i] + v4[i])
+                    v[i] += h / 6.0 * (a1[i] + 2.0 * a2[i] + 2.0 * a3[i] + a4)
+
+    return simulate_chunk
 
 
 # ----------------------------------------------------------------------- simulator
@@ -475,10 +385,11 @@ class EmpsSimulator:
         shape = (P, n) if full else (0, 0)
         out_v, out_a, out_u = np.empty(shape), np.empty(shape), np.empty(shape)
         d = self.data
-        law = self.friction.law.code
+        simulate_chunk = _simulation_kernel(self.friction.name)
+
         def run(lo: int, hi: int) -> None:
             rows = slice(lo, hi) if full else slice(0, 0)
-            _simulate_chunk(law, self.friction.asymmetric, self.eps, np.ascontiguousarray(theta_t[:, lo:hi]),
+            simulate_chunk(self.friction.asymmetric, self.eps, np.ascontiguousarray(theta_t[:, lo:hi]),
                             p[lo:hi, 0].copy(), off[lo:hi].copy(), d.gtau, d.kp, d.kv, self.saturation,
                             self.periods, self.t_ctrl, self.qg, self.ext, self.pulse_at_samples, *self.initial,
                             self.substeps, full, out_q[lo:hi], out_v[rows], out_a[rows], out_u[rows])

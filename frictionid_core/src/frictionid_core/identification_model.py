@@ -64,8 +64,8 @@ class _ActiveDip:
 
     def sums(self, friction: FrictionModel, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For parameters (P, k), the signed dip column d on the active rows reduced to
-        (dᵀd (P,), dᵀy (P,), dᵀF (P, L)) — see :mod:`frictionid_core.dipsums`."""
-        from frictionid_core.dipsums import dip_sums  # numba: only models with a dip need it
+        (dᵀd (P,), dᵀy (P,), dᵀF (P, L)) — see :mod:`frictionid_core.friction.kernels`."""
+        from frictionid_core.friction.kernels import dip_sums  # numba: only models with a dip need it
 
         dd, dy, dF_nz = dip_sums(friction.name, p[:, self.nl_index], self.speed, self.log_speed, self.mask,
                                  self.Ft_nz, self.y_rows)

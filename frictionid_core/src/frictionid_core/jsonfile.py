@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 from frictionid_core.errors import FrictionIdError
@@ -31,22 +32,32 @@ def write_json(path: str | Path, data, *, durable: bool = False) -> Path:
 
 
 def write_text(path: str | Path, text: str, *, durable: bool = False) -> Path:
-    """Write ``text`` to ``path`` atomically: a temporary file beside it, then ``os.replace``, so
-    a reader never sees half a file and a crash never loses the old one.
+    """Write ``text`` (UTF-8) to ``path`` atomically (:func:`write_bytes`); returns the absolute path."""
+    return write_bytes(path, text.encode("utf-8"), durable=durable)
+
+
+def write_bytes(path: str | Path, data: bytes, *, durable: bool = False) -> Path:
+    """Write ``data`` to ``path`` atomically: a temporary file beside it (:func:`temporary_name`),
+    then ``os.replace``, so a reader never sees half a file and a crash or an interruption never
+    loses the old one (the temporary file is removed on any failure, Ctrl-C included; one left
+    by a killed process is removed by the next write into its folder: :func:`remove_orphans`).
 
     ``durable``: also fsync the file and its folder (files a restart must find, such as the
     node's active parameters). Folders are created as needed. Returns the absolute path.
     """
     path = Path(path).expanduser().absolute()
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp = path.with_name(temporary_name(path.name))
+    moved = False
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
+        remove_orphans(path.parent)
+        with open(tmp, "wb") as f:
+            f.write(data)
             if durable:
                 f.flush()
                 os.fsync(f.fileno())
         os.replace(tmp, path)
+        moved = True
         if durable:
             try:  # make the rename itself durable
                 fd = os.open(path.parent, os.O_RDONLY)
@@ -57,12 +68,54 @@ def write_text(path: str | Path, text: str, *, durable: bool = False) -> Path:
             except OSError:
                 pass
     except OSError as exc:
+        raise FrictionIdError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    finally:
+        if not moved:
+            try:
+                tmp.unlink()
+            except OSError:
+                pass
+    return path
+
+
+_TEMPORARY = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.tmp$")
+
+
+def temporary_name(name: str, pid: int | None = None) -> str:
+    """The name of the writer's temporary file for ``name``: ``.NAME.<pid>.tmp`` (``pid``: this process)."""
+    return f".{name}.{os.getpid() if pid is None else pid}.tmp"
+
+
+def remove_orphans(folder: str | Path) -> list[Path]:
+    """Remove the temporary files of :func:`write_bytes` in ``folder`` whose process is gone (killed
+    during a write); returns them."""
+    removed = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        match = _TEMPORARY.match(entry.name)
+        if match is None or not entry.is_file(follow_symlinks=False) or _alive(int(match["pid"])):
+            continue
         try:
-            tmp.unlink()
+            os.unlink(entry.path)
+            removed.append(Path(entry.path))
         except OSError:
             pass
-        raise FrictionIdError(f"{path}: cannot write ({exc.strerror or exc})") from None
-    return path
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    """False only when no process ``pid`` exists (another user's process, or a pid the system
+    cannot have, counts as alive: its file is left alone)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (OSError, OverflowError):
+        return True
+    return True
 
 
 YAML_SUFFIXES = (".yaml", ".yml")
@@ -80,6 +133,8 @@ def read_json(path: str | Path, what: str = "JSON") -> dict:
         data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise FrictionIdError(f"{path}: no such file (expected {what})") from None
+    except RecursionError:  # the json module recurses once per nesting level
+        raise FrictionIdError(f"{path}: cannot read {what} (its values are nested too deeply)") from None
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise FrictionIdError(f"{path}: cannot read {what} ({exc})") from None
     if not isinstance(data, dict):

@@ -2,9 +2,16 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from frictionid_core.errors import FrictionIdError
+
 NAN = float("nan")
+# The metrics a fit or a cross-test must give as finite numbers to be an answer (R² and the noise
+# floor may be NaN: not defined on a constant effort or on a few rows).
+FINITE_METRICS = ("relerr_pct", "rmse")
 
 
 def relerr_pct(y: np.ndarray, y_hat: np.ndarray) -> float:
@@ -62,7 +69,7 @@ def observation_metrics(obs, y_hat: np.ndarray) -> dict:
         power = float(yj @ yj)
         m = fit_metrics(yj, pj) if yj.size > 1 and power > 0 else dict.fromkeys(("relerr_pct", "r2", "rmse"), NAN)
         row = {k: m[k] for k in ("relerr_pct", "rmse", "r2")}
-        noise = noise_sigma(y[rows] - y_hat[rows], keep) ** 2 * yj.size
+        noise = float(np.square(noise_sigma(y[rows] - y_hat[rows], keep))) * yj.size  # inf, not OverflowError
         row["noise_floor_pct"] = 100.0 * float(np.sqrt(noise / power)) if power > 0 else NAN
         if np.isfinite(noise):
             noise_sum += noise
@@ -78,3 +85,16 @@ def observation_metrics(obs, y_hat: np.ndarray) -> dict:
 def improvement_pct(err_new: float, err_ref: float) -> float:
     """Δ = 100·(1 − ε_new/ε_ref), %."""
     return 100.0 * (1.0 - err_new / err_ref)
+
+
+def check_finite(metrics: dict, what: str, keys: tuple[str, ...] = FINITE_METRICS) -> dict:
+    """``metrics`` unless one of ``keys`` is missing, NaN or inf: FrictionIdError naming ``what``
+    (such numbers are no answer; the caller writes nothing)."""
+    bad = {k: metrics.get(k) for k in keys
+           if isinstance(metrics.get(k), bool) or not isinstance(metrics.get(k), (int, float))
+           or not math.isfinite(metrics[k])}
+    if bad:
+        shown = ", ".join(f"{k} {v}" for k, v in bad.items())
+        raise FrictionIdError(f"{what} gives non-finite metrics ({shown}): the effort is zero or the model "
+                              "overflows on these data")
+    return metrics

@@ -18,6 +18,8 @@ def read_yaml(path: str | Path, what: str) -> dict:
         raise InputError(f"{path}: no such file (expected {what})") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: cannot read {what} ({exc})") from None
+    except RecursionError:  # the YAML composer recurses once per nesting level
+        raise InputError(f"{path}: cannot read {what} (its values are nested too deeply)") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}" if mark is not None else ""

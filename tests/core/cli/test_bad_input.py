@@ -359,7 +359,7 @@ def test_validate_with_unreadable_params(tmp_path, capsys, synthetic):
     save_csv(synthetic(), tmp_path / "s.csv")
     (tmp_path / "p.json").write_text("{not json")
     msg = fails(["validate", tmp_path / "s.csv", "--params", tmp_path / "p.json"], capsys)
-    assert "p.json" in msg and "cannot read parameters" in msg
+    assert "p.json" in msg and "cannot read an identification result" in msg
 
 
 def test_validate_with_params_lacking_a_key(tmp_path, capsys, synthetic):
@@ -389,3 +389,288 @@ def test_small_bag_is_readable_before_corruption(small_bag):
     from frictionid_core.io import load
 
     assert load(small_bag).joints == ["a", "b"]
+
+
+# ------------------------------------------------------- outputs never replace an input
+ARM_URDF = """<?xml version="1.0"?>
+<robot name="arm2">
+  <link name="base"/>
+  <link name="upper">
+    <inertial><origin xyz="0.2 0 0" rpy="0 0 0"/><mass value="2.0"/>
+      <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.03" iyz="0" izz="0.03"/></inertial>
+  </link>
+  <link name="fore">
+    <inertial><origin xyz="0.15 0 0" rpy="0 0 0"/><mass value="1.0"/>
+      <inertia ixx="0.005" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>
+  </link>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="upper"/><origin xyz="0 0 0.5" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" velocity="3" effort="100"/>
+  </joint>
+  <joint name="elbow" type="revolute">
+    <parent link="upper"/><child link="fore"/><origin xyz="0.4 0 0" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" velocity="3" effort="100"/>
+  </joint>
+</robot>
+"""
+LAYOUT = ("header: true\ntime: {column: time}\njoints: [emps]\nposition: [emps.position]\n"
+          "effort: [emps.effort]\n")
+
+
+@pytest.fixture(scope="module")
+def emps_result():
+    """An identification result of noise-free EMPS-like data (JSON keys)."""
+    from frictionid_core.identification import IdentifyRequest, identify
+    from support.data import emps_like
+
+    return identify(emps_like(), IdentifyRequest(system="emps")).to_dict()
+
+
+@pytest.fixture
+def inputs(tmp_path, emps_result, synthetic):
+    """Every kind of file a command reads: log (CSV), bag, result, a second result, request,
+    layout (+ its efforts file), drive, URDF (+ a result of it), truth, trajectory."""
+    f = {"log": tmp_path / "log.csv", "result": tmp_path / "result.json", "other": tmp_path / "other.json",
+         "request": tmp_path / "request.yaml", "layout": tmp_path / "layout.yaml", "drive": tmp_path / "drive.yaml",
+         "urdf": tmp_path / "arm.urdf", "urdf_result": tmp_path / "arm_result.json", "truth": tmp_path / "truth.json",
+         "trajectory": tmp_path / "traj.csv", "efforts": tmp_path / "efforts.csv",
+         "effort_layout": tmp_path / "effort_layout.yaml"}
+    save_csv(synthetic(), f["log"])
+    f["bag"] = write_joint_state_bag(tmp_path / "bag", small_series())
+    f["result"].write_text(json.dumps(emps_result))
+    f["other"].write_text(json.dumps(emps_result))
+    f["request"].write_text("system: emps\n")
+    f["layout"].write_text(LAYOUT)
+    f["effort_layout"].write_text(LAYOUT + "effort_file: efforts.csv\n")
+    f["efforts"].write_text(f["log"].read_text())
+    f["drive"].write_text("joints: [emps]\ngear_ratio: [2.0]\n")
+    f["urdf"].write_text(ARM_URDF)
+    f["urdf_result"].write_text(json.dumps(dict(emps_result, system=f"urdf:{f['urdf']}")))
+    f["truth"].write_text(json.dumps({"bags": {}}))
+    t = np.arange(200) * 0.01
+    f["trajectory"].write_text("t,q:shoulder,q:elbow\n" + "".join(f"{x},{0.1 * np.sin(x)},{0.2 * np.sin(2 * x)}\n"
+                                                                   for x in t))
+    return f
+
+
+# (command line, the output option, the input it would replace, that input's label) — {key} is a file of `inputs`
+OVERWRITES = {
+    "identify --json SOURCE": ("identify {log} --json {log}", "--json", "log", "SOURCE"),
+    "identify --json a bag's file": ("identify {bag} --json {bag}/metadata.yaml", "--json", "bag", "SOURCE"),
+    "identify --save-request SOURCE": ("identify {log} --save-request {log}", "--save-request", "log", "SOURCE"),
+    "identify --json --request": ("identify {log} --request {request} --json {request}", "--json", "request",
+                                  "--request"),
+    "identify --json --layout": ("identify {log} --layout {layout} --json {layout}", "--json", "layout", "--layout"),
+    "identify --json effort_file": ("identify {log} --layout {effort_layout} --json {efforts}", "--json", "efforts",
+                                    "--layout's effort_file"),
+    "identify --json --drive": ("identify {log} --drive {drive} --json {drive}", "--json", "drive", "--drive"),
+    "identify --json URDF": ("identify {log} --system urdf:{urdf} --json {urdf}", "--json", "urdf", "--system"),
+    "validate --json --params": ("validate {log} --params {result} --json {result}", "--json", "result", "--params"),
+    "validate --json SOURCE": ("validate {log} --params {result} --json {log}", "--json", "log", "SOURCE"),
+    "simulate --json --params": ("simulate emps --params {result} --data {log} --json {result}", "--json", "result",
+                                 "--params"),
+    "export --yaml RESULT": ("export {result} --yaml {result}", "--yaml", "result", "RESULT"),
+    "export --urdf the robot's URDF": ("export {urdf_result} --urdf {urdf}", "--urdf", "urdf", "--system"),
+    "consistency --json RESULT": ("consistency {result} --json {result}", "--json", "result", "RESULT"),
+    "compare --json FIT": ("compare {result} {other} --json {other}", "--json", "other", "FIT.json"),
+    "compare --json --truth": ("compare {result} --truth {truth} --json {truth}", "--json", "truth", "--truth"),
+    "synth --out TRAJ": ("synth {trajectory} --system urdf:{urdf} --out {trajectory}", "--out", "trajectory", "TRAJ"),
+    "excite --out URDF": ("excite --system urdf:{urdf} --out {urdf}", "--out", "urdf", "--system"),
+}
+
+
+def _argv(template: str, files: dict) -> list[str]:
+    return template.format(**{k: str(v) for k, v in files.items()}).split()
+
+
+def _bytes(path):
+    return {p: p.read_bytes() for p in sorted(path.rglob("*"))} if path.is_dir() else path.read_bytes()
+
+
+@pytest.mark.parametrize("case", OVERWRITES)
+def test_an_output_never_replaces_an_input(inputs, capsys, case):
+    template, option, key, label = OVERWRITES[case]
+    before = _bytes(inputs[key])
+    msg = fails(_argv(template, inputs), capsys)
+    assert msg.startswith(f"{option} ") and f" is the input {label} " in msg and str(inputs[key]) in msg, msg
+    assert "refusing to overwrite what this command reads" in msg
+    assert _bytes(inputs[key]) == before
+
+
+def test_links_to_an_input_are_that_input(inputs, capsys):
+    (inputs["log"].parent / "soft.json").symlink_to(inputs["result"])
+    (inputs["log"].parent / "hard.json").hardlink_to(inputs["result"])
+    before = inputs["result"].read_bytes()
+    for name in ("soft.json", "hard.json"):
+        msg = fails(["validate", inputs["log"], "--params", inputs["result"], "--json", inputs["log"].parent / name],
+                    capsys)
+        assert f"is the input --params {inputs['result']}" in msg
+    assert inputs["result"].read_bytes() == before
+
+
+def test_two_outputs_one_file(inputs, tmp_path, capsys):
+    msg = fails(["identify", inputs["log"], "--json", tmp_path / "x", "--save-request", tmp_path / "x"], capsys)
+    assert msg == f"--save-request {tmp_path / 'x'} is also --json: give each output its own file"
+
+
+def test_an_output_folder_that_is_a_file(inputs, capsys):
+    before = inputs["result"].read_bytes()
+    msg = fails(["report", inputs["result"], inputs["log"], "--out", inputs["result"]], capsys)
+    assert msg == (f"--out {inputs['result']} is a file; expected a directory to write report.json, report.html "
+                   "into")
+    assert inputs["result"].read_bytes() == before
+    folder = inputs["log"].parent / "reports"  # the result sits where the report would write its own JSON
+    folder.mkdir()
+    (folder / "report.json").write_bytes(before)
+    msg = fails(["report", folder / "report.json", inputs["log"], "--out", folder], capsys)
+    assert f"--out (report.json) {folder / 'report.json'} is the input RESULT.json" in msg
+    assert (folder / "report.json").read_bytes() == before
+
+
+# ----------------------------------------------------------------------- result files
+NON_FINITE = [float("nan"), float("inf"), 1e300, -1e300]
+# (key, value, words of the message after "key '<key>'")
+BAD_KEYS = [
+    *[("params.M", v, "must be a finite number within ±1e+15") for v in NON_FINITE],
+    ("params.M", None, "must be a number, got null"),
+    ("params.M", "abc", "must be a number, got 'abc'"),
+    ("joint_map", ["a"], "must be a mapping of names"),
+    ("preprocessing", "fast", "must be a mapping of names"),
+    ("preprocessing.cutoff_hz", float("nan"), "must be a finite number"),
+    ("preprocessing.order", None, "must be an integer >= 1"),
+    ("window", 2.5, "must be a mapping of names"),
+    ("metrics.per_joint.emps", None, "must be a mapping of metrics"),
+    ("standard_parameters", {"emps": {"mass": 1.0}}, "lacks ['com', 'inertia', 'rotor', 'rotor_inertia']"),
+    ("drive", {"joints": "emps"}, "key 'joints' must be a non-empty list of joint names"),
+    ("friction", "magic", "unknown friction model 'magic'"),
+    ("system", None, "must be given, got null"),
+    ("source", 3, "must be a source name or a list of them"),
+    ("warnings", "one", "must be a list of strings"),
+]
+RESULT_COMMANDS = {
+    "validate": "validate {log} --params {result} --json {out}",
+    "simulate": "simulate emps --params {result} --data {log} --json {out}",
+    "report": "report {result} {log} --out {folder}",
+    "export": "export {result} --yaml {out}",
+    "consistency": "consistency {result} --json {out}",
+    "compare": "compare {result} {other} --json {out}",
+}
+
+
+def _set(result: dict, dotted: str, value) -> dict:
+    out = json.loads(json.dumps(result))
+    *parents, last = dotted.split(".")
+    node = out
+    for key in parents:
+        node = node.setdefault(key, {})
+    node[last] = value
+    return out
+
+
+@pytest.mark.parametrize("command", RESULT_COMMANDS)
+@pytest.mark.parametrize(("key", "value", "problem"), BAD_KEYS)
+def test_a_bad_key_of_a_result_file_is_named(inputs, emps_result, capsys, command, key, value, problem):
+    inputs["result"].write_text(json.dumps(_set(emps_result, key, value)))
+    out = inputs["log"].parent / "out.json"
+    out.write_text("old output")
+    msg = fails(_argv(RESULT_COMMANDS[command], {**inputs, "out": out, "folder": out.parent / "report"}), capsys)
+    assert msg.startswith(f"{inputs['result']}: key '{key}") and problem in msg, msg
+    assert out.read_text() == "old output" and not (out.parent / "report").exists()
+
+
+def test_a_bad_request_key_of_a_result_file_is_named(inputs, emps_result, capsys):
+    inputs["result"].write_text(json.dumps(_set(emps_result, "request.joints", True)))
+    msg = fails(["validate", inputs["log"], "--params", inputs["result"]], capsys)
+    assert msg == f"{inputs['result']}: request key 'joints' must be a non-empty list of joint names, got True"
+
+
+def test_a_result_file_that_is_not_an_object(inputs, capsys):
+    inputs["result"].write_text("[1, 2]")
+    msg = fails(["consistency", inputs["result"]], capsys)
+    assert msg == f"{inputs['result']}: not an identification result (expected a JSON object)"
+
+
+@pytest.mark.parametrize(("option", "text"), [("--params", "[" * 100_000 + "]" * 100_000),
+                                              ("--params", '{"a":' * 100_000 + "1" + "}" * 100_000),
+                                              ("--request", "[" * 100_000), ("--layout", "a:\n" + "  - " * 5_000),
+                                              ("--drive", "{" * 100_000)])
+def test_files_nested_too_deeply(inputs, capsys, option, text):
+    path = inputs["log"].parent / ("deep.json" if option == "--params" else "deep.yaml")
+    path.write_text(text)
+    command = ["validate", inputs["log"], "--params", path] if option == "--params" else ["identify", inputs["log"],
+                                                                                          option, path]
+    msg = fails(command, capsys)
+    assert msg.startswith(f"{path}: cannot read ") and msg.endswith("(its values are nested too deeply)")
+
+
+# -------------------------------------------------------------- metrics that are no answer
+def test_non_finite_metrics_are_an_error(inputs, synthetic, capsys):
+    zero = synthetic()
+    zero.effort = zero.effort * 0.0
+    save_csv(zero, inputs["log"])
+    out = inputs["log"].parent / "v.json"
+    out.write_text("old output")
+    msg = fails(["validate", inputs["log"], "--params", inputs["result"], "--json", out], capsys)
+    assert msg == (f"the cross-test of {inputs['result']} on {inputs['log']} gives non-finite metrics (relerr_pct "
+                   "inf): the effort is zero or the model overflows on these data")
+    assert out.read_text() == "old output"
+    msg = fails(["identify", inputs["log"], "--json", out], capsys)
+    assert msg.startswith("the identification gives non-finite metrics (relerr_pct nan")
+    assert out.read_text() == "old output"
+
+
+def test_validate_with_no_row_left(inputs, emps_result, capsys):
+    inputs["result"].write_text(json.dumps(_set(emps_result, "preprocessing.min_speed", 50.0)))  # faster than any
+    msg = fails(["validate", inputs["log"], "--params", inputs["result"]], capsys)
+    assert msg.endswith("no sample left to cross-test on (every one slower than the min speed of the pre-processing, "
+                        "or trimmed away)")
+
+
+def test_synth_friction_parameters_must_be_finite(inputs, capsys):
+    path = inputs["log"].parent / "friction.json"
+    path.write_text(json.dumps({"shoulder": {"Fv": float("nan"), "Fc": 2.0}, "elbow": {"Fv": 0.5, "Fc": 1.0}}))
+    msg = fails(["synth", inputs["trajectory"], "--system", f"urdf:{inputs['urdf']}", "--friction", "coulomb",
+                 "--friction-params", path, "--out", inputs["log"].parent / "out"], capsys)
+    assert msg == f"{path}: friction parameter(s) shoulder.Fv = nan are not finite numbers"
+
+
+# ------------------------------------------------------------------------ URDF inertials
+# (text replaced in ARM_URDF, by what, the message's end); the C++ parser must print nothing (capfd).
+BAD_URDFS = {
+    "xacro mass": ('<mass value="1.0"/>', '<mass value="${m1}"/>',
+                   "link 'fore': <mass value=\"${m1}\"> is not a finite number (a xacro expression: expand the file "
+                   "with xacro first)"),
+    "NaN mass": ('<mass value="1.0"/>', '<mass value="nan"/>', "link 'fore': <mass value=\"nan\"> is not a finite "
+                                                                "number"),
+    "negative mass": ('<mass value="1.0"/>', '<mass value="-1"/>', "link 'fore': negative mass -1 kg"),
+    "zero mass": ('<mass value="1.0"/>', '<mass value="0"/>',
+                  "link 'fore' (moved by joint 'elbow') has mass 0 kg; a moving link needs a positive mass (its "
+                  "<inertial>)"),
+    "NaN inertia": ('ixx="0.005"', 'ixx="nan"', "link 'fore': <inertia ixx=\"nan\"> is not a finite number"),
+    "non-physical inertia": ('ixx="0.005"', 'ixx="0.5"',
+                             "link 'fore' (moved by joint 'elbow') has an inertia no rigid body has: principal moments "
+                             "0.01, 0.01, 0.5 kg·m² about its centre of mass (each must be ≥ 0 and at most the sum of "
+                             "the other two)"),
+    "xacro origin": ('<origin xyz="0.4 0 0" rpy="0 0 0"/>', '<origin xyz="0.4 0 0" rpy="0 0 ${pi/2}"/>',
+                     "joint 'elbow': <origin rpy=\"0 0 ${pi/2}\"> is not 3 finite numbers (a xacro expression: expand "
+                     "the file with xacro first)"),
+}
+
+
+def test_the_arm_urdf_loads(tmp_path):
+    # Guards the cases below against failing for another reason.
+    from frictionid_core.robots import load_urdf
+
+    (tmp_path / "arm.urdf").write_text(ARM_URDF)
+    robot = load_urdf(tmp_path / "arm.urdf")
+    assert robot.joints == ["shoulder", "elbow"]
+    np.testing.assert_allclose(robot.parameters()[:4], [2.0, 0.4, 0.0, 0.0])  # m, m·c of the upper arm
+
+
+@pytest.mark.parametrize("case", BAD_URDFS)
+def test_bad_urdf_inertials_name_the_link(tmp_path, capfd, case):
+    old, new, problem = BAD_URDFS[case]
+    assert old in ARM_URDF
+    (tmp_path / "arm.urdf").write_text(ARM_URDF.replace(old, new, 1))
+    msg = fails(["excite", "--system", f"urdf:{tmp_path / 'arm.urdf'}", "--out", tmp_path / "t.npz"], capfd)
+    assert msg == f"{tmp_path / 'arm.urdf'}: {problem}"

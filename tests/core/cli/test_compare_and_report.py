@@ -121,11 +121,13 @@ def test_compare_reports_bad_files_in_one_line(emps_fits, tmp_path, capsys):
     tx40_j2 = _write(tmp_path / "j2.json", dict(emps_fits[0], system="tx40-j2", params={"ZZ": 1.0}, std={}))
     cases = [
         ([a], "needs two or more fits, or one fit and --truth"),
-        ([a, truth], "a ground truth, not an identification result; pass it with --truth"),
+        ([a, truth], "a ground truth ('frictionid synth --truth'), not an identification result (compare takes it "
+                     "with --truth)"),
         ([a, "--truth", a], "an identification result, not a ground truth"),
         ([a, tx40_j2], "share no parameter"),
-        ([a, _write(tmp_path / "junk.json", {"params": {"M": "heavy"}, "system": "emps", "friction": "coulomb"})],
-         "parameter(s) ['M'] are not numbers"),
+        ([a, _write(tmp_path / "junk.json", {"params": {"M": "heavy"}, "system": "emps", "friction": "coulomb",
+                                              "asymmetric": False})],
+         "junk.json: key 'params.M' must be a number, got 'heavy'"),
         ([a, _write(tmp_path / "list.json", {"results": []})], "not an identification result"),
         ([a, "--truth", truth], "no truth for 'emps_estimation'"),  # the truth's recordings are the TX40 bags
         ([tx40_j2, "--truth", truth, "--bag", "tx40_excitation"], "joint 2 was not the only joint moving"),

@@ -1,7 +1,7 @@
 """EMPS closed-loop simulation (docs/reference.md#emps-simulation) on the bundled bags.
 
-Reference figures: docs/reference.md#emps-idim-ls parameters; thesis Table 6.12 (benchmark clock); docs/reference.md#emps-simulation
-(true clock); benchmark script (velocity 0.229 %, acceleration 8.60 %, force 5.85 %).
+Reference figures: docs/reference.md#emps-idim-ls parameters; thesis Table 6.12 (benchmark clock);
+docs/reference.md#emps-simulation (true clock); benchmark script (velocity 0.229 %, acceleration 8.60 %, force 5.85 %).
 """
 
 from __future__ import annotations
@@ -17,13 +17,11 @@ from frictionid_core.emps_simulation import (
     METRIC_KEYS,
     EmpsData,
     EmpsSimulator,
-    friction_batch,
     load_emps,
     simulate_emps,
     simulate_identification,
 )
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.friction import all_models
 from frictionid_core.timeseries import JointSeries
 
 BAGS = Path(__file__).resolve().parents[3] / "bags"
@@ -107,20 +105,9 @@ def test_population_members_equal_individual_runs(runs, friction, asym):
     assert np.all(np.isfinite(np.delete(cost, 5)))
 
 
-def test_kernel_friction_matches_friction_models():
-    rng = np.random.default_rng(0)
-    v = np.concatenate([np.linspace(-0.3, 0.3, 61), [0.0, 1e-6, -1e-6, 2e-3, -2e-3]])
-    for model in all_models():
-        lo, hi = model.default_bounds()
-        theta = rng.uniform(lo, hi, (5, lo.size))
-        for eps in (0.0, 1e-3):
-            expected = model.torque(theta, v, eps)
-            got = friction_batch(model.law.code, model.asymmetric, eps, theta, v)
-            np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12, err_msg=f"{model.label} eps={eps}")
-
-
 def test_coulomb_fast_path_equals_general_path(runs):
-    """Coulomb runs an inlined kernel; Tustin with Fs = Fc is the same friction via the general one."""
+    """Coulomb (no dip) runs the kernel's select-only loop; Tustin with Fs = Fc is the same friction
+    through the dip path."""
     coulomb = simulate_emps(runs["estimation"], REF, clock="benchmark")
     tustin = simulate_emps(runs["estimation"], dict(REF, Fs=REF["Fc"], vs=0.01), "tustin", clock="benchmark")
     np.testing.assert_allclose(tustin.q, coulomb.q, rtol=0, atol=1e-15)

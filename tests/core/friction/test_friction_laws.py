@@ -1,4 +1,5 @@
-"""The 8 friction models against the formulas of docs/reference.md#friction-models, written here independently, per candidate."""
+"""The 8 friction models against the formulas of docs/reference.md#friction-models, written here independently,
+per candidate."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import pytest
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import FRICTIONS, LAWS, all_models, get_model, smooth_sign
+from frictionid_core.friction.laws import NUMPY_OPS
 from frictionid_core.identification import build_model
 from frictionid_core.linear import least_squares
 
@@ -106,15 +108,14 @@ def test_all_models_are_the_eight_combinations():
 
 
 def test_the_registry_is_the_one_description_of_each_law():
-    """Names, parameters (linear first), one distinct integer code per law (the compiled
-    kernels' agreement with the numpy law is tested in test_identify_optim and test_simulation),
-    and a numpy dip exactly when the law has nonlinear parameters."""
+    """Names, parameters (linear first), and a dip with its end exactly when the law has
+    nonlinear parameters (the compiled kernels' agreement with the numpy law: test_law_agreement)."""
     assert FRICTIONS == tuple(LAWS) and all(law.name == name for name, law in LAWS.items())
     for name, law in LAWS.items():
         assert law.params == NAMES[name] == law.linear + law.nonlinear
         assert set(law.linear) <= {"Fv", "Fc", "Fs"} and not set(law.nonlinear) & {"Fv", "Fc", "Fs"}
-        assert (law.dip is None) == (not law.nonlinear)
-    assert sorted(law.code for law in LAWS.values()) == list(range(len(LAWS)))
+        assert (law.dip is None) == (law.dip_end is None) == (not law.nonlinear)
+        assert law.states == ()
     with pytest.raises(FrictionIdError, match="coulomb model has no nonlinear part"):
         get_model("coulomb").dip(np.ones((1, 1)), np.ones(3))
 
@@ -127,7 +128,7 @@ def test_dip_is_the_law_dip_and_vanishes_with_speed(model):
     theta = np.array([[0.01] + [1.5] * (len(law.nonlinear) - 1)])
     a = np.array([0.0, 0.001, 0.005, 0.009, 10.0])
     d = model.dip(theta, a)[0]
-    np.testing.assert_array_equal(d, law.dip(a[None, :], theta)[0])
+    np.testing.assert_array_equal(d, law.dip(a[None, :], None, theta.T[:, :, None], 0, *NUMPY_OPS)[0])
     assert d[0] == 1.0 and np.all(np.diff(d[:4]) < 0) and d[-1] < 1e-12
 
 

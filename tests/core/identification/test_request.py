@@ -124,7 +124,7 @@ def test_result_from_a_hand_written_file():
          "review": {"accepted": True}}  # an unknown key is ignored
     r = IdentifyResult.from_dict(d)
     assert (r.solver, r.joints, r.std, r.request) == ("", [], {}, None)
-    with pytest.raises(FrictionIdError, match=r"^p.json lacks 'asymmetric', 'params'; expected the JSON written"):
+    with pytest.raises(FrictionIdError, match=r"^p.json lacks 'asymmetric', 'params': not an identification result"):
         IdentifyResult.from_dict({"system": "emps", "friction": "coulomb"}, "p.json")
 
 

@@ -1,7 +1,7 @@
 """Pre-processing chosen from the data, the ``joint`` system, honest metrics and warnings.
 
 Synthetic logs only: two independent joints τ = J·q̈ + Fv·q̇ + Fc·sign(q̇) + offset (+ noise), at
-94 Hz, 500 Hz and 5 kHz, and the slow single-joint TX40 recording of issue 14 (Pinocchio).
+94 Hz, 500 Hz and 5 kHz, and a slow single-joint TX40 recording (Pinocchio).
 """
 
 from __future__ import annotations
@@ -146,7 +146,7 @@ def test_relerr_does_not_move_with_the_decimation():
 def slow_joint2():
     """TX40 joint 2 alone at 500 Hz, Fourier motion of fundamental 0.08 Hz and 5 harmonics with
     a 0.05 rad peak around the upright arm (62.5 s), published noise (σ_q 1e-6 rad, σ_τ 0.05 N·m),
-    Coulomb friction: issue 14's slow case (the former 50 Hz default gives ZZ 40 % low)."""
+    Coulomb friction: the slow single-joint case (the former 50 Hz default gives ZZ 40 % low)."""
     from frictionid_core.robots.excitation import FourierTrajectory
     from frictionid_core.robots.synth import synthesize
     from frictionid_core.robots.tx40 import JOINTS, build_tx40

@@ -1,5 +1,5 @@
 """Physically consistent parameters (identify --consistent, --prior urdf) and their export to
-URDF, MuJoCo and YAML (issue 16), on the bundled synthetic TX40 bag and a synthetic UR5."""
+URDF, MuJoCo and YAML on the bundled synthetic TX40 bag and a synthetic UR5."""
 
 from __future__ import annotations
 

@@ -20,7 +20,7 @@ import sys
 from collections.abc import Callable, Iterable
 from importlib import import_module
 
-from frictionid_core.cli._common import run_handler
+from frictionid_core.cli._common import interrupted, run_handler
 
 __all__ = ["COMMANDS", "PLUGIN_GROUP", "build_parser", "main", "run_handler"]
 
@@ -87,8 +87,11 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     # The top-level parser has no option taking a value: the first word is the command.
     chosen = next((a for a in argv if not a.startswith("-")), None)
-    parser, handlers = build_parser([chosen] if chosen else [])
-    args = parser.parse_args(argv)
+    try:  # Ctrl-C while the command's modules load
+        parser, handlers = build_parser([chosen] if chosen else [])
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:
+        return interrupted()
     if args.command not in handlers:
         print(f"frictionid: error: command '{args.command}' is not available", file=sys.stderr)
         return 2

@@ -17,6 +17,7 @@ from frictionid_core.errors import FrictionIdError
 
 EXIT_INPUT = 2  # bad input: one line on stderr
 EXIT_INTERNAL = 1  # a bug
+EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), as a shell reports it
 
 # ------------------------------------------------------------------- arguments
 def add_json_argument(p: argparse.ArgumentParser, what: str = "the result") -> None:
@@ -225,6 +226,84 @@ def save_json(path: Path | None, data) -> None:
         write_json(path, data)
 
 
+# ------------------------------------------------------------ inputs and outputs
+def source_inputs(args) -> dict[str, object]:
+    """The files the source options of :func:`add_source_arguments` read (label → path(s)): the
+    sources, ``--layout`` and the efforts file its layout names, and ``--drive``."""
+    inputs = {"SOURCE": [Path(s) for s in args.source], "--layout": args.layout,
+              "--drive": drive_file(getattr(args, "drive", None))}
+    if args.layout is not None and Path(args.layout).is_file():
+        from frictionid_core.io.layout import load_layout
+
+        effort_file = load_layout(args.layout).effort_file
+        if effort_file:
+            inputs["--layout's effort_file"] = [Path(s).parent / effort_file for s in args.source]
+    return inputs
+
+
+def drive_file(drive: str | None) -> Path | None:
+    """The file of ``--drive FILE|NAME`` (None: a bundled drive's name, or no drive)."""
+    return None if drive is None or not Path(drive).expanduser().is_file() else Path(drive)
+
+
+def system_file(system: str | None) -> Path | None:
+    """The URDF file of a ``urdf:PATH`` system name (also the packed ``urdf:PATH?map=…`` of older
+    results), else None."""
+    if not isinstance(system, str) or not system.startswith("urdf:"):
+        return None
+    return Path(system[len("urdf:"):].partition("?map=")[0])
+
+
+def refuse_overwriting(outputs: dict[str, Path | None], inputs: dict[str, object]) -> None:
+    """FrictionIdError naming both paths when an output is one of the ``inputs`` (label → path, list
+    of paths or None; a directory stands for itself and its files, such as a rosbag2 directory's
+    storage files) or two outputs are one file: a command never overwrites what it reads."""
+    read = []
+    for label, value in inputs.items():
+        for path in value if isinstance(value, (list, tuple)) else [value]:
+            if path is None:
+                continue
+            path = Path(path).expanduser()
+            read.append((label, path, path))
+            if path.is_dir():
+                read += [(label, path, f) for f in sorted(path.iterdir()) if f.is_file()]
+    written = []
+    for label, out in outputs.items():
+        if out is None:
+            continue
+        out = Path(out).expanduser()
+        for in_label, path, file in read:
+            if same_file(out, file):
+                inner = "" if file == path else f" (its file {file.name})"
+                raise FrictionIdError(f"{label} {out} is the input {in_label} {path}{inner}: refusing to overwrite "
+                                      "what this command reads; choose another output file")
+        for other_label, other in written:
+            if same_file(out, other):
+                raise FrictionIdError(f"{label} {out} is also {other_label}: give each output its own file")
+        written.append((label, out))
+
+
+def same_file(a: Path, b: Path) -> bool:
+    """True when the paths ``a`` and ``b`` name one file (after symbolic links; hard links too)."""
+    a, b = Path(a).expanduser(), Path(b).expanduser()
+    if a.absolute() == b.absolute() or a.resolve() == b.resolve():
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
+def output_folder(label: str, folder: Path, names: tuple[str, ...]) -> dict[str, Path]:
+    """The files a command writes into the output directory ``folder`` (option ``label``), each
+    labelled for :func:`refuse_overwriting`; FrictionIdError when ``folder`` exists and is not a
+    directory."""
+    folder = Path(folder).expanduser()
+    if folder.exists() and not folder.is_dir():
+        raise FrictionIdError(f"{label} {folder} is a file; expected a directory to write {', '.join(names)} into")
+    return {f"{label} ({name})": folder / name for name in names}
+
+
 # ---------------------------------------------------------------------- errors
 def run_handler(handler, args: argparse.Namespace) -> int:
     """``handler(args)``'s exit code; a FrictionIdError becomes one line on stderr and exit code 2,
@@ -241,6 +320,8 @@ def run_handler(handler, args: argparse.Namespace) -> int:
         except BrokenPipeError:  # output piped into head & co.
             sys.stderr.close()
             code = 0
+        except KeyboardInterrupt:  # Ctrl-C: one line and exit code 130, no traceback
+            code = interrupted()
         except Exception as exc:  # a bug, not bad input: one line unless debugging
             if os.environ.get("FRICTIONID_DEBUG"):
                 raise
@@ -251,3 +332,10 @@ def run_handler(handler, args: argparse.Namespace) -> int:
             for message in dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, UserWarning)):
                 print(f"frictionid: warning: {message}", file=sys.stderr)
     return code
+
+
+def interrupted() -> int:
+    """Ctrl-C: one line on stderr, :data:`EXIT_INTERRUPTED` (a file being written keeps its old
+    content: the atomic writer removes its temporary file)."""
+    print("frictionid: interrupted", file=sys.stderr)
+    return EXIT_INTERRUPTED

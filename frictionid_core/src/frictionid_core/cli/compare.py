@@ -9,7 +9,7 @@ import argparse
 import functools
 from pathlib import Path
 
-from frictionid_core.cli._common import add_json_argument, fmt, save_json, split_list
+from frictionid_core.cli._common import add_json_argument, fmt, refuse_overwriting, save_json, split_list, system_file
 from frictionid_core.errors import FrictionIdError
 
 
@@ -26,12 +26,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
+    from frictionid_core.identification import read_result
     from frictionid_core.jsonfile import read_json
-    from frictionid_core.robots.compare import check_result, compare_fits, fit_labels
+    from frictionid_core.robots.compare import compare_fits, fit_labels
 
-    results = [read_json(path, "an identification result") for path in args.results]
-    for result, path in zip(results, args.results):
-        check_result(result, str(path))
+    results = [read_result(path).to_dict() for path in args.results]
+    refuse_overwriting({"--json": args.json}, {"FIT.json": args.results, "--truth": args.truth,
+                                               "--validation": args.validation, "--layout": args.layout,
+                                               "--system": [system_file(r["system"]) for r in results]})
     truth_all = read_json(args.truth, "a ground truth") if args.truth is not None else None
     if len(results) == 1:
         if truth_all is None:
@@ -136,9 +138,11 @@ def _load_once(src: Path, joints: tuple[str, ...] | None, layout: Path | None):
 
 def _noise_floor_line(src: Path, result: dict, args, truth_all: dict, label: str = "") -> dict:
     """Print (and return) a fit's cross-test error on ``src`` against the truth's noise floor."""
+    from frictionid_core.metrics import check_finite
     from frictionid_core.robots.compare import noise_floor, select_truth
 
     v = dict(noise_floor(_load(src, result, args), result, select_truth(truth_all, str(src))), source=str(src))
+    check_finite(v, f"{label}the cross-test on {src}", ("relerr_pct", "floor_relerr_pct"))
     print(f"{label}validation {src}: OSA relative error {v['relerr_pct']:.5g} % vs noise floor "
           f"{v['floor_relerr_pct']:.5g} % (true parameters): ratio {v['ratio']:.4f}")
     return v
@@ -147,11 +151,13 @@ def _noise_floor_line(src: Path, result: dict, args, truth_all: dict, label: str
 def _validation(src: Path, labels: list[str], results: list[dict], args, truth_all: dict | None) -> dict:
     """Every fit cross-tested on ``src``: {source, fits: {label: metrics (+ noise floor with a truth)}}."""
     from frictionid_core.identification import validate
+    from frictionid_core.metrics import check_finite
 
     if truth_all is not None:
         return {"source": str(src), "fits": {lab: _noise_floor_line(src, r, args, truth_all, f"{lab}: ")
                                              for lab, r in zip(labels, results)}}
-    fits = {lab: validate(_load(src, r, args), r) for lab, r in zip(labels, results)}
+    fits = {lab: check_finite(validate(_load(src, r, args), r), f"the cross-test of fit {lab} on {src}")
+            for lab, r in zip(labels, results)}
     print(f"validation {src}: relerr_pct " + ", ".join(f"{lab} {fmt(m['relerr_pct'])}" for lab, m in fits.items()))
     for joint in dict.fromkeys(j for m in fits.values() for j in (m.get("per_joint") or {})):
         print(f"  {joint}: relerr_pct " + ", ".join(

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from frictionid_core.cli._common import add_json_argument, save_json
+from frictionid_core.cli._common import add_json_argument, refuse_overwriting, save_json, system_file
 
 EXIT_NOT_FEASIBLE = 3
 
@@ -19,12 +19,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from frictionid_core.jsonfile import read_json
+    from frictionid_core.identification import read_result
     from frictionid_core.robots.consistency_check import report_for_result
-
     from frictionid_core.systems import result_system
 
-    result = read_json(args.result, "the result")
+    result = read_result(args.result)
+    refuse_overwriting({"--json": args.json}, {"RESULT": args.result, "--system": system_file(result.system)})
+    result = result.to_dict()
     rep = report_for_result(result, result_system(result), args.prior)
     print(f"physical consistency of {args.result} ({rep['system']}): "
           f"{'FEASIBLE' if rep['feasible'] else 'NOT FOUND FEASIBLE'} — {rep['method']}")

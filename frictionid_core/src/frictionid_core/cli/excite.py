@@ -7,7 +7,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from frictionid_core.cli._common import add_json_argument, parse_joint_values, save_json, split_list
+from frictionid_core.cli._common import (
+    add_json_argument,
+    parse_joint_values,
+    refuse_overwriting,
+    save_json,
+    split_list,
+    system_file,
+)
 from frictionid_core.errors import InputError
 
 
@@ -38,6 +45,7 @@ def run(args) -> int:
     from frictionid_core.robots.excitation import add_dwell, optimise_excitation, robot_of
     from frictionid_core.systems import get_system
 
+    refuse_overwriting({"--out": args.out, "--json": args.json}, {"--system": system_file(args.system)})
     system = get_system(args.system)
     robot, default_moving = robot_of(system, args.system)
     moving = split_list(args.joints) or default_moving

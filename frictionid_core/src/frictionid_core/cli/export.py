@@ -21,28 +21,29 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from frictionid_core.jsonfile import read_json, write_text
+    from frictionid_core.cli._common import refuse_overwriting, system_file
+    from frictionid_core.identification import read_result
+    from frictionid_core.jsonfile import write_text
     from frictionid_core.robots.export import export_data, mujoco_text, urdf_text, yaml_text
     from frictionid_core.systems import result_system
 
     if not (args.urdf or args.mujoco or args.yaml):
         raise FrictionIdError("nothing to export: give --urdf, --mujoco and/or --yaml")
-    result = read_json(args.result, "an identification result")
-    try:
-        system = result_system(result)
-    except KeyError as exc:
-        raise FrictionIdError(f"{args.result}: not an identification result (no {exc})") from None
-    data = export_data(result, system, args.force)
+    result = read_result(args.result)
+    refuse_overwriting({"--urdf": args.urdf, "--mujoco": args.mujoco, "--yaml": args.yaml},
+                       {"RESULT": args.result, "--system": system_file(result.system)})
+    result = result.to_dict()
+    data = export_data(result, result_system(result), args.force)
     if not data.feasible:
         print("frictionid: warning: exporting an inconsistent result (--force): " + "; ".join(data.problems))
     urdf = urdf_text(data) if (args.urdf or args.mujoco) else None
-    outputs = []
+    texts = []  # every text before any file is written
     if args.urdf:
-        outputs.append(write_text(args.urdf, urdf))
+        texts.append((args.urdf, urdf))
     if args.mujoco:
-        outputs.append(write_text(args.mujoco, mujoco_text(data, urdf)))
+        texts.append((args.mujoco, mujoco_text(data, urdf)))
     if args.yaml:
-        outputs.append(write_text(args.yaml, yaml_text(data)))
-    for path in outputs:
-        print(f"wrote {path}")
+        texts.append((args.yaml, yaml_text(data)))
+    for path, text in texts:
+        print(f"wrote {write_text(path, text)}")
     return 0

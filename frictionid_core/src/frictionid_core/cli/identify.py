@@ -14,12 +14,16 @@ import argparse
 from frictionid_core.cli._common import (
     add_drive_argument,
     add_source_arguments,
+    drive_file,
     load_sources,
     parse_bounds,
     parse_fixed,
     print_table,
+    refuse_overwriting,
     save_json,
+    source_inputs,
     split_list,
+    system_file,
     warn,
 )
 from frictionid_core.errors import FrictionIdError
@@ -142,7 +146,13 @@ def request_of(args):
 
 
 def run(args) -> int:
+    from frictionid_core.metrics import FINITE_METRICS, check_finite
+
     request = request_of(args)
+    drive = request.drive if isinstance(request.drive, str) else None  # --drive or the request file's
+    refuse_overwriting({"--json": args.json, "--save-request": args.save_request},
+                       {**source_inputs(args), "--drive": drive_file(drive), "--system": system_file(request.system),
+                        "--request": args.request})
     if args.save_request:
         from frictionid_core.identification import write_request
 
@@ -163,6 +173,8 @@ def run(args) -> int:
         args.joints = None if request.joints is None else ",".join(request.joints)  # --joints or the file's
         layout = None if args.layout is None else str(args.layout)
         result = replace(identify(load_sources(args), request), layout=layout)
+    finite = ("position_relerr_pct",) if args.output_error else FINITE_METRICS  # output error: the simulation's
+    check_finite(result.metrics, "the identification", finite)
     print_table(result.to_dict())
     if result.consistency is not None:
         c = result.consistency

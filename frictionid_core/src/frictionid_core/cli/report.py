@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from frictionid_core.cli._common import output_folder, refuse_overwriting, system_file
 from frictionid_core.errors import FrictionIdError
 
 EMPS = "emps"
@@ -32,9 +33,10 @@ def run(args) -> int:
 
 
 def _run_result(args) -> int:
-    from frictionid_core.reports.result_report import build_fit_report
+    from frictionid_core.identification import read_result
     from frictionid_core.io import load
-    from frictionid_core.jsonfile import read_json
+    from frictionid_core.reports.html_page import REPORT_FILES
+    from frictionid_core.reports.result_report import build_fit_report
 
     if args.estimation is not None or args.study is not None:
         raise FrictionIdError("--estimation and --study belong to 'frictionid report emps'; give the sources of a "
@@ -42,10 +44,13 @@ def _run_result(args) -> int:
     sources = [("estimation", p) for p in args.sources] + [("validation", p) for p in args.validation or []]
     if not sources:
         raise FrictionIdError(f"no source to show {args.target} on: give SRC (its data) and/or --validation SRC")
-    result = read_json(args.target, "an identification result")
-    joints = result.get("joints") if isinstance(result.get("joints"), list) else None
-    loaded = [(role, load(path, topic=args.topic, joints=joints, layout=args.layout)) for role, path in sources]
-    rep = build_fit_report(result, loaded, args.out, str(args.target))
+    outputs = output_folder("--out", args.out, REPORT_FILES)
+    result = read_result(args.target)
+    refuse_overwriting(outputs, {"RESULT.json": Path(args.target), "SRC": args.sources, "--validation": args.validation,
+                                 "--layout": args.layout, "--system": system_file(result.system)})
+    loaded = [(role, load(path, topic=args.topic, joints=result.joints or None, layout=args.layout))
+              for role, path in sources]
+    rep = build_fit_report(result.to_dict(), loaded, args.out, str(args.target))
     print(f"report: {args.out / 'report.html'}")
     for s in rep["sources"]:
         per_joint = ", ".join(f"{j} {m.get('relerr_pct', float('nan')):.4g}" for j, m in s["per_joint"].items())
@@ -58,11 +63,14 @@ def _run_result(args) -> int:
 
 def _run_emps(args) -> int:
     from frictionid_core.reports.emps_report import build_report
+    from frictionid_core.reports.html_page import REPORT_FILES
 
     if args.sources or (args.validation and len(args.validation) > 1) or args.layout or args.topic:
         raise FrictionIdError("'frictionid report emps' takes --estimation, one --validation, --study and --out only")
     estimation = args.estimation or EMPS_ESTIMATION
     validation = args.validation[0] if args.validation else EMPS_VALIDATION
+    refuse_overwriting(output_folder("--out", args.out, REPORT_FILES),
+                       {"--estimation": estimation, "--validation": validation, "--study": args.study})
     rep = build_report(estimation, validation, args.out, args.study)
     best = rep["output_error"][rep["best_output_error"]]["sim"]
     print(f"report: {args.out / 'report.html'} ({rep['wall_s']:.0f} s)")

@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from frictionid_core.cli._common import add_json_argument, save_json
+from frictionid_core.cli._common import add_json_argument, refuse_overwriting, save_json
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -26,13 +26,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from frictionid_core.jsonfile import read_json
-    from frictionid_core.emps_simulation import load_emps, simulate_identification
+    from frictionid_core.emps_simulation import METRIC_KEYS, load_emps, simulate_identification
+    from frictionid_core.identification import read_result
+    from frictionid_core.metrics import check_finite
 
-    result = read_json(args.params, "parameters")
+    refuse_overwriting({"--json": args.json}, {"--params": args.params, "--data": args.data})
+    result = read_result(args.params)
     data = load_emps(args.data)
-    sim = simulate_identification(data, result, clock=args.clock, substeps=args.substeps, tec=args.tec)
-    out = {"system": "emps", "friction": result.get("friction"), "asymmetric": result.get("asymmetric"),
+    sim = simulate_identification(data, result.to_dict(), clock=args.clock, substeps=args.substeps, tec=args.tec)
+    check_finite(sim.metrics, f"the simulation of {args.params} on {data.source}", METRIC_KEYS)
+    out = {"system": "emps", "friction": result.friction, "asymmetric": result.asymmetric,
            "params": dict(zip(sim.names, map(float, sim.params))), "params_file": str(args.params),
            "source": data.source, "clock": sim.clock, "settings": sim.settings, "samples": int(sim.t.size),
            "metrics": dict(sim.metrics, clock=sim.clock)}

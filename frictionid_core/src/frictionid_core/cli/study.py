@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from frictionid_core.cli._common import split_list
+from frictionid_core.cli._common import output_folder, refuse_overwriting, split_list
 from frictionid_core.errors import FrictionIdError
 
 
@@ -53,6 +53,8 @@ def run(args) -> int:
     for path in (args.estimation, args.validation):
         if not Path(path).exists():
             raise FrictionIdError(f"{path}: no such file or directory")
+    refuse_overwriting({**output_folder("--out", args.out, ("summary.json",)), "--out": args.out},
+                       {"--estimation": Path(args.estimation), "--validation": Path(args.validation)})
     specs = plan(algos, frictions, args.seeds, args.estimation, args.validation, args.pop, args.generations)
     t0 = time.perf_counter()
     ran = run_study(specs, args.out, workers=args.workers, scheduler=args.scheduler, progress=_progress_bar)

@@ -5,9 +5,19 @@
 from __future__ import annotations
 
 import argparse
+import shutil
 from pathlib import Path
 
-from frictionid_core.cli._common import add_drive_argument, drive_option, parse_joint_values, save_json, split_list
+from frictionid_core.cli._common import (
+    add_drive_argument,
+    drive_file,
+    drive_option,
+    parse_joint_values,
+    refuse_overwriting,
+    save_json,
+    split_list,
+    system_file,
+)
 from frictionid_core.errors import FrictionIdError, InputError
 
 
@@ -24,7 +34,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="JSON {joint: {Fv: …, Fc: …}} or a truth file (default for the TX40: docs/reference.md#tx40)")
     p.add_argument("--offsets", help="constant torque offsets JOINT=N·m,… (default 0)")
     p.add_argument("--position-noise",
-                   help="1σ position noise, rad: one value or one per joint (default: the published TX40 noise for the TX40, else 1e-6)")
+                   help="1σ position noise, rad: one value or one per joint (default: the published TX40 noise for "
+                        "the TX40, else 1e-6)")
     p.add_argument("--torque-noise", type=float,
                    help="1σ torque noise, N·m (default 0.05)")
     p.add_argument("--rate", type=float, default=1000.0, help="sample rate, Hz (default 1000)")
@@ -55,6 +66,9 @@ def run(args) -> int:
     from frictionid_core.robots.synth import read_friction_params, synthesize
     from frictionid_core.systems import get_system
 
+    refuse_overwriting({"--out": args.out, "--truth": args.truth},
+                       {"TRAJ": args.trajectory, "--friction-params": args.friction_params,
+                        "--drive": drive_file(args.drive), "--system": system_file(args.system)})
     robot, _ = robot_of(get_system(args.system), args.system)
     traj = load_trajectory(args.trajectory)
     params = None
@@ -80,7 +94,13 @@ def run(args) -> int:
                                drive=drive_option(args),
                                **({} if args.torque_noise is None else {"torque_noise": args.torque_noise}))
     truth["trajectory_file"] = str(args.trajectory)
-    write_joint_state_bag(args.out, series)
+    existed = args.out.exists()  # the writer refuses an existing bag
+    try:
+        write_joint_state_bag(args.out, series)
+    except BaseException:  # Ctrl-C included: no half-written bag left behind
+        if not existed:
+            shutil.rmtree(args.out, ignore_errors=True)
+        raise
     save_json(args.truth, truth)
     print(f"{args.out}: {len(series)} samples × {len(series.joints)} joints of {robot.name} at {args.rate:g} Hz, "
           f"{args.friction}{' (asymmetric)' if args.asymmetric else ''} friction"

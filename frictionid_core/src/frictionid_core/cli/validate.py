@@ -10,8 +10,19 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from frictionid_core.cli._common import (add_drive_argument, add_source_arguments, drive_option, load_sources,
-                                         print_metrics, save_json, split_list, window_of)
+from frictionid_core.cli._common import (
+    add_drive_argument,
+    add_source_arguments,
+    drive_option,
+    load_sources,
+    print_metrics,
+    refuse_overwriting,
+    save_json,
+    source_inputs,
+    split_list,
+    system_file,
+    window_of,
+)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -23,22 +34,27 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from frictionid_core.identification import validate, window_record
-    from frictionid_core.jsonfile import read_json
+    from dataclasses import replace
+
+    from frictionid_core.identification import read_result, validate, window_record
+    from frictionid_core.metrics import check_finite
     from frictionid_core.systems import parse_joint_map
 
-    params = read_json(args.params, "parameters")
+    result = read_result(args.params)
+    refuse_overwriting({"--json": args.json}, {**source_inputs(args), "--params": args.params,
+                                               "--system": system_file(args.system or result.system)})
     drive = drive_option(args)
     if drive is not None:
-        params = {**params, "drive": drive.to_dict()}
+        result = replace(result, drive=drive.to_dict())
     sources = load_sources(args)
     joint_map = None if args.joint_map is None else parse_joint_map(args.joint_map)
-    metrics = validate(sources, params, system=args.system, joint_map=joint_map, joints=split_list(args.joints),
-                       window=window_of(args))
     names = [s.source for s in sources]
+    metrics = validate(sources, result, system=args.system, joint_map=joint_map, joints=split_list(args.joints),
+                       window=window_of(args))
+    check_finite(metrics, f"the cross-test of {args.params} on {', '.join(names)}")
     out = {"source": names[0] if len(names) == 1 else names, "params_file": str(args.params),
-           "system": args.system or params.get("system"), "friction": params.get("friction"),
-           "asymmetric": params.get("asymmetric"), "drive": params.get("drive"),
+           "system": args.system or result.system, "friction": result.friction,
+           "asymmetric": result.asymmetric, "drive": result.drive,
            "layout": None if args.layout is None else str(args.layout), "window": window_record(window_of(args)),
            "metrics": metrics}
     print(f"cross-test of {args.params} on {', '.join(names)}")

@@ -22,7 +22,7 @@ _LAZY = {
     "window_record": "request",
     "SolverOptions": "settings", "PreprocessingOverrides": "settings", "budget_field": "settings",
     "FieldError": "checks",
-    "IdentifyResult": "result",
+    "IdentifyResult": "result", "read_result": "result",
     "identify": "orchestration",
     "Sources": "model", "build_model": "model", "observe_sources": "model", "as_sources": "model",
     "model_metrics": "model", "metric_model": "model",
@@ -32,8 +32,8 @@ _LAZY = {
 
 __all__ = ["FieldError", "IdentifyRequest", "IdentifyResult", "PreprocessingOverrides", "SolverOptions", "Sources",
            "as_sources", "budget_field", "build_model", "identify", "metric_model", "model_from_result",
-           "model_metrics", "observe_sources", "read_request", "solve_model", "validate", "window_record",
-           "write_request"]
+           "model_metrics", "observe_sources", "read_request", "read_result", "solve_model", "validate",
+           "window_record", "write_request"]
 
 
 def __getattr__(name: str):

@@ -9,7 +9,7 @@ import numpy as np
 
 from frictionid_core.drive import result_drive
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.identification.model import Sources, as_sources, build_model, model_metrics
+from frictionid_core.identification.model import Sources, as_sources, build_model, metric_model, model_metrics
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification_model import IdentificationModel
 from frictionid_core.preprocess import Preprocessing
@@ -66,4 +66,8 @@ def validate(series: Sources, result: IdentifyResult | Mapping, *, system: str |
     arguments override them as for :func:`model_from_result`."""
     model, x = model_from_result(series, result, system=system, joint_map=joint_map, joints=joints,
                                  preprocessing=preprocessing, window=window)
+    if not metric_model(model).obs.used.any():
+        names = ", ".join(s.source for s in as_sources(series))
+        raise FrictionIdError(f"{names}: no sample left to cross-test on (every one slower than the min speed of the "
+                              "pre-processing, or trimmed away)")
     return model_metrics(model, x)

@@ -163,7 +163,7 @@ def _system_name(name) -> str:
 def _joint_names(joints) -> tuple[str, ...] | None:
     if joints is None:
         return None
-    if isinstance(joints, str) or not all(isinstance(j, str) and j for j in joints) or not joints:
+    if not isinstance(joints, (list, tuple)) or not joints or not all(isinstance(j, str) and j for j in joints):
         raise FieldError("joints", f" must be a non-empty list of joint names, got {joints!r}")
     dup = sorted({j for j in joints if list(joints).count(j) > 1})
     if dup:
@@ -195,7 +195,7 @@ def _window(window) -> tuple[float | None, float | None] | None:
         if unknown:
             raise FieldError(f"window.{unknown[0]}", ": unknown; known: start_s, end_s")
         window = (window.get("start_s"), window.get("end_s"))
-    if isinstance(window, str) or len(window) != 2:
+    if isinstance(window, str) or not hasattr(window, "__len__") or len(window) != 2:
         raise FieldError("window", f" must be (start_s, end_s) or {{start_s, end_s}}, got {window!r}")
     start, end = (number(f"window.{k}", v, optional=True) for k, v in zip(("start_s", "end_s"), window))
     if start is not None and end is not None and end <= start:

@@ -98,7 +98,7 @@ class Layout:
         if self.effort_file is not None and not (isinstance(self.effort_file, str) and self.effort_file):
             raise InputError(f"{where}: key 'effort_file' must be a file name, got {self.effort_file!r}")
         if self.delimiter is not None:
-            if self.delimiter not in DELIMITERS:
+            if not isinstance(self.delimiter, str) or self.delimiter not in DELIMITERS:
                 raise InputError(f"{where}: key 'delimiter' is {self.delimiter!r}; choose one of "
                                  f"',', ';', tab, whitespace")
             fixed["delimiter"] = DELIMITERS[self.delimiter]

@@ -8,7 +8,7 @@ The acquisition is maximised over ``n_points`` = 2 000 random candidates per cal
 The ``ET`` surrogate is scikit-optimize's (100 extremely randomised trees, min_samples_leaf 3,
 std(y|x) = E[Var(y|tree)] + Var(E[y|tree])) built without scikit-learn's per-tree overhead
 (a clone, parameter validation and input checks per tree and per prediction, ~4 ms a tree on
-this machine): :class:`ExtraTreesSurrogate` fits scikit-learn's own trees with the checks off,
+a 2-core machine): :class:`ExtraTreesSurrogate` fits scikit-learn's own trees with the checks off,
 which takes 100 calls on the EMPS cost from 9–17 s to a few seconds.
 (scikit-optimize's ``gbrt_minimize`` is broken with current scikit-learn and not used.)
 """

@@ -2,7 +2,8 @@
 
 ``frictionid report emps --out DIR [--study STUDY_DIR]`` writes ``DIR/report.html`` (figures
 embedded, self-contained), the PNG files and ``DIR/report.json``. The report of one result on any
-system and source is :mod:`frictionid_core.reports.result_report`; both draw with :mod:`frictionid_core.reports.html_page`.
+system and source is :mod:`frictionid_core.reports.result_report`; both draw with
+:mod:`frictionid_core.reports.html_page`.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from frictionid_core.friction import all_models
-from frictionid_core.jsonfile import write_json
+from frictionid_core.jsonfile import write_bytes, write_json, write_text
 from frictionid_core.metrics import improvement_pct
 from frictionid_core.reports.html_page import PAGE_STYLE, friction_axes, html_table, png_bytes
 
@@ -76,7 +77,8 @@ def figures(series, best_row: dict, sim_val, study_runs: list[dict] | None) -> d
     fig, ax = plt.subplots(figsize=(8, 3.5))
     for label, s in sims.items():
         ax.plot(sim.t, (sim.q_ref - s.q.ravel()) * 1e6, lw=0.8, label=label)
-    ax.set(xlabel="time (s)", ylabel="q_measured − q_simulated (µm)", title="Simulated position error, validation run, true clock")
+    ax.set(xlabel="time (s)", ylabel="q_measured − q_simulated (µm)",
+           title="Simulated position error, validation run, true clock")
     ax.legend(fontsize=8)
     out["position_error.png"] = png_bytes(fig)
     plt.close(fig)
@@ -100,11 +102,11 @@ def figures(series, best_row: dict, sim_val, study_runs: list[dict] | None) -> d
 def build_report(estimation: Path, validation: Path, out_dir: Path, study_dir: Path | None = None,
                  ensemble_members: int = 5) -> dict:
     """Compute everything, write the PNGs, ``report.json`` and ``report.html``; return the JSON dict."""
-    from frictionid_core.ensemble import grey_black_ensemble
-    from frictionid_core.io import load
-    from frictionid_core.identification import IdentifyRequest
-    from frictionid_core.output_error import identify_output_error
     from frictionid_core.emps_simulation import EmpsSimulator, load_emps
+    from frictionid_core.ensemble import grey_black_ensemble
+    from frictionid_core.identification import IdentifyRequest
+    from frictionid_core.io import load
+    from frictionid_core.output_error import identify_output_error
 
     t0 = time.perf_counter()
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -151,18 +153,18 @@ def build_report(estimation: Path, validation: Path, out_dir: Path, study_dir: P
             f"output error {best_oe}": sim_oe.simulate(oe[best_oe]["params"])}
     figs = figures(series, best_row, (sim_val, sims), study_runs)
     for name, data in figs.items():
-        (out_dir / name).write_bytes(data)
+        write_bytes(out_dir / name, data)
     report = {"estimation": str(estimation), "validation": str(validation),
               "models": [{k: v for k, v in r.items() if k != "result"} for r in rows],
               "output_error": oe, "best_output_error": best_oe, "ensembles": ens, "study": study,
               "wall_s": time.perf_counter() - t0}
     write_json(out_dir / "report.json", report)
-    (out_dir / "report.html").write_text(_html(report, figs))
+    write_text(out_dir / "report.html", _html(report, figs))
     return report
 
 
 def _html(rep: dict, figs: dict[str, bytes]) -> str:
-    img = lambda name: (f'<img alt="{name}" src="data:image/png;base64,{base64.b64encode(figs[name]).decode()}">'  # noqa: E731
+    img = lambda name: (f'<img alt="{name}" src="data:image/png;base64,{base64.b64encode(figs[name]).decode()}">'
                         if name in figs else "")
     parts = ["<!doctype html><html><head><meta charset='utf-8'><title>frictionid EMPS report</title><style>",
              PAGE_STYLE + "</style></head><body>",

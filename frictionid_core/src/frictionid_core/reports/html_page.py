@@ -1,5 +1,6 @@
-"""Pieces shared by the HTML reports (:mod:`frictionid_core.reports.emps_report`, :mod:`frictionid_core.reports.result_report`):
-the page style, tables, PNG bytes and the friction-vs-velocity axes."""
+"""Pieces shared by the HTML reports (:mod:`frictionid_core.reports.emps_report`,
+:mod:`frictionid_core.reports.result_report`): the page style, tables, PNG bytes and the
+friction-vs-velocity axes."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import io
 import numpy as np
 
 MAX_PLOT_POINTS = 10_000  # points drawn per scatter or trace
+REPORT_FILES = ("report.json", "report.html")  # what a report writes into its folder, beside its PNG figures
 VELOCITY_BINS = 60  # equal-count velocity bins of the friction plot
 
 
@@ -19,7 +21,7 @@ PAGE_STYLE = ("body{font-family:sans-serif;max-width:1100px;margin:2em auto;colo
 
 def html_table(head: list[str], rows: list[list]) -> str:
     """An HTML table; floats with 6 significant digits."""
-    fmt = lambda v: f"{v:.6g}" if isinstance(v, float) else html.escape(str(v))  # noqa: E731
+    fmt = lambda v: f"{v:.6g}" if isinstance(v, float) else html.escape(str(v))
     return ("<table><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr>"
             + "".join("<tr>" + "".join(f"<td>{fmt(v)}</td>" for v in r) + "</tr>" for r in rows) + "</table>")
 

@@ -2,8 +2,8 @@
 
 ``frictionid report RESULT.json SRC [SRC …] --out DIR [--validation SRC …]`` rebuilds the result's
 model on each source (:func:`frictionid_core.identification.model_from_result`: its system,
-joint map, joints, drive, friction law and pre-processing) and shows, per source and joint, at the analysis instants (after the result's
-filtering, trimming and decimation):
+joint map, joints, drive, friction law and pre-processing) and shows, per source and joint, at the
+analysis instants (after the result's filtering, trimming and decimation):
 
 * the recorded effort and the model's one-step-ahead prediction over time;
 * the residual (recorded − predicted) over time and its histogram;
@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.jsonfile import write_json
-from frictionid_core.metrics import fit_metrics
+from frictionid_core.jsonfile import write_bytes, write_json, write_text
+from frictionid_core.metrics import check_finite, fit_metrics
 from frictionid_core.reports.html_page import MAX_PLOT_POINTS, PAGE_STYLE, friction_axes, html_table, png_bytes
 from frictionid_core.timeseries import JointSeries
 
@@ -148,19 +148,24 @@ def build_fit_report(result: dict, sources: list[tuple[str, JointSeries]], out_d
     check_result(result, result_file or "the result")
     if not sources:
         raise FrictionIdError("the report needs at least one source to show the fit on")
-    out_dir.mkdir(parents=True, exist_ok=True)
     units = UNITS.get(result["system"], ROTARY_UNITS)
-    shown = []
-    for k, (role, series) in enumerate(sources, 1):
+    computed = []  # every source first: nothing is written when one of them fails
+    for role, series in sources:
         traces, friction = joint_traces(series, result)
         overall, per_joint = trace_metrics(traces)
+        if overall["samples"] > 1:  # else no row to measure on: the page says so
+            check_finite(overall, f"the result on {role} source {series.source}")
+        computed.append((role, series, traces, friction, overall, per_joint))
+    out_dir.mkdir(parents=True, exist_ok=True)
+    shown = []
+    for k, (role, series, traces, friction, overall, per_joint) in enumerate(computed, 1):
         figures = {}
         for tr in traces:
             if tr.t.size < 2:  # every row slower than the system's min_speed: nothing to draw
                 continue
             name = f"{role}{k}_{_slug(tr.joint)}.png"
             title = f"{tr.joint} · {role}: {series.source}"
-            (out_dir / name).write_bytes(joint_figure(tr, friction, units, title))
+            write_bytes(out_dir / name, joint_figure(tr, friction, units, title))
             figures[tr.joint] = name
         shown.append({"role": role, "source": series.source, "metrics": overall, "per_joint": per_joint,
                       "figures": figures, "notes": list(series.notes)})
@@ -171,7 +176,7 @@ def build_fit_report(result: dict, sources: list[tuple[str, JointSeries]], out_d
               "settings": {k: result[k] for k in SETTING_KEYS if k in result},
               "sources": shown}
     write_json(out_dir / "report.json", report)
-    (out_dir / "report.html").write_text(_html(report), encoding="utf-8")
+    write_text(out_dir / "report.html", _html(report))
     return report
 
 
@@ -182,7 +187,7 @@ def _slug(name: str) -> str:
 def _html(rep: dict) -> str:
     from frictionid_core.robots.compare import flatten
 
-    esc = lambda v: html.escape(str(v))  # noqa: E731
+    esc = lambda v: html.escape(str(v))
     source = ", ".join(rep["source"]) if isinstance(rep["source"], list) else rep["source"]
     head = (f"{rep['system']} · {rep['friction']}{' (asymmetric)' if rep['asymmetric'] else ''} · solver "
             f"{rep['solver']}")

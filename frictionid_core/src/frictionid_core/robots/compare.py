@@ -227,7 +227,7 @@ def noise_floor(series, result: dict, truth: dict) -> dict:
         raise FrictionIdError(f"the truth has no value for {missing}")
     ident = validate(series, result)["relerr_pct"]
     floor = validate(series, dict(result, params={n: exp[n] for n in result["params"]}))["relerr_pct"]
-    return {"relerr_pct": ident, "floor_relerr_pct": floor, "ratio": ident / floor}
+    return {"relerr_pct": ident, "floor_relerr_pct": floor, "ratio": ident / floor if floor else float("nan")}
 
 
 def _expected(truth: dict, result: dict) -> dict[str, float]:

@@ -12,6 +12,7 @@ per joint, entering τ_j as Ia_j·q̈_j. Parameter names are ``<joint>.<name>``.
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -191,17 +192,90 @@ def from_pinocchio(pmodel, name: str, source: str = "",
 
 
 def load_urdf(path: str | Path, acceleration_limit: np.ndarray | float | None = None) -> RobotModel:
-    """A :class:`RobotModel` from a URDF file (``pinocchio.buildModelFromUrdf``, fixed base)."""
+    """A :class:`RobotModel` from a URDF file (``pinocchio.buildModelFromUrdf``, fixed base).
+
+    The file's numbers are checked first (:func:`check_urdf_numbers`: the parser would print
+    errors and carry on with a zero inertia), the moving bodies' inertials after the build
+    (:func:`check_inertials`); InputError naming the link or joint.
+    """
     pin = _pin()
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such URDF file")
     try:
+        root = ET.parse(path).getroot()
+    except (OSError, ET.ParseError) as exc:
+        raise InputError(f"{path}: not a valid URDF model (XML: {exc})") from None
+    check_urdf_numbers(root, str(path))
+    try:
         pmodel = pin.buildModelFromUrdf(str(path))
     except Exception as exc:  # Pinocchio raises ValueError/RuntimeError with the parser's message
         msg = " ".join(str(exc).split())
         raise InputError(f"{path}: not a valid URDF model ({msg[:300]})") from None
-    return from_pinocchio(pmodel, pmodel.name or path.stem, str(path), acceleration_limit)
+    robot = from_pinocchio(pmodel, pmodel.name or path.stem, str(path), acceleration_limit)
+    children = {j.get("name"): c.get("link") for j in root.iter("joint") if (c := j.find("child")) is not None}
+    check_inertials(pmodel, children, str(path))
+    return robot
+
+
+# URDF element → its numeric attributes and how many numbers each holds.
+URDF_NUMBERS = {
+    "origin": {"xyz": 3, "rpy": 3}, "axis": {"xyz": 3}, "mass": {"value": 1},
+    "inertia": dict.fromkeys(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), 1),
+    "limit": dict.fromkeys(("lower", "upper", "velocity", "effort"), 1),
+    "dynamics": dict.fromkeys(("damping", "friction"), 1),
+    "safety_controller": dict.fromkeys(("soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"), 1),
+    "calibration": dict.fromkeys(("rising", "falling", "reference_position"), 1),
+    "mimic": dict.fromkeys(("multiplier", "offset"), 1),
+    "box": {"size": 3}, "cylinder": {"radius": 1, "length": 1}, "sphere": {"radius": 1}, "mesh": {"scale": 3},
+}
+# Tolerances of the inertia checks: relative (moments as written in a URDF, to a few digits) and
+# absolute, kg·m² (a point mass: moments of 1e-18 from rounding).
+INERTIA_TOLERANCE = 1e-6
+INERTIA_FLOOR = 1e-12
+
+
+def check_urdf_numbers(root, where: str) -> None:
+    """InputError naming the link or joint, element and attribute of the first number of the
+    URDF ``root`` (an ElementTree element) that is not one or not finite (e.g. a xacro leftover
+    ``${m1}``), or of a negative mass."""
+    for kind in ("link", "joint"):
+        for owner in root.iter(kind):
+            name = owner.get("name")
+            for el in owner.iter():
+                for attr, count in URDF_NUMBERS.get(el.tag, {}).items():
+                    text = el.get(attr)
+                    if text is None:
+                        continue
+                    try:
+                        values = [float(v) for v in text.split()]
+                    except ValueError:
+                        values = []
+                    if len(values) != count or not all(np.isfinite(values)):
+                        hint = " (a xacro expression: expand the file with xacro first)" if "$" in text else ""
+                        raise InputError(f"{where}: {kind} '{name}': <{el.tag} {attr}=\"{text}\"> is not "
+                                         f"{'a finite number' if count == 1 else f'{count} finite numbers'}{hint}")
+                    if el.tag == "mass" and values[0] < 0:
+                        raise InputError(f"{where}: link '{name}': negative mass {values[0]:g} kg")
+
+
+def check_inertials(pmodel, children: dict[str, str], where: str) -> None:
+    """InputError naming the link (``children``: joint → its child link) when the body a movable
+    joint of ``pmodel`` moves (its link and the links fixed to it) has no positive mass or an
+    inertia no rigid body has (principal moments about the centre of mass negative or breaking
+    the triangle inequalities): the model's inertials are the consistent fit's prior."""
+    for i in range(1, pmodel.njoints):
+        joint, body = pmodel.names[i], pmodel.inertias[i]
+        link = f"link '{children.get(joint, joint)}' (moved by joint '{joint}')"
+        if not body.mass > 0:
+            raise InputError(f"{where}: {link} has mass {body.mass:g} kg; a moving link needs a positive mass "
+                             "(its <inertial>)")
+        moments = np.linalg.eigvalsh(body.inertia)  # ascending, about the centre of mass
+        tol = max(INERTIA_TOLERANCE * moments[-1], INERTIA_FLOOR)
+        if moments[0] < -tol or moments[0] + moments[1] < moments[2] - tol:
+            raise InputError(f"{where}: {link} has an inertia no rigid body has: principal moments "
+                             f"{', '.join(f'{m:.6g}' for m in moments)} kg·m² about its centre of mass (each must be "
+                             "≥ 0 and at most the sum of the other two)")
 
 
 def example_robot_data_dir() -> Path:

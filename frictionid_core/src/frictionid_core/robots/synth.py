@@ -14,6 +14,7 @@ inertias (the model's armature, one per motor) on ẇ = C·q̈:
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -28,8 +29,9 @@ DEFAULT_TORQUE_NOISE = 0.05  # N·m (docs/reference.md#tx40)
 
 
 def tx40_friction(friction: str, asymmetric: bool) -> dict[str, dict[str, float]]:
-    """The published friction of the TX40 (docs/reference.md#tx40-friction) for the law ``friction`` (asymmetric: the v < 0 branch has 0.85·Fv,
-    0.85·Fc, 0.85·Fs and the same vs, δ — an assumption, the published model is symmetric)."""
+    """The published friction of the TX40 (docs/reference.md#tx40-friction) for the law ``friction``
+    (asymmetric: the v < 0 branch has 0.85·Fv, 0.85·Fc, 0.85·Fs and the same vs, δ — an assumption,
+    the published model is symmetric)."""
     from frictionid_core.robots.tx40 import FRICTION, JOINTS
 
     if friction == "threlfall":
@@ -239,4 +241,10 @@ def read_friction_params(path: str | Path) -> tuple[dict, str | None, bool | Non
     """Per-joint friction parameters from JSON ``{joint: {Fv: …, Fc: …}}``, a ``friction`` block
     ``{"kind", "asymmetric", "params"}`` or a truth file: (params, law or None, asymmetric or None)."""
     friction, asymmetric, params = truth_friction(read_json(path, "friction parameters"))
+    if not isinstance(params, dict) or not all(isinstance(v, dict) for v in params.values()):
+        raise InputError(f"{path}: expected friction parameters {{joint: {{parameter: value}}}}, got {params!r:.100}")
+    bad = [f"{joint}.{name} = {v!r}" for joint, values in params.items() for name, v in values.items()
+           if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)]
+    if bad:
+        raise InputError(f"{path}: friction parameter(s) {', '.join(bad)} are not finite numbers")
     return params, friction, asymmetric

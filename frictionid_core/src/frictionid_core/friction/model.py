@@ -1,0 +1,153 @@
+"""The 8 friction models under numpy: each law of :data:`~frictionid_core.friction.laws.LAWS`,
+symmetric or asymmetric.
+
+The asymmetric variant has one parameter set for v > 0 (suffix ``_pos``) and one for v < 0
+(suffix ``_neg``); the negative branch uses magnitudes: τ(v<0) = −[Fc_neg + …] − Fv_neg·|v|.
+
+Parameter arrays are (P, k) for a population of P candidates (or (k,) for one); velocities
+are (N,); :meth:`FrictionModel.torque` returns (P, N) (or (N,)) with no Python loop: it runs
+the laws' own functions (:mod:`~frictionid_core.friction.laws`) on numpy arrays.
+A smoothed sign tanh(v/ε) replaces sign(v) when ``eps > 0`` (feed-forward without chatter).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.friction.laws import (
+    DEFAULT_BOUNDS,
+    FRICTIONS,
+    LAWS,
+    NUMPY_OPS,
+    UNITS,
+    FrictionLaw,
+    branch_force,
+    dip_level,
+)
+
+
+def smooth_sign(v: np.ndarray, eps: float = 0.0) -> np.ndarray:
+    """sign(v) (sign(0) = 0) or, when eps > 0, tanh(v/eps) with eps in velocity units."""
+    if eps > 0.0:
+        return np.tanh(v / eps)
+    return np.sign(v)
+
+
+@dataclass(frozen=True)
+class FrictionModel:
+    """One of the 8 friction models: law ``name`` × {symmetric, asymmetric}."""
+
+    name: str
+    asymmetric: bool = False
+
+    def __post_init__(self) -> None:
+        if self.name not in LAWS:
+            raise FrictionIdError(f"unknown friction model '{self.name}'; choose one of {', '.join(FRICTIONS)}")
+
+    @property
+    def law(self) -> FrictionLaw:
+        return LAWS[self.name]
+
+    @property
+    def branch_names(self) -> tuple[str, ...]:
+        """Parameter names of one velocity branch (no suffix)."""
+        return self.law.params
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Parameter names in vector order (``_pos`` block then ``_neg`` block if asymmetric)."""
+        b = self.branch_names
+        if not self.asymmetric:
+            return b
+        return tuple(f"{n}_pos" for n in b) + tuple(f"{n}_neg" for n in b)
+
+    @property
+    def label(self) -> str:
+        return f"{self.name}{'-asym' if self.asymmetric else ''}"
+
+    @property
+    def is_linear(self) -> bool:
+        """True when every parameter enters linearly (Coulomb + viscous)."""
+        return not self.law.nonlinear
+
+    def units(self) -> dict[str, str]:
+        return {n: UNITS[_base(n)] for n in self.names}
+
+    def default_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) default search bounds, each (k,)."""
+        lo = np.array([DEFAULT_BOUNDS[_base(n)][0] for n in self.names])
+        hi = np.array([DEFAULT_BOUNDS[_base(n)][1] for n in self.names])
+        return lo, hi
+
+    def torque(self, params: np.ndarray, v: np.ndarray, eps: float = 0.0) -> np.ndarray:
+        """Friction force/torque for parameters (P, k) or (k,) at velocities v (N,).
+
+        Returns (P, N), or (N,) when ``params`` is 1-D. ``eps`` > 0 smooths the sign.
+        """
+        p = np.asarray(params, dtype=float)
+        single = p.ndim == 1
+        p = np.atleast_2d(p)
+        if p.shape[1] != len(self.names):
+            raise FrictionIdError(
+                f"{self.label} takes {len(self.names)} parameters {list(self.names)}, got {p.shape[1]}"
+            )
+        v = np.asarray(v, dtype=float).ravel()[None, :]
+        s = smooth_sign(v, eps)
+        a = np.abs(v)
+        table = p.T[:, :, None]  # (k, P, 1): the laws' p[o + j] is parameter o + j of every candidate
+        nb = len(self.branch_names)
+        out = self._branch(table, 0, v, s, a)
+        if self.asymmetric:
+            out = np.where(v >= 0.0, out, self._branch(table, nb, v, s, a))
+        return out[0] if single else out
+
+    def torque_each(self, params: np.ndarray, v: np.ndarray, eps: float = 0.0) -> np.ndarray:
+        """Friction (J,) of J joints, each with its own parameters ``params`` (J, k) at its own
+        velocity v (J,) (the diagonal of :meth:`torque`; for a handful of joints)."""
+        return np.diagonal(self.torque(params, v, eps)).copy()
+
+    def _branch(self, table: np.ndarray, o: int, v, s, a) -> np.ndarray:
+        """The branch whose parameters start at row ``o`` of ``table`` (k, P, 1) → (P, N)."""
+        law = self.law
+        n_linear = len(law.linear)
+        level = table[o + 1]
+        if law.dip is not None:
+            level = dip_level(table, o, n_linear, _numpy_dip(law, a, table, o + n_linear))
+        return branch_force(v, s, table[o], level)
+
+    def dip(self, theta_nl: np.ndarray, a: np.ndarray) -> np.ndarray:
+        """Shape of the non-Coulomb part of one branch at speeds a (N,) → (P, N).
+
+        ``theta_nl`` holds the branch's nonlinear parameters (P, m): v0 for threlfall,
+        vs for tustin, (vs, delta) for stribeck. The branch torque is
+        Fv·v + Fc·sign(v) + c·dip·sign(v) with c = −Fc (threlfall) or Fs − Fc (tustin, stribeck).
+        (The population cost uses the compiled :func:`frictionid_core.friction.kernels.dip_sums` instead.)
+        """
+        if self.law.dip is None:
+            raise FrictionIdError(f"the {self.name} model has no nonlinear part")
+        table = np.atleast_2d(theta_nl).T[:, :, None]
+        return _numpy_dip(self.law, np.asarray(a, dtype=float)[None, :], table, 0)
+
+
+def _numpy_dip(law: FrictionLaw, a: np.ndarray, table: np.ndarray, o: int) -> np.ndarray:
+    """The law's dip at speeds ``a`` (1, N) for the nonlinear parameters from row ``o`` of
+    ``table`` (k, P, 1) → (P, N), under numpy."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        return law.dip(a, None, table, o, *NUMPY_OPS)
+
+
+def _base(name: str) -> str:
+    return name.removesuffix("_pos").removesuffix("_neg")
+
+
+def get_model(friction: str, asymmetric: bool = False) -> FrictionModel:
+    """The model of friction law ``friction`` (one of FRICTIONS), symmetric or asymmetric."""
+    return FrictionModel(friction, asymmetric)
+
+
+def all_models() -> list[FrictionModel]:
+    """The 8 models: each law, symmetric then asymmetric."""
+    return [FrictionModel(f, a) for f in FRICTIONS for a in (False, True)]
