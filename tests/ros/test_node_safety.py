@@ -124,7 +124,8 @@ def test_absurd_sets_are_refused_and_the_torque_stays_within_the_clamp(workdir, 
         assert list(ros.latched_parameters().joints[0].param_values) == active
         assert (folder / "parameters.json").read_bytes() == saved  # nothing persisted
         # parameters shaping the torque: out of their declared range, refused by rclpy itself
-        for name, value in (("smoothing_eps", float("inf")), ("smoothing_eps", 2.0), ("feedforward_max", 1e9)):
+        for name, value in (("smoothing_eps", float("inf")), ("smoothing_eps", float("nan")), ("smoothing_eps", 2.0),
+                            ("feedforward_max", 1e9)):
             result = _set(ros, name, value)
             assert not result.successful and ("out of range" in result.reason or "read-only" in result.reason), \
                 (name, value, result.reason)

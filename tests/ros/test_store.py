@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 import warnings
 
 import pytest
@@ -13,6 +16,7 @@ with warnings.catch_warnings():
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.identification import IdentifyResult
+from frictionid_core.jsonfile import temporary_name
 from frictionid_ros.service import IdentifyService
 from frictionid_ros.store import (
     ActiveParameters,
@@ -88,7 +92,8 @@ def test_the_node_overwrites_only_its_own_files(tmp_path):
 
 
 def test_results_file_round_trip_and_plain_identify_json(tmp_path):
-    d = identification_dict(["a", "b"], {"a/Fv": 1.0, "a/Fc": 0.5, "b/Fv": 2.0, "b/Fc": 0.25, "a/offset": 0.0, "b/offset": 0.1})
+    d = identification_dict(["a", "b"], {"a/Fv": 1.0, "a/Fc": 0.5, "b/Fv": 2.0, "b/Fc": 0.25, "a/offset": 0.0,
+                                         "b/offset": 0.1})
     last = IdentifyResult.from_dict(d)
     per = split_identification(last, stamp_ns=7)
     assert per["b"].params == {"Fv": 2.0, "Fc": 0.25, "offset": 0.1} and per["a"].samples == 100
@@ -105,3 +110,17 @@ def test_results_file_round_trip_and_plain_identify_json(tmp_path):
     with pytest.raises(FrictionIdError, match=r"\['Fc'\] missing"):
         read_results(bad)
     assert not list((tmp_path / "sub").glob("*.tmp"))  # atomic write leaves no temporary file
+
+
+def test_a_save_removes_the_temporary_file_of_a_node_killed_while_saving(tmp_path):
+    """A node killed during ``~/save`` leaves ``.parameters.json.<pid>.tmp``; the next save into that folder
+    removes it (its process is gone), and keeps one of a process that still runs."""
+    _, active = service_with_parameters(tmp_path)
+    done = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True,
+                          check=True)
+    orphan = active.path.with_name(temporary_name(active.path.name, int(done.stdout)))  # its process has exited
+    running = active.path.with_name(temporary_name(active.path.name, os.getppid()))
+    for path in (orphan, running):
+        path.write_text('{"per_joint": ')
+    assert active.save(active.file(""))[0]
+    assert not orphan.exists() and running.exists()
