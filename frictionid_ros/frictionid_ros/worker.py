@@ -18,7 +18,9 @@ FrictionIdError, ``("cancelled", message)`` or ``("crash", message)`` for anythi
 A cancelled job stops at the optimiser's next generation or cost call; a child that has not
 answered CANCEL_GRACE_S after a cancel is killed and replaced (the watchdog: the wall-time limit
 ``max_wall_s`` cancels a job, :meth:`JobControl.check_wall`, so a child that overruns it or stops
-responding — even stopped by SIGSTOP — is killed and replaced, and the job answered saying so).
+responding — even stopped by SIGSTOP — is killed and replaced, and the job answered saying so; a
+job that overruns while the child starts is answered, and the child killed only if it is stuck
+starting: stopped, or not ready READY_TIMEOUT_S after its start).
 No caller ever waits on the child's pipe: one writer thread writes to it, the owner thread reads
 from it, and the lock guards state only. The child exits when its stdin closes, and at once if the
 node dies (PR_SET_PDEATHSIG).
@@ -50,6 +52,8 @@ _LENGTH = struct.Struct("<Q")  # an out-of-band buffer's length
 _FRAME = struct.Struct("<QQ")  # a message's pickle length and number of out-of-band buffers
 PROGRESS_PERIOD_S = 0.1  # shortest interval between two progress messages of the child [s]
 CANCEL_GRACE_S = 0.25  # a cancelled child still running after this long is killed [s]
+# A child that has not said "ready" this long after its start (imports, warm-up: seconds) is stuck [s].
+READY_TIMEOUT_S = 60.0
 KILLED_NOTE = "the identification worker did not stop: killed and restarted"
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
@@ -321,6 +325,17 @@ def main() -> int:
 # ----------------------------------------------------------------------------- node side
 
 
+def _stopped(pid: int) -> bool:
+    """Whether process ``pid`` is stopped (SIGSTOP, a debugger: state T or t in ``/proc/<pid>/stat``;
+    False where there is no /proc)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            stat = f.read()
+    except OSError:
+        return False
+    return stat[stat.rfind(b")") + 2:][:1] in (b"T", b"t")
+
+
 class _Job:
     def __init__(self, job_id: int, series, request: IdentifyRequest, gate: Gate | None, control: JobControl):
         self.id, self.series, self.request, self.gate, self.control = job_id, series, request, gate, control
@@ -343,6 +358,7 @@ class WorkerProcess:
     def __init__(self, nice: int = 0):
         self._nice = int(nice)
         self._proc: subprocess.Popen | None = None
+        self._started_at = 0.0  # when the child was started [s, time.monotonic]
         self._jobs: queue.Queue = queue.Queue()
         self._outbox: queue.Queue = queue.Queue()  # (child, message or None: close its stdin) | None: end
         self._lock = threading.Lock()  # the child, the job in hand and job.sent
@@ -370,7 +386,7 @@ class WorkerProcess:
         proc = subprocess.Popen([sys.executable, "-m", "frictionid_ros.worker"], stdin=subprocess.PIPE,
                                 stdout=subprocess.PIPE, env=env, close_fds=True)
         with self._lock:
-            self._proc = proc
+            self._proc, self._started_at = proc, time.monotonic()
         return proc
 
     def _retire(self, proc: subprocess.Popen | None) -> None:
@@ -456,10 +472,13 @@ class WorkerProcess:
 
     def _kill(self, job: _Job) -> None:
         """Kill the child if it still runs ``job``, or if ``job`` overran its wall-time limit waiting
-        for the child to start (the owner thread then starts a new one)."""
+        for a child that is stuck starting — stopped (SIGSTOP), or not ready READY_TIMEOUT_S after
+        its start; a child that is only slow to start is left to start (the owner thread starts a
+        new one after a kill)."""
         with self._lock:
             proc = self._proc if self._current is job else None
-            stuck = job.sent or job.control.overrun
+            stuck = job.sent or (job.control.overrun and proc is not None and (
+                _stopped(proc.pid) or time.monotonic() - self._started_at > READY_TIMEOUT_S))
         if proc is not None and stuck and proc.poll() is None:
             job.control.killed = True
             proc.kill()  # SIGKILL: a stopped child too; its pipes then break, freeing the owner and the writer

@@ -149,6 +149,12 @@ def _worker_pid(ros: Ros, old: int | None = None) -> int:
     return wait_until(pid, "the worker's pid in the diagnostics", timeout=120)
 
 
+def _identified(ros: Ros, window: dict) -> bool:
+    res = ros.identify(**window)
+    assert res.success or "over the wall-time limit" in res.message, res.message
+    return res.success
+
+
 @pytest.mark.slow
 def test_a_stopped_worker_blocks_no_service(own_ros, workdir):
     """SIGSTOP the worker: ~/save answers at once while ~/identify waits; ~/identify is answered
@@ -160,8 +166,7 @@ def test_a_stopped_worker_blocks_no_service(own_ros, workdir):
     stopped = []
     try:
         window = _feed(ros)
-        res = ros.identify(**window)  # the worker is warm
-        assert res.success, res.message
+        wait_until(lambda: _identified(ros, window), "an identification (the worker is warm)", timeout=120)
         for step, call, needle in [
             ("save", lambda: ros.call(ParametersFile, "/frictionid/save", ParametersFile.Request(path="mine.json"),
                                       timeout=10.0),
@@ -169,9 +174,8 @@ def test_a_stopped_worker_blocks_no_service(own_ros, workdir):
             ("reset", lambda: ros.call(Trigger, "/frictionid/reset", Trigger.Request(), timeout=10.0),
              "cancelled by ~/reset after"),
         ]:
-            if stopped:  # the new worker is ready
-                res = ros.identify(**window)
-                assert res.success, res.message
+            if stopped:  # the new worker: its start may take longer than max_wall_s (answered, not killed)
+                wait_until(lambda: _identified(ros, window), "an identification on the new worker", timeout=120)
             pid = _worker_pid(ros, stopped[-1] if stopped else None)
             os.kill(pid, signal.SIGSTOP)
             stopped.append(pid)
@@ -195,8 +199,7 @@ def test_a_stopped_worker_blocks_no_service(own_ros, workdir):
             print(f"{step}: ~/identify answered after {time.monotonic() - t0:.2f} s")
         assert _worker_pid(ros, stopped[-1]) not in stopped  # a new worker
         window = _feed(ros, 4.0)  # the reset emptied the buffer
-        res = ros.identify(**window)
-        assert res.success, res.message
+        wait_until(lambda: _identified(ros, window), "an identification on the new worker", timeout=120)
         ros.assert_alive(node)
         assert node.stop() == 0 and "Traceback" not in node.stderr(), node.stderr()
     finally:
