@@ -32,7 +32,8 @@ EMPS = {"emps": Limit(300.0, 0.25, "the data")}
     ({"M": -2.0}, "parameter 'M' = -2 is negative"),
     ({"Fs": math.nan}, "parameter 'Fs' = nan is not finite"),
     ({"Fv": math.inf}, "parameter 'Fv' = inf is not finite"),
-    ({"Fv": 2000.0}, "parameter 'Fv' = 2000: its torque 500 at the speed 0.25 of 'emps' is over the effort limit 300"),
+    ({"Fv": 3000.0}, "parameter 'Fv' = 3000: its torque 750 at the speed 0.25 of 'emps' is over 2 x the effort "
+                     "limit 300"),
     ({"offset": -400.0}, "parameter 'offset' = -400 is over the effort limit 300"),
     ({"M": 2e3}, "parameter 'M' = 2000 is over the limit |value| <= 1000"),
 ])
@@ -44,6 +45,10 @@ def test_each_refusal_names_the_parameter_and_the_limit(params, needle):
 
 def test_an_accepted_set_and_what_allows_a_negative_value():
     assert screen_parameters({"M": 95.0, "Fv": 200.0, "Fc": 20.0, "offset": -3.0, "MX": -2.5}, EMPS) == []
+    # a viscous torque at the speed limit up to twice the effort limit: an extrapolated estimate, accepted
+    wrist = {"joint_6": Limit(30.72, 12.2, "the TX40's")}
+    assert screen_parameters({"joint_6/Fv": 2.7}, wrist) == []  # 33 N·m at 12.2 rad/s, 1.07 x 30.72 N·m
+    assert screen_parameters({"joint_6/Fv": 5.1}, wrist)[0].endswith("is over 2 x the effort limit 30.72 (the TX40's)")
     # a negative low bound asked for (or a negative value fixed) by the user allows it
     assert screen_parameters({"Fc": -0.5}, EMPS, bounds={"Fc": (-1.0, 1.0)}) == []
     result = {"params": {"Fc": -0.5}, "bounds": {"Fc": [-1.0, 1.0]}, "fixed": {"offset": -2.0}}
