@@ -270,19 +270,20 @@ class Screen:
         last = results.last
         single = last is not None and len(last.friction_rows()) == 1
         bounds = explicit_bounds(last)
-        params, allowed = {}, {}
+        params, allowed, std = {}, {}, {}
         for j, p in results.per_joint.items():
+            std.update((f"{j}/{k}", v) for k, v in p.std.items())
             for k, v in p.params.items():
                 params[f"{j}/{k}"] = v
                 own = bounds.get(f"{j}/{k}") or (bounds.get(k) if single else None)
                 if own is not None:
                     allowed[f"{j}/{k}"] = own
-        for k, v, _ in zip(*shared_parameters(last)):
-            params[k] = v
+        for k, v, sigma in zip(*shared_parameters(last)):
+            params[k], std[k] = v, sigma
             if k in bounds:
                 allowed[k] = bounds[k]
         return screen_parameters(params, self.limits(results.per_joint), bounds=allowed, max_abs=self.max_abs,
-                                 default=self.default)
+                                 default=self.default, std=std)
 
     def check(self, results: Results) -> None:
         """FrictionIdError naming the parameters at fault and their limits when ``results`` is refused."""

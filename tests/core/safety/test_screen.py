@@ -46,6 +46,11 @@ def test_each_refusal_names_the_parameter_and_the_limit(params, needle):
 def test_an_accepted_set_and_what_allows_a_negative_value():
     assert screen_parameters({"M": 95.0, "Fv": 200.0, "Fc": 20.0, "offset": -3.0, "MX": -2.5}, EMPS) == []
     # a viscous torque at the speed limit up to twice the effort limit: an extrapolated estimate, accepted
+    # an estimate a little below 0, within 3 standard errors: 0 within its uncertainty (an unconstrained fit)
+    assert screen_parameters({"joint_5/Fv": -0.03}, {}, std={"joint_5/Fv": 0.02}) == []
+    for sigma, more in ((0.005, ", 6 standard errors below 0"), (math.inf, ""), (math.nan, ""), (0.0, "")):
+        assert screen_parameters({"joint_5/Fv": -0.03}, {}, std={"joint_5/Fv": sigma}) == [
+            f"parameter 'joint_5/Fv' = -0.03 is negative (a physical magnitude, >= 0){more}"], sigma
     wrist = {"joint_6": Limit(30.72, 12.2, "the TX40's")}
     assert screen_parameters({"joint_6/Fv": 2.7}, wrist) == []  # 33 N·m at 12.2 rad/s, 1.07 x 30.72 N·m
     assert screen_parameters({"joint_6/Fv": 5.1}, wrist)[0].endswith("is over 2 x the effort limit 30.72 (the TX40's)")

@@ -9,7 +9,9 @@ saved or exported. Each refusal is one line naming the parameter and the limit:
 * **sign**: the friction laws' parameters (``Fv``, ``Fc``, ``Fs``, ``vs``, ``v0``, ``delta`` and
   their ``_pos``/``_neg`` branches), the masses and inertias of the one-joint systems (``M``, ``J``,
   ``ZZ``) and the rotor inertias of a robot (``<joint>.Ia``) are ≥ 0 — unless the set's own
-  ``bounds`` allow a negative value for that name (a user's explicit choice);
+  ``bounds`` allow a negative value for that name (a user's explicit choice), or the value is
+  within :data:`NEGATIVE_SIGMAS` standard errors of 0 (its ``std``: an unconstrained least-squares
+  estimate of a friction that is about 0 comes out a little negative as often as not);
 * **magnitude**: |value| ≤ ``max_abs`` for every parameter; per joint (or motor) with a
   :class:`Limit`: the torque parameters |``Fc``|, |``Fs``|, |``offset``| ≤ its effort limit, and the
   viscous torque at its speed, |``Fv``|·speed, ≤ :data:`VISCOUS_MARGIN` × its effort limit (when the
@@ -43,6 +45,8 @@ MAX_ABS = 1e3
 # above) and the one-joint systems' mass and inertias; robots: rotor inertias ``<joint>.Ia``.
 NONNEGATIVE = frozenset({name for name, (low, _) in DEFAULT_BOUNDS.items() if low >= 0} | {"M", "J", "ZZ"})
 ROTOR_SUFFIX = ".Ia"
+# A negative physical magnitude within this many of its standard errors of 0 is 0 within its uncertainty.
+NEGATIVE_SIGMAS = 3.0
 TORQUE_PARAMETERS = ("Fc", "Fs", "offset")  # in effort units [N·m | N]
 VISCOUS_PARAMETER = "Fv"  # [N·m·s/rad | N·s/m]: times a speed, an effort
 # The viscous torque at a joint's speed limit may reach this × its effort limit: identification data
@@ -97,7 +101,7 @@ def _law_name(base: str) -> str:
 
 def screen_parameters(params: Mapping[str, float], limits: Mapping[str, Limit] | None = None, *,
                       bounds: Mapping[str, tuple[float, float]] | None = None, max_abs: float = MAX_ABS,
-                      default: Limit | None = None) -> list[str]:
+                      default: Limit | None = None, std: Mapping[str, float] | None = None) -> list[str]:
     """The refusals of the parameter set ``params`` {name: value} (empty: accepted), one line each
     naming the parameter and the rule or limit (see the module docstring).
 
@@ -105,9 +109,12 @@ def screen_parameters(params: Mapping[str, float], limits: Mapping[str, Limit] |
     a plain friction name belongs to the one owner of ``limits`` when there is one. ``limits``:
     {owner: Limit}; an owner without one takes ``default`` (None: no magnitude check of its
     own). ``bounds``: the set's requested bounds {name: (low, high)}; a negative ``low`` allows a
-    negative value of a physical magnitude. ``max_abs``: largest |value| of any parameter."""
+    negative value of a physical magnitude. ``max_abs``: largest |value| of any parameter. ``std``:
+    the standard errors {name: std} of an estimate; a negative magnitude within NEGATIVE_SIGMAS of
+    them of 0 is accepted."""
     limits = dict(limits or {})
     bounds = dict(bounds or {})
+    std = dict(std or {})
     only = next(iter(limits)) if len(limits) == 1 else None
     refusals = []
     for name, raw in params.items():
@@ -123,8 +130,11 @@ def screen_parameters(params: Mapping[str, float], limits: Mapping[str, Limit] |
         law = _law_name(base)
         if value < 0 and (law in NONNEGATIVE or base.endswith(ROTOR_SUFFIX)):
             low = bounds.get(name, (0.0, 0.0))[0]
-            if not (low is not None and float(low) < 0):
-                refusals.append(f"parameter '{name}' = {value:.6g} is negative (a physical magnitude, >= 0)")
+            sigma = _number(std.get(name))
+            within = math.isfinite(sigma) and sigma > 0 and value >= -NEGATIVE_SIGMAS * sigma
+            if not (low is not None and float(low) < 0) and not within:
+                below = f", {-value / sigma:.3g} standard errors below 0" if math.isfinite(sigma) and sigma > 0 else ""
+                refusals.append(f"parameter '{name}' = {value:.6g} is negative (a physical magnitude, >= 0){below}")
                 continue
         key = owner or only or ""
         limit = limits.get(key, default) if owner or law in TORQUE_PARAMETERS + (VISCOUS_PARAMETER,) else None
@@ -134,6 +144,14 @@ def screen_parameters(params: Mapping[str, float], limits: Mapping[str, Limit] |
         if refusal:
             refusals.append(refusal)
     return refusals
+
+
+def _number(raw) -> float:
+    """``raw`` as a float; nan when it is not a number."""
+    try:
+        return float(raw)
+    except (TypeError, ValueError):
+        return math.nan
 
 
 def _over_limit(name: str, law: str, value: float, limit: Limit, owner: str) -> str:
@@ -206,12 +224,13 @@ def result_refusals(result, limits: Mapping[str, Limit] | None = None, *, max_ab
                     default: Limit | None = None) -> list[str]:
     """:func:`screen_parameters` of an identification result (an IdentifyResult or its JSON): its
     ``params`` against ``limits`` (None: those of its robot, :func:`robot_limits`, when its
-    system is one), its own ``bounds`` and negative ``fixed`` values allowing negative values."""
+    system is one), its own ``bounds`` and negative ``fixed`` values allowing negative values, its
+    ``std`` the negative values within NEGATIVE_SIGMAS standard errors of 0."""
     get = _getter(result)
     if limits is None:
         limits = _result_robot_limits(get)
     return screen_parameters(dict(get("params") or {}), limits, bounds=explicit_bounds(result), max_abs=max_abs,
-                             default=default)
+                             default=default, std=dict(get("std") or {}))
 
 
 def explicit_bounds(result) -> dict[str, tuple[float, float]]:
