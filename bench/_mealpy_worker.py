@@ -134,7 +134,7 @@ def run(data: str, job_path: str, out_path: str) -> None:
                 hist = [float(v) for v in algo.history.list_global_best_fit]
                 runs.append({"seed": int(seed), "fun": float(best.target.fitness), "wall_s": wall, "cpu_s": cpu,
                              "nfev": calls[0], "x": [float(v) for v in best.solution], "history_fmin": hist})
-        except Exception as exc:  # noqa: BLE001 - a failing/hung algorithm is reported, not fatal
+        except Exception as exc:
             signal.alarm(0)
             out.setdefault("errors", {})[name] = f"seed {seed}: {type(exc).__name__}: {exc}"
             print(f"mealpy {name}: {out['errors'][name]}", file=sys.stderr, flush=True)

@@ -157,9 +157,9 @@ def analyse(res: dict) -> None:
                         else:
                             gens = len(run["history_fmin"])
                             row["reach_s"].append(ob.time_to_reach(run["history_fmin"], run["wall_s"], gens, target))
-    for system, loads in summary.items():
-        for load, rows in loads.items():
-            for name, row in rows.items():
+    for loads in summary.values():
+        for rows in loads.values():
+            for row in rows.values():
                 row["wall"] = spread(row["wall_s"])
                 row["median_fun"] = median(row["fun"])
                 reached = [r for r in row["reach_s"] if r is not None]
@@ -218,7 +218,8 @@ def report(res: dict) -> list[str]:
         budget = {"emps": f"pop {BUDGET['emps'][0]} x {BUDGET['emps'][1]} generations",
                   "tx40": f"pop {BUDGET['tx40'][0]} x {BUDGET['tx40'][1]} generations (mealpy: all 76 parameters)",
                   "emps-coulomb": f"{SURROGATE_CALLS} calls, warm start"}.get(system, "")
-        p(f"== {system}: {budget}; wall s min / median / max, median final cost, runs reaching C*(1+{QUALITY_TOL:g}) ==")
+        p(f"== {system}: {budget}; wall s min / median / max, median final cost, "
+          f"runs reaching C*(1+{QUALITY_TOL:g}) ==")
         for load in sorted(loads, key=int):
             p(f"-- {load} competitor(s)")
             rows = loads[load]
@@ -257,10 +258,10 @@ def main(argv=None) -> int:
     with_tx40 = not (a.quick or a.no_tx40)
     out_path = a.out or RESULTS / ("contention_quick.json" if a.quick else "contention.json")
 
+    from frictionid_core.emps_simulation import EmpsSimulator
     from frictionid_core.identification import IdentifyRequest, build_model, identify
     from frictionid_core.io import load
     from frictionid_core.parallel import busy_cpus
-    from frictionid_core.emps_simulation import EmpsSimulator
 
     log("[setup] models")
     emps = load(str(EMPS_BAG))
@@ -329,7 +330,8 @@ def write(res: dict, out_path: Path, done: bool) -> None:
     analyse(res)
     res["report"] = report(res)
     if not done:
-        res["report"].insert(0, f"PARTIAL: {len(res['cells'])} of {res['meta']['runs'] * len(res['meta']['loads'])} cells")
+        planned = res["meta"]["runs"] * len(res["meta"]["loads"])
+        res["report"].insert(0, f"PARTIAL: {len(res['cells'])} of {planned} cells")
     out_path.parent.mkdir(parents=True, exist_ok=True)
     out_path.write_text(json.dumps(res, indent=1))
     out_path.with_suffix(".txt").write_text("\n".join(res["report"]) + "\n")

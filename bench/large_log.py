@@ -89,8 +89,8 @@ def main() -> int:
     args = ap.parse_args()
     folder = args.keep or Path(tempfile.mkdtemp(prefix="large_log_"))
     folder.mkdir(parents=True, exist_ok=True)
-    out: dict = {"rate_hz": RATE, "logs": make_logs(folder), "targets": {"wall_s": WALL_TARGET_S, "rss_gb": RSS_TARGET_GB,
-                 "shape_tolerance": SHAPE_TOLERANCE}, "runs": {}}
+    targets = {"wall_s": WALL_TARGET_S, "rss_gb": RSS_TARGET_GB, "shape_tolerance": SHAPE_TOLERANCE}
+    out: dict = {"rate_hz": RATE, "logs": make_logs(folder), "targets": targets, "runs": {}}
     truth = read_json(folder / "estimation_truth.json")
     est, val = folder / "estimation", folder / "validation"
     for name in args.runs.split(","):

@@ -126,7 +126,7 @@ def ensure_venv(name: str, requirements: Path, *, install: bool, post=None) -> t
         if post is not None:
             post(py)
         stamp.write_text(want)
-    except Exception as exc:  # noqa: BLE001 - any setup failure makes the peer unavailable
+    except Exception as exc:
         return None, f"cannot create {venv.name}: {exc}"
     return py, None
 
@@ -235,7 +235,7 @@ def pymoo_worker(job_path: str, out_path: str) -> None:
     try:
         from pymoo.config import Config
         Config.warnings["not_compiled"] = False
-    except Exception:  # noqa: BLE001
+    except Exception:
         pass
     job = json.load(open(job_path))
     series = load(job["bag"])
@@ -261,13 +261,14 @@ def pymoo_worker(job_path: str, out_path: str) -> None:
         lo, hi = model.bounds()
 
         class Prob(PymooProblem):
-            def __init__(self):
+            def __init__(self, model, lo, hi):
                 super().__init__(n_var=model.k, n_obj=1, xl=lo, xu=hi)
+                self.model = model
 
             def _evaluate(self, X, out, *args, **kwargs):
-                out["F"] = model.batch_cost(X)[:, None]
+                out["F"] = self.model.batch_cost(X)[:, None]
 
-        prob = Prob()
+        prob = Prob(model, lo, hi)
         res_m = {"check_max_rel_diff": float(np.max(np.abs(got - ref) / np.abs(ref))),
                  "check_identical": bool(np.array_equal(got, ref)), "runs": {}}
         for algo in job["algos"]:
@@ -378,7 +379,7 @@ class MealpyPeer:
             data = self.tmp / f"mealpy_{label}.npz"
             try:
                 export_cost(model, data)
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 raise PeerUnavailable(str(exc)) from None
             pts = check_points(model)
             np.save(self.tmp / "pts.npy", pts)
@@ -438,7 +439,7 @@ def run_varpro(series, fr, asym, model, generations, seeds, warm_up: bool = True
             once(999)  # warm-up (JIT, caches)
     except TypeError as exc:
         return {"available": False, "reason": f"SolverOptions(varpro=True) not supported: {exc}"}
-    except Exception as exc:  # noqa: BLE001 - e.g. OptimError "unknown option(s) ['varpro']"
+    except Exception as exc:
         if "varpro" in str(exc):
             return {"available": False, "reason": f"SolverOptions(varpro=True) not supported yet: {exc}"}
         raise
@@ -488,7 +489,8 @@ def report(res: dict, quick: bool) -> list[str]:
     meta = res["meta"]
     loads = [meta["loadavg_start"][0], *meta.get("loadavg_rounds", []), meta["loadavg_end"][0]]
     p(f"git {meta['git']}, {meta['cpus']} CPUs; 1-min load average during the run: "
-      f"{min(loads):.1f} .. {max(loads):.1f}" + ("  (machine busy: absolute times inflated)" if max(loads) > 1.5 else ""))
+      f"{min(loads):.1f} .. {max(loads):.1f}"
+      + ("  (machine busy: absolute times inflated)" if max(loads) > 1.5 else ""))
     for label, m in res["models"].items():
         S = m["summary"]
         p("")
@@ -502,7 +504,7 @@ def report(res: dict, quick: bool) -> list[str]:
                 row += f"{'-':>24}" if s is None else f"{s['median_fun']:>13.6g} |{s['median_wall_s']:>8.3f}"
             p(row)
         p("")
-        p(f"   our time / peer time             our cost / peer cost")
+        p("   our time / peer time             our cost / peer cost")
         peers = IMPLS[1:]
         p(f"{'algo':5}" + "".join(f"{x:>9}" for x in peers) + "   " + "".join(f"{x:>12}" for x in peers))
         for algo in ALGOS:
@@ -540,7 +542,8 @@ def report(res: dict, quick: bool) -> list[str]:
       f"{'cost ratio':>12}{'':>6}{'p(U)':>8}")
     for t in res["targets"]["mealpy"]:
         p(f"{t['model']:12}{t['algo']:5}{t['our_wall_s']:>8.3f}{t['mealpy_wall_s']:>10.3f}"
-          f"{fmt(t['speedup'], '.1f', 9)}x{('PASS' if t['speed_pass'] else 'FAIL'):>6}{fmt(t['speedup_cpu'], '.1f', 7)}x"
+          f"{fmt(t['speedup'], '.1f', 9)}x{('PASS' if t['speed_pass'] else 'FAIL'):>6}"
+          f"{fmt(t['speedup_cpu'], '.1f', 7)}x"
           f"{fmt(t['cost_ratio'], '.5f', 12)}{('PASS' if t['cost_pass'] else 'FAIL'):>6}"
           f"{fmt(t.get('cost_p_mannwhitney'), '.2f', 8)}")
     if not res["targets"]["mealpy"]:
@@ -548,7 +551,8 @@ def report(res: dict, quick: bool) -> list[str]:
     else:
         p("  p(U): two-sided Mann-Whitney U p-value of the final costs, ours vs mealpy's (small: they differ)")
     p("")
-    p(f"== target: varpro (start sample + lm) >= {VARPRO_SPEEDUP:g}x faster than mealpy DE and within {QUALITY_TOL:.1%} of C* ==")
+    p(f"== target: varpro (start sample + lm) >= {VARPRO_SPEEDUP:g}x faster than mealpy DE "
+      f"and within {QUALITY_TOL:.1%} of C* ==")
     for t in res["targets"]["varpro"]:
         p(f"{t['model']:12}" + (f"unavailable: {t['reason']}" if "reason" in t else
           f"varpro {t['varpro_wall_s']:.3f} s vs mealpy DE {fmt(t['mealpy_de_wall_s'], '.3f', 0)} s: "
@@ -687,7 +691,7 @@ def main(argv=None) -> int:
                     peers.append(peer)
                 except PeerUnavailable as exc:
                     res["peers"][peer.name] = {"available": False, "reason": str(exc)}
-                except Exception as exc:  # noqa: BLE001
+                except Exception as exc:
                     traceback.print_exc()
                     res["peers"][peer.name] = {"available": False, "reason": f"{type(exc).__name__}: {exc}"}
         # Round robin over seeds: every implementation runs seed s before any runs seed s+1, so a
@@ -706,7 +710,7 @@ def main(argv=None) -> int:
                         collected[lb].setdefault("scipy", {}).setdefault("de", []).extend(sc["runs"]["de"])
                         res["peers"]["scipy"] = {"available": True, "version": sc["version"], "numpy": np.__version__,
                                                  "settings": dict(SCIPY_DE)}
-                    except Exception as exc:  # noqa: BLE001
+                    except Exception as exc:
                         res["peers"]["scipy"] = {"available": False, "reason": f"{type(exc).__name__}: {exc}"}
                         for c in collected.values():
                             c.pop("scipy", None)
@@ -746,7 +750,7 @@ def main(argv=None) -> int:
             lb = "tustin-asym"
             try:
                 res["bo_dt"] = run_bo_dt(models[lb], seeds[:3])
-            except Exception as exc:  # noqa: BLE001
+            except Exception as exc:
                 res["bo_dt_error"] = f"{type(exc).__name__}: {exc}"
     res["meta"]["loadavg_end"] = os.getloadavg()
     analyse(res)
@@ -764,7 +768,7 @@ def _git_head() -> str:
     try:
         return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
                               timeout=10).stdout.strip()
-    except Exception:  # noqa: BLE001
+    except Exception:
         return "?"
 
 

@@ -69,12 +69,11 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from frictionid_core.errors import FrictionIdError
-from frictionid_core.jsonfile import write_json
-
 from _load import DESCRIPTION as COMPETITOR
 from _load import Competitors
 
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.jsonfile import write_json
 from frictionid_ros.realtime import realtime_priority
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -347,7 +346,7 @@ class Bench:
         while not self._closing.is_set():
             try:
                 ex.spin_once(timeout_sec=0.05)
-            except Exception:  # noqa: BLE001
+            except Exception:
                 if self._closing.is_set() or not self.ctx.ok():
                     return
 
@@ -355,7 +354,8 @@ class Bench:
         with self.lock:
             for s in arr.status:
                 self.diag[s.name] = {kv.key: kv.value for kv in s.values}
-            self.diag_log.append((time.monotonic(), {s.name: {kv.key: kv.value for kv in s.values} for s in arr.status}))
+            statuses = {s.name: {kv.key: kv.value for kv in s.values} for s in arr.status}
+            self.diag_log.append((time.monotonic(), statuses))
 
     def diag_value(self, key, status="frictionid: joint buffer", fresh_after=None, timeout=10.0):
         deadline = time.monotonic() + timeout
@@ -566,7 +566,8 @@ def phase_load(bench: Bench, node: Node, args, work: Path, domain: int, buffer_s
     span = 4096 / args.rate + 0.2
     spans = [(a, b) for a, b, *_ in done_idents]
     inside = [r for t, r in reports if any(a <= t - span and t <= b for a, b in spans)]
-    outside = [r for t, r in reports if t - span >= t_load + SETTLE_S and not any(t - span <= b and a <= t for a, b in spans)]
+    outside = [r for t, r in reports
+               if t - span >= t_load + SETTLE_S and not any(t - span <= b and a <= t for a, b in spans)]
 
     def node_split(rs):
         return {"reports": len(rs), "p99_worst_us": max((float(r["ff_latency_p99_us"]) for r in rs), default=None),

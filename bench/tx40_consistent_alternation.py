@@ -14,8 +14,8 @@ from __future__ import annotations
 import sys
 import time
 
-from scipy.optimize import least_squares
 from _results import publish
+from scipy.optimize import least_squares
 from tx40_real import SPLIT_S, prepare
 
 from frictionid_core.cli import build_parser
@@ -39,7 +39,8 @@ def main() -> int:
 
     def report(tag: str, p) -> None:
         lines.append(f"{tag:<36} cost {model.batch_cost(p[None])[0]:.6g}  estimation "
-                     f"{model_metrics(model, p)['relerr_pct']:.4f} %  validation {model_metrics(vmodel, p)['relerr_pct']:.4f} %")
+                     f"{model_metrics(model, p)['relerr_pct']:.4f} %  "
+                     f"validation {model_metrics(vmodel, p)['relerr_pct']:.4f} %")
 
     report("unconstrained", x)
     nl = model.searched_nonlinear_index

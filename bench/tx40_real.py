@@ -121,7 +121,7 @@ def _val(run: dict, joint: str | None = None) -> float:
 def acceptance(runs: dict) -> list[dict]:
     c, j, s = runs["coupled"], runs["joint friction"], runs["stribeck"]
     p = c["params"]
-    rotors = {k: v for k, v in p.items() if k.endswith(".Ia") or k.endswith(".IaR")}
+    rotors = {k: v for k, v in p.items() if k.endswith((".Ia", ".IaR"))}
     checks = [
         ("validation relerr coupled ≤ 0.75 × joint friction", _val(c) / _val(j), _val(c) <= 0.75 * _val(j)),
         ("joint-5 validation error cut ≥ 3×", _val(j, "joint_5") / _val(c, "joint_5"),

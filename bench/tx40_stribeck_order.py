@@ -15,7 +15,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-
 from _results import publish
 
 from frictionid_core.identification import IdentifyRequest, SolverOptions, build_model, identify, model_metrics
@@ -43,7 +42,8 @@ def main() -> int:
     def row(tag: str, p: np.ndarray) -> None:
         levels = " ".join(f"{j}: Fc {p[model.names.index(f'{j}/Fc')]:.3f} Fs {p[model.names.index(f'{j}/Fs')]:.3f}"
                           for j in est.joints)
-        lines.append(f"{tag:<34} {model_metrics(model, p)['relerr_pct']:.4f} / {model_metrics(vmodel, p)['relerr_pct']:.4f}"
+        lines.append(f"{tag:<34} {model_metrics(model, p)['relerr_pct']:.4f} / "
+                     f"{model_metrics(vmodel, p)['relerr_pct']:.4f}"
                      f"   {levels}")
 
     row("unconstrained", x)

@@ -13,11 +13,11 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-import frictionid_core as fid  # noqa: E402
-from frictionid_core.identification import build_model  # noqa: E402  (the prediction is not public API)
+import frictionid_core as fid
+from frictionid_core.identification import build_model
 
 BAGS = Path(__file__).resolve().parents[1] / "bags"
 

@@ -92,8 +92,8 @@ def test_the_node_overwrites_only_its_own_files(tmp_path):
 
 
 def test_results_file_round_trip_and_plain_identify_json(tmp_path):
-    d = identification_dict(["a", "b"], {"a/Fv": 1.0, "a/Fc": 0.5, "b/Fv": 2.0, "b/Fc": 0.25, "a/offset": 0.0,
-                                         "b/offset": 0.1})
+    d = identification_dict(["a", "b"], {"a/Fv": 1.0, "a/Fc": 0.5, "b/Fv": 2.0, "b/Fc": 0.25,
+                                         "a/offset": 0.0, "b/offset": 0.1})
     last = IdentifyResult.from_dict(d)
     per = split_identification(last, stamp_ns=7)
     assert per["b"].params == {"Fv": 2.0, "Fc": 0.25, "offset": 0.1} and per["a"].samples == 100

@@ -42,7 +42,8 @@ def test_window_selection_by_span_and_stamp_range(tmp_path):
     np.testing.assert_array_equal(sel.series.position[:, 0], q[499:, 1])
     sel = select_window(cfg, inputs, window_start=stamp_time(int(stamps[100])), window_end=stamp_time(int(stamps[299])))
     assert (len(sel.series), sel.start_ns, sel.end_ns) == (200, stamps[100], stamps[299])
-    with pytest.raises(InputError, match=r"too little data: 11 joint-state samples in the last 0.01 s \(need at least 50\)"):
+    with pytest.raises(InputError,
+                       match=r"too little data: 11 joint-state samples in the last 0.01 s \(need at least 50\)"):
         select_window(cfg, inputs, window_seconds=0.01)
 
 
@@ -71,13 +72,14 @@ def test_window_gap_check(tmp_path):
         inputs = make_inputs(cfg)
         feed(inputs, skip=lost)
         if refused:
-            with pytest.raises(InputError, match=r"gaps in the stamps of the joint states in the last 30 s: about 50 of "
-                                                 r"1000 samples \(5.00 %\) lost or late \(2 gaps, longest 31.0 ms.*"
-                                                 r"max_missing_pct = 4.9 %"):
+            with pytest.raises(InputError, match=r"gaps in the stamps of the joint states in the last 30 s: about 50 "
+                                                 r"of 1000 samples \(5.00 %\) lost or late \(2 gaps, longest 31.0 "
+                                                 r"ms.*max_missing_pct = 4.9 %"):
                 select_window(cfg, inputs)
         else:
-            assert select_window(cfg, inputs).notes == ["joint states in the last 30 s: about 50 of 1000 samples (5.00 %) "
-                                                  "lost or late (2 gaps, longest 31.0 ms at a 1 ms period)"]
+            assert select_window(cfg, inputs).notes == [
+                "joint states in the last 30 s: about 50 of 1000 samples (5.00 %) "
+                "lost or late (2 gaps, longest 31.0 ms at a 1 ms period)"]
 
 
 def test_window_effort_topic_by_stamp(tmp_path):
@@ -87,7 +89,7 @@ def test_window_effort_topic_by_stamp(tmp_path):
     inputs = make_inputs(cfg)
     stamps, q, _ = feed(inputs, effort=False)
     te = stamps[200:] + PERIOD // 2  # starts at joint state 201 (stamp + 0.5 ms), joints reversed
-    for k, t_ns in enumerate(te):
+    for t_ns in te:
         m = JointState(name=["b", "a"], effort=[3.0 - 2e-9 * (t_ns - T0), 1e-9 * (t_ns - T0)])
         m.header.stamp = stamp_time(int(t_ns))
         inputs.effort(m, 0)
@@ -100,8 +102,8 @@ def test_window_effort_topic_by_stamp(tmp_path):
     np.testing.assert_array_equal(s.position, q[201:])
     with pytest.raises(InputError, match=r"too little data: effort topic '/effort' overlaps only 199 of 400 .*need at "
                                          r"least 200"):
-        select_window(node_config(tmp_path, effort_topic="effort", min_samples=200), inputs, window_start=stamp_time(int(stamps[0])),
-                window_end=stamp_time(int(stamps[399])))
+        select_window(node_config(tmp_path, effort_topic="effort", min_samples=200), inputs,
+                      window_start=stamp_time(int(stamps[0])), window_end=stamp_time(int(stamps[399])))
 
 
 def test_window_unstamped_effort_by_receipt_time(tmp_path):

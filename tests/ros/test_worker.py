@@ -23,7 +23,8 @@ ENDLESS_DE = IdentifyRequest(system="emps", friction="tustin",
                              solver=SolverOptions("de", pop=200, generations=100_000))
 
 
-def run_in_thread(worker: WorkerProcess, series, request: IdentifyRequest, control: JobControl) -> tuple[threading.Thread, dict]:
+def run_in_thread(worker: WorkerProcess, series, request: IdentifyRequest,
+                  control: JobControl) -> tuple[threading.Thread, dict]:
     """``worker.run`` in a thread of its own; its reply lands in the returned dict under "reply"."""
     box: dict = {}
     thread = threading.Thread(target=lambda: box.setdefault("reply", worker.run(series, request, control)),

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from frictionid_core.metrics import improvement_pct, relerr_pct
 from frictionid_core.emps_simulation import EmpsSimulator
+from frictionid_core.metrics import improvement_pct, relerr_pct
 
 
 @dataclass

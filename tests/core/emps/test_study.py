@@ -40,7 +40,8 @@ def test_dask_cluster_gives_the_same_runs(tmp_path):
     import distributed
     specs = _specs(seeds=1)[:3]
     run_study(specs, tmp_path / "local", workers=1, progress=None)
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster:
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
         run_study(specs, tmp_path / "dask", scheduler=cluster.scheduler_address, progress=None)
     read = lambda d: {json.loads(x)["key"]: json.loads(x) for x in (d / RUNS_FILE).read_text().splitlines()}
     local, dask = read(tmp_path / "local"), read(tmp_path / "dask")

@@ -51,7 +51,8 @@ def _write(path, msgs, storage="mcap"):
     from rosbags.rosbag2 import StoragePlugin, Writer
 
     ts = bagio._typestore()
-    JointState, Header, Time = (ts.types[n] for n in (JOINT_STATE, "std_msgs/msg/Header", "builtin_interfaces/msg/Time"))
+    names = (JOINT_STATE, "std_msgs/msg/Header", "builtin_interfaces/msg/Time")
+    JointState, Header, Time = (ts.types[n] for n in names)
     plugin = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}[storage]
     with Writer(path, version=9, storage_plugin=plugin) as w:
         conn = w.add_connection("/joint_states", JOINT_STATE, typestore=ts)

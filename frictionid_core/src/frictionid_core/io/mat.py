@@ -29,7 +29,7 @@ def load_emps_mat(path: Path) -> JointSeries:
     if missing:
         present = sorted(k for k in data if not k.startswith("__"))
         raise InputError(f"{path}: EMPS variable(s) {missing} missing; the file has {present}")
-    col = lambda k: np.asarray(data[k], dtype=float).ravel()  # noqa: E731
+    col = lambda k: np.asarray(data[k], dtype=float).ravel()
     t, qm, vir = col("t"), col("qm"), col("vir")
     if qm.size == 0 or vir.size == 0:
         raise InputError(f"{path}: empty 'qm' or 'vir' array")

@@ -66,7 +66,7 @@ def solve(
     )
 
 
-def ExtraTreesSurrogate(**params):  # noqa: N802 - a class, defined on first use (scikit-learn is heavy)
+def ExtraTreesSurrogate(**params):
     """scikit-optimize's ``ET`` regressor (fit, predict(X, return_std)) without the per-tree overhead."""
     return _surrogate_class()(**params)
 

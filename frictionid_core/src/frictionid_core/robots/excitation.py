@@ -109,7 +109,7 @@ class SampledTrajectory:
         t = self.t[0] + np.arange(int(np.floor((self.t[-1] - self.t[0]) * rate + 1e-9)) + 1) / rate
         if t.size == self.t.size and np.allclose(t, self.t, atol=1e-9):
             return self.t - self.t[0], self.q, self.qd, self.qdd
-        interp = lambda a: np.column_stack([np.interp(t, self.t, c) for c in a.T])  # noqa: E731
+        interp = lambda a: np.column_stack([np.interp(t, self.t, c) for c in a.T])
         return t - t[0], interp(self.q), interp(self.qd), interp(self.qdd)
 
     def moves(self) -> np.ndarray:
@@ -118,9 +118,10 @@ class SampledTrajectory:
 
 
 # Plateau speeds (multiples of the nominal vs) and their shares of the plateau time: the
-# c-optimal design for δ at the published TX40 joint-2 friction (docs/reference.md#tx40-friction) (bench/tx40_stribeck_information.py puts
-# 0.22, 0.36, 0.27, 0.14 of the time at ≈ 0, 0.64, 1.25, 2.4 vs; "≈ 0" becomes 0.2 vs, well
-# above the velocity noise and the slow-row threshold of the robot systems).
+# c-optimal design for δ at the published TX40 joint-2 friction (docs/reference.md#tx40-friction)
+# (bench/tx40_stribeck_information.py puts 0.22, 0.36, 0.27, 0.14 of the time at ≈ 0, 0.64, 1.25,
+# 2.4 vs; "≈ 0" becomes 0.2 vs, well above the velocity noise and the slow-row threshold of the
+# robot systems).
 DWELL_SPEEDS = (0.2, 0.6, 1.25, 2.5)
 DWELL_SHARES = (0.22, 0.36, 0.27, 0.15)
 DWELL_RAMP_S = 0.25  # between plateaus (cubic velocity ramp, q̈ continuous)
@@ -279,7 +280,7 @@ def load_trajectory(path: str | Path) -> FourierTrajectory | DwellTrajectory | S
     t = data[:, 0]
     if t.size < 4 or np.any(np.diff(t) <= 0):
         raise InputError(f"{path}: time column must be strictly increasing with at least 4 samples")
-    col = lambda p, j: data[:, head.index(f"{p}:{j}")] if f"{p}:{j}" in head else None  # noqa: E731
+    col = lambda p, j: data[:, head.index(f"{p}:{j}")] if f"{p}:{j}" in head else None
     q = np.column_stack([col("q", j) for j in joints])
     from scipy.interpolate import CubicSpline
 
