@@ -252,8 +252,8 @@ class Config:
         parse=parse_priority)
     diagnostics_period_s: float = parameter(1.0, "period of /diagnostics", unit="s", low=0.0, exclusive=True)
     known_rigid_body: bool = parameter(
-        False, "robot systems (tx40, urdf:PATH): keep the base parameters at the model's values (the controller's "
-        "rigid-body model) and identify friction and offsets only")
+        False, "robot systems (tx40, urdf:PATH): keep the model's links (the controller's rigid-body model) and "
+        "identify the rotor inertias (armature, ≥ 0), friction and offsets (the request field known_rigid_body)")
     online_period_s: float = parameter(
         0.0, "online re-identification: every this long, identify the last online_window_s and activate the "
         "result only if the safety gate accepts it; 0 = off (~/load is then not gated either)", unit="s", low=0.0)

@@ -42,18 +42,14 @@ def node_request(cfg: Config, joints: list[str], where: str = "request field", *
     """The identification of ``joints`` the node runs: its parameters (``cfg.solve``: system,
     friction_model, asymmetric, solver, seed; ``consistent`` and ``prior_weight``;
     ``filter_cutoff_hz``/``decimation`` over the system's pre-processing; ``drive_file``;
-    ``known_rigid_body``: the base parameters held at the model's values) with the ROS-named
-    ``fields`` of a request over them; an error names the field (``{where} 'friction_model': …``)."""
-    fixed = {}
-    if cfg.known_rigid_body:
-        from frictionid_core.systems import get_system, nominal_parameters
-
-        fixed = nominal_parameters(get_system(cfg.system))
+    ``known_rigid_body``: the request field of that name) with the ROS-named ``fields`` of a
+    request over them; an error names the field (``{where} 'friction_model': …``)."""
     prior = cfg.consistent and cfg.prior_weight > 0.0
     overrides = {k: v for k, v in (("cutoff_hz", cfg.filter_cutoff_hz), ("decimate", cfg.decimation)) if v > 0}
     drive = cfg.drive.to_dict() if cfg.drive is not None else None
     base = replace(cfg.solve, joints=tuple(joints) or None, drive=drive,
-                   preprocessing=PreprocessingOverrides(**overrides), fixed=fixed, consistent=cfg.consistent,
+                   preprocessing=PreprocessingOverrides(**overrides), known_rigid_body=cfg.known_rigid_body,
+                   consistent=cfg.consistent,
                    prior="urdf" if prior else None, prior_weight=cfg.prior_weight if prior else 1.0)
     return solve_options(where, base, **fields)
 

@@ -8,22 +8,20 @@ from __future__ import annotations
 
 import numpy as np
 
-# A parameter within this fraction of its search range (or of the bound's magnitude) from a bound is at it.
-AT_BOUND_RTOL = 1e-6
+from frictionid_core.identification_model import parameter_kind
+
+# A parameter is at a bound when it lies within this many σ of it (judged against its own σ, not
+# the width of the search range); without a finite σ, when it is at the bound to round-off.
+AT_BOUND_SIGMAS = 0.1
+AT_BOUND_RTOL = 1e-9
 # q̈ is noise-dominated when differentiated position noise makes up more than this share of its
 # filtered variance (inertias then come out low by about 1.5–2 × the share).
 QDD_NOISE_SHARE_LIMIT = 0.02
 # A joint moves in one direction only when fewer than this share of its used rows go the other way.
 ONE_DIRECTION_SHARE = 0.01
-# Names (last component, after "/" or ".") of parameters that cannot be negative.
-INERTIAS = ("J", "M", "ZZ")
-ROTOR_INERTIA_SUFFIX = "Ia"
-VISCOUS = ("Fv", "Fv_pos", "Fv_neg")
+FRICTION_LEVELS = ("Fv", "Fc", "Fs")
+INERTIAS = ("J", "M", "ZZ", "m", "Ia")  # masses and inertias (a rotor inertia Ia too)
 _LISTED = 8  # names listed in a grouped message
-
-
-def _base(name: str) -> str:
-    return name.rsplit("/", 1)[-1].rsplit(".", 1)[-1]
 
 
 def _listing(names: list[str]) -> str:
@@ -31,39 +29,64 @@ def _listing(names: list[str]) -> str:
     return ", ".join(names[:_LISTED]) + more
 
 
+def _at(x: float, b: float, sd: float) -> bool:
+    if not np.isfinite(b):
+        return False
+    if np.isfinite(sd) and sd > 0.0:
+        return abs(x - b) <= AT_BOUND_SIGMAS * sd
+    return abs(x - b) <= AT_BOUND_RTOL * max(abs(b), 1.0)
+
+
 def parameter_warnings(names: list[str], values: np.ndarray, std: dict[str, float], lower: np.ndarray,
-                       upper: np.ndarray) -> list[str]:
-    """Parameters at a search bound, σ larger than the value, Fs < Fc, negative viscous friction
-    or inertia. Parameters with lower == upper (fixed) are not judged."""
+                       upper: np.ndarray, physical: set[str] = frozenset()) -> list[str]:
+    """Parameters at a search bound (within :data:`AT_BOUND_SIGMAS` σ of it), held at 0 by the
+    sign constraint (``physical``: the names it holds), σ larger than the value, Fs < Fc, and
+    negative friction levels, masses or inertias (each named). Parameters with lower == upper
+    (fixed) are not judged."""
     out = []
-    at_bound = []
+    at_bound, held = [], []
     for name, x, lo, hi in zip(names, values, lower, upper):
         if lo == hi:
             continue
+        sd = float(std.get(name, np.nan))
         for side, b in (("lower", lo), ("upper", hi)):
-            if np.isfinite(b) and abs(x - b) <= AT_BOUND_RTOL * max(abs(b), hi - lo):
+            if not _at(x, b, sd):
+                continue
+            if side == "lower" and b == 0.0 and name in physical:
+                held.append(name)
+            else:
                 at_bound.append(f"{name} ({side} {b:.6g})")
     if at_bound:
         out.append(f"parameter(s) at a search bound: {_listing(at_bound)}: the optimum may lie beyond; "
                    "widen the bounds (--bounds NAME=LO:HI) or check the model")
+    if held:
+        out.append(f"parameter(s) held at 0, their physical bound (the data pull them below: torque the model does "
+                   f"not explain, or too little motion): {_listing(held)}; --bounds NAME=LO:HI lets one go")
     value = dict(zip(names, map(float, values)))
     vague = [n for n in names if np.isfinite(std.get(n, np.nan)) and std[n] > abs(value[n])]
     if vague:
         out.append(f"σ > |value| for {len(vague)} parameter(s), not determined by these data: {_listing(vague)}")
     for name in names:
-        base = _base(name)
-        if base.startswith("Fs"):
+        kind = parameter_kind(name)
+        base = name.rsplit("/", 1)[-1]
+        if kind == "Fs":
             fc = name[: len(name) - len(base)] + "Fc" + base[2:]
             if fc in value and value[name] < value[fc]:
                 out.append(f"{name} = {value[name]:.6g} < {fc} = {value[fc]:.6g}: static friction below the Coulomb "
                            "level (friction rising out of standstill, not dipping); if unexpected, compare with "
                            "--friction coulomb")
-        if base in VISCOUS and value[name] < 0:
+        if value[name] >= 0:
+            continue
+        if kind == "Fv":
             out.append(f"{name} = {value[name]:.6g} < 0: negative viscous friction is not physical (too little "
                        "speed range, or torque the model does not explain)")
-        if (base in INERTIAS or base.endswith(ROTOR_INERTIA_SUFFIX)) and value[name] < 0:
-            out.append(f"{name} = {value[name]:.6g} < 0: negative inertia is not physical (q̈ too small or "
-                       "noise-dominated, or a transmission the model lacks, e.g. a coupled wrist: --drive)")
+        elif kind in FRICTION_LEVELS:
+            out.append(f"{name} = {value[name]:.6g} < 0: a negative {'static' if kind == 'Fs' else 'Coulomb'} "
+                       "friction level is not physical (an offset or torque the model does not explain)")
+        elif kind in INERTIAS:
+            out.append(f"{name} = {value[name]:.6g} < 0: negative {'mass' if kind in ('M', 'm') else 'inertia'} "
+                       "is not physical (q̈ too small or noise-dominated, or a transmission the model lacks, e.g. a "
+                       "coupled wrist: --drive)")
     return out
 
 

@@ -7,11 +7,19 @@ With more than one joint, per-joint names are prefixed ``<joint>/``.
 
 Every parameter except the nonlinear friction shape parameters (vs, v0, delta) enters the
 prediction linearly; :meth:`IdentificationModel.solve_linear` exploits that.
+
+One constraint policy holds in every solver, the closed forms (``ls``, variable projection)
+included (docs/cli.md#constraints): parameters that cannot be negative (:func:`cannot_be_negative`:
+friction levels, masses, inertias, rotor inertias) are ≥ 0; the bounds grounded in the data
+(``data_bounds``: the friction dip's speed within the data's speeds, Fs within a factor of the
+Coulomb level) and the user's bounds hold wherever a parameter is solved or searched. Searching
+solvers also need a finite box (:meth:`IdentificationModel.bounds`): its other limits are a search
+range only.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -19,6 +27,22 @@ from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import FrictionModel
 from frictionid_core.linear import least_squares
 from frictionid_core.observation import Observation
+
+# Parameters that cannot be negative, by the last component of their name (after "/" and ".",
+# without _pos/_neg): viscous, Coulomb and static friction, a mass (EMPS M, a link's exact m), an
+# inertia (J, the TX40 joint-2 ZZ) and a rotor inertia (``<joint>.Ia``, not a regrouped ``IaR``).
+NONNEGATIVE = ("Fv", "Fc", "Fs", "M", "m", "J", "ZZ", "Ia")
+
+
+def parameter_kind(name: str) -> str:
+    """The last component of a parameter name without branch suffix: ``joint_2/Fc_pos`` → ``Fc``,
+    ``joint_3.Ia`` → ``Ia``."""
+    return name.rsplit("/", 1)[-1].rsplit(".", 1)[-1].removesuffix("_pos").removesuffix("_neg")
+
+
+def cannot_be_negative(name: str) -> bool:
+    """True for a parameter that is physically ≥ 0 (see :data:`NONNEGATIVE`)."""
+    return parameter_kind(name) in NONNEGATIVE
 
 
 @dataclass
@@ -90,6 +114,12 @@ class IdentificationModel:
         fixed: {name: value} parameters held at a value (names as in ``bound_overrides``): never
             searched nor solved for, wherever they enter (a fixed linear parameter's column moves
             to the right-hand side, dip included).
+        data_bounds: {full name: (lo, hi)} bounds grounded in the data (see
+            :func:`frictionid_core.identification.solve.data_bounds`), over the defaults and
+            under the user's bounds (they replace the defaults); held by every solver path, like
+            the user's.
+        physical: hold the parameters that cannot be negative at ≥ 0 in every solver path (the
+            user's bounds of a parameter replace its sign constraint).
     """
 
     obs: Observation
@@ -98,6 +128,8 @@ class IdentificationModel:
     rigid_bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
     bound_overrides: dict[str, tuple[float, float]] = field(default_factory=dict)
     fixed: dict[str, float] = field(default_factory=dict)
+    data_bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
+    physical: bool = True
 
     def __post_init__(self) -> None:
         if self.offset is None:
@@ -170,8 +202,17 @@ class IdentificationModel:
 
     def _constraints(self) -> None:
         """Resolve the user's bounds and fixed values to parameter indices; the linear terms' box
-        (L,) that :meth:`solve_linear` enforces: fixed values (lo = hi) and user bounds only."""
+        (L,) that :meth:`solve_linear` enforces: fixed values (lo = hi), the user's bounds, else the
+        data's bounds and the sign of the parameters that cannot be negative."""
         self.user_bounds = self._resolve(self.bound_overrides, "bounds")
+        unknown = sorted(set(self.data_bounds) - set(self.names))
+        if unknown:
+            raise FrictionIdError(f"data bounds given for unknown parameter(s) {unknown}; parameters: {self.names}")
+        self.grounded_bounds = {self.names.index(n): (float(lo), float(hi)) for n, (lo, hi) in
+                                self.data_bounds.items()}
+        for i, (lo, hi) in self.grounded_bounds.items():
+            if not lo < hi:
+                raise FrictionIdError(f"data bounds of {self.names[i]}: lower {lo} is not below upper {hi}")
         self.fixed_values = {i: float(v) for i, v in self._resolve(self.fixed, "fixed value").items()}
         for i, (lo, hi) in self.user_bounds.items():
             if not lo <= hi:
@@ -192,6 +233,11 @@ class IdentificationModel:
                 self._lin_lo[pos] = self._lin_hi[pos] = self.fixed_values[i]
             elif i in self.user_bounds:
                 self._lin_lo[pos], self._lin_hi[pos] = self.user_bounds[i]
+            else:
+                if i in self.grounded_bounds:
+                    self._lin_lo[pos], self._lin_hi[pos] = self.grounded_bounds[i]
+                if self.physical and cannot_be_negative(self.names[i]):
+                    self._lin_lo[pos] = max(self._lin_lo[pos], 0.0)
         self._lin_constrained = bool(np.isfinite(self._lin_lo).any() or np.isfinite(self._lin_hi).any())
 
     def _resolve(self, overrides: dict, what: str) -> dict[int, object]:
@@ -200,7 +246,7 @@ class IdentificationModel:
         out, unknown = {}, set(overrides)
         for i, name in enumerate(self.names):
             base = name.rsplit("/", 1)[-1]
-            for key in (name, base, base.removesuffix("_pos").removesuffix("_neg")):
+            for key in (name, base, base.removesuffix("_pos").removesuffix("_neg"), base.rsplit(".", 1)[-1]):
                 if key in overrides:
                     out[i] = overrides[key]
                     unknown.discard(key)
@@ -208,6 +254,20 @@ class IdentificationModel:
         if unknown:
             raise FrictionIdError(f"{what} given for unknown parameter(s) {sorted(unknown)}; parameters: {self.names}")
         return out
+
+    def restricted(self, keep: np.ndarray) -> IdentificationModel:
+        """This model on the instants where ``keep`` (Nd,) is True only (a hold-out's training
+        rows): the other rows zeroed and unused, so they add nothing to any cost; the same
+        bounds (the data's too) and fixed values."""
+        drop = ~np.asarray(keep, dtype=bool)
+        obs, nd = self.obs, self.obs.n_samples
+        rows = (np.arange(len(obs.joints))[:, None] * nd + np.flatnonzero(drop)[None, :]).ravel()
+        y, rigid, used = obs.y.copy(), obs.rigid.copy(), obs.used.copy()
+        y[rows], rigid[rows], used[rows] = 0.0, 0.0, False
+        part = replace(obs, y=y, rigid=rigid, used=used, velocity=np.where(drop[:, None], 0.0, obs.velocity),
+                       columns=[{k: np.where(drop, 0.0, v) for k, v in c.items()} for c in obs.columns], sampled=None)
+        return IdentificationModel(part, self.friction, self.offset, self.rigid_bounds, self.bound_overrides,
+                                   self.fixed, self.data_bounds, self.physical)
 
     # ----------------------------------------------------------------- structure
     @property
@@ -245,8 +305,22 @@ class IdentificationModel:
         full[:, index] = values
         return full
 
+    def held_at_box(self, x: np.ndarray) -> set[str]:
+        """The linear parameters of ``x`` (k,) held at a bound of the linear box (not fixed): the
+        constraints active in the closed form, which σ then treats as known."""
+        c = np.asarray(x, dtype=float)[self.linear_index]
+        lo, hi = self._lin_lo, self._lin_hi
+        at = (lo < hi) & (((c == lo) & np.isfinite(lo)) | ((c == hi) & np.isfinite(hi)))
+        return {self.names[i] for i in self.linear_index[at]}
+
+    def physical_bound(self, i: int) -> bool:
+        """True when parameter ``i`` is held ≥ 0 by the sign constraint (no user bound or value of its own)."""
+        return (self.physical and cannot_be_negative(self.names[i]) and i not in self.user_bounds
+                and i not in self.fixed_values)
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Search bounds (lower, upper), each (k,): the defaults, the user's bounds over them, and
+        """Search bounds (lower, upper), each (k,): the defaults (lower 0 for the parameters that
+        cannot be negative), the data's bounds within them, the user's bounds over them, and
         lower = upper = the value of a fixed parameter."""
         flo, fhi = self.friction.default_bounds()
         lo, hi = np.empty(self.k), np.empty(self.k)
@@ -259,6 +333,11 @@ class IdentificationModel:
         if self.offset:
             scale = float(np.max(np.abs(self.obs.y))) if self.obs.y.size else 1.0
             lo[-len(self.obs.joints):], hi[-len(self.obs.joints):] = -0.5 * scale, 0.5 * scale
+        for i, (low, high) in self.grounded_bounds.items():
+            lo[i], hi[i] = low, high
+        if self.physical:
+            sign = np.array([cannot_be_negative(n) for n in self.names], dtype=bool)
+            lo[sign] = np.maximum(lo[sign], 0.0)
         for i, (low, high) in self.user_bounds.items():
             lo[i], hi[i] = low, high
         for i, value in self.fixed_values.items():
@@ -377,8 +456,9 @@ class IdentificationModel:
     def fit_linear(self) -> tuple[np.ndarray, dict[str, float], float]:
         """Closed-form least squares (QR) of the linear parameters, every nonlinear one fixed.
 
-        Fixed parameters, and those the user's bounds hold at a bound (found on the normal
-        equations), move to the right-hand side; σ is 0 for a fixed parameter and NaN at a bound.
+        Fixed parameters, and those held at a bound (the user's, the data's or a sign constraint;
+        found on the normal equations), move to the right-hand side; σ is 0 for a fixed parameter
+        and NaN at a bound.
         Returns (parameters (k,), σ by name, condition number of the solved columns).
         """
         if self.searched_nonlinear_index.size:
@@ -400,7 +480,11 @@ class IdentificationModel:
         free = ~held
         sd = np.full(len(names), np.nan)
         cond = float("nan")
-        if free.any():
+        if not held.any():  # no bound active: the unconstrained solution, to the digit
+            fit = least_squares(X, y, names)
+            coef = np.clip(fit.coef, self._lin_lo, self._lin_hi)
+            sd, cond = fit.std, fit.cond
+        elif free.any():
             fit = least_squares(X[:, free], y - X[:, held] @ coef[held], [n for n, f in zip(names, free) if f])
             coef[free] = np.clip(fit.coef, self._lin_lo[free], self._lin_hi[free])
             sd[free], cond = fit.std, fit.cond

@@ -90,6 +90,11 @@ def test_compare_per_joint_metrics_and_settings_of_nested_keys():
     assert out["fits"][1]["warnings"] == ["j1/Fc: σ > |value|"]
 
 
+def saved_cov(folder, kind: str = "") -> str:
+    hit, n = json.loads((folder / "c.json").read_text())["summary"][f"coverage{kind}"]
+    return f"{hit} of {n}"
+
+
 def test_compare_with_truth_keeps_its_output(tmp_path, capsys):
     """One fit + --truth (+ --validation): the ground-truth table, the summary lines and the noise-floor line
     as before, and the JSON keys parameters / summary / validation."""
@@ -102,12 +107,14 @@ def test_compare_with_truth_keeps_its_output(tmp_path, capsys):
     assert code == 0
     assert lines[0] == f"{r} vs truth ({truth})"
     assert lines[1] == (f"{'parameter':<22} {'estimate':>12} {'truth':>12} {'error %':>9} {'σ %':>9} {'err/σ':>7}"
-                        "  determined")
+                        f" {'robust σ':>10}  determined  1.96σ covers (σ, robust)")
     assert [ln.split()[0] for ln in lines[2:8]] == ["ZZ", "MX", "MY", "Fv", "Fc", "offset"]
     assert lines[8].startswith("6 of 6 parameters determined") or " of 6 parameters determined (σ < 1 % " in lines[8]
     assert " of 6 resolvable to 5 % (1.96 σ < 5 % of |truth|)" in lines[9]
-    assert lines[10].startswith(f"validation {BAGS / 'tx40_j2_validation'}: OSA relative error ")
-    assert len(lines) == 11
+    assert lines[10] == (f"coverage: 1.96 σ holds the truth for {saved_cov(tmp_path)} parameters with a σ, "
+                         f"1.96 robust σ for {saved_cov(tmp_path, '_robust')}")
+    assert lines[11].startswith(f"validation {BAGS / 'tx40_j2_validation'}: OSA relative error ")
+    assert len(lines) == 12
     saved = json.loads((tmp_path / "c.json").read_text())
     assert set(saved) == {"parameters", "summary", "validation"}
     assert set(saved["validation"]) == {"relerr_pct", "floor_relerr_pct", "ratio", "source"}

@@ -24,8 +24,8 @@ from support.data import EMPS_ESTIMATION
 
 # The keys of 'frictionid identify --json' (a closed-form fit), in their order: a contract.
 RESULT_KEYS = ["system", "joint_map", "friction", "asymmetric", "solver", "source", "joints", "params", "std",
-               "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds", "preprocessing",
-               "layout", "request"]
+               "std_robust", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds",
+               "preprocessing", "layout", "request", "uncertainty", "velocity_range"]
 OPTIMIZER_KEYS = ["optimizer", "varpro", "warm_start"]  # after "bounds", with an optimiser
 
 
@@ -111,7 +111,7 @@ def test_result_json_keeps_its_keys_and_round_trips(synthetic):
                                                solver=SolverOptions("de", pop=8, generations=3)))
     d = de.to_dict()
     cut = RESULT_KEYS.index("preprocessing")
-    assert list(d) == RESULT_KEYS[:cut] + OPTIMIZER_KEYS + RESULT_KEYS[cut:]
+    assert list(d) == RESULT_KEYS[:cut] + OPTIMIZER_KEYS + RESULT_KEYS[cut:] + ["holdout"]  # a nonlinear law
     assert d["window"] == {"start_s": 0.5, "end_s": None} and d["bounds"] == {"vs": [1e-3, 1.0]}
     for result in (ls, de):
         text = json.dumps(result.to_dict())

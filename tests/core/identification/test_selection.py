@@ -121,7 +121,8 @@ def test_identify_window_fits_only_the_window_and_records_it(tmp_path):
     late = run_json([*argv, "--start", 10.5], tmp_path / "b.json")
     whole = run_json(argv, tmp_path / "all.json")
     assert early["window"] == {"start_s": None, "end_s": 9.5} and late["window"] == {"start_s": 10.5, "end_s": None}
-    assert early["params"]["Fv"] == pytest.approx(2.0, rel=0.01) and late["params"]["Fv"] == pytest.approx(4.0, rel=0.01)
+    assert early["params"]["Fv"] == pytest.approx(2.0, rel=0.01)
+    assert late["params"]["Fv"] == pytest.approx(4.0, rel=0.01)
     assert 2.2 < whole["params"]["Fv"] < 3.8
     # both windows are 9.5 s of one smooth half, pre-processed alike (the whole log has a seam)
     assert early["metrics"]["samples"] == pytest.approx(late["metrics"]["samples"], rel=0.02)
@@ -311,26 +312,29 @@ def test_box_quadratic_matches_bounded_least_squares():
                              method="bvls", tol=1e-14).x
             best = z[p].copy()
             best[free] = ref
-            cost = lambda v: float(np.sum((y[p] - A[p] @ v) ** 2))
-            assert cost(z[p]) <= cost(best) * (1 + 1e-10) + 1e-12
+            cost_z, cost_best = (float(np.sum((y[p] - A[p] @ v) ** 2)) for v in (z[p], best))
+            assert cost_z <= cost_best * (1 + 1e-10) + 1e-12
 
 
-def test_user_bounds_hold_under_variable_projection():
+def test_the_sign_constraint_and_user_bounds_hold_under_variable_projection():
     """Data whose best Stribeck fit has Fs < 0 (the issue: --bounds Fs=0:100 gave Fs −0.94): the
-    default bounds (Fs ≥ 0) are not imposed on the closed-form parameters, the user's are, and the
-    bounded fit is the best one with Fs = 0."""
+    default Fs ≥ 0 holds on the closed-form parameters too (Fs held at 0, named in a warning), a
+    user's bound lets it go (Fs < 0 at a lower cost), and a full search (every parameter searched)
+    under the same default reaches the same optimum."""
     s = friction_series(params={**STRIBECK, "Fs": -0.5}, noise=0.02)
-    free_request = IdentifyRequest(system="friction-only", friction="stribeck", preprocessing=DIP_RATES,
-                                   solver=SolverOptions("de", varpro=True, pop=20, generations=40))
-    free = identify(s, free_request)
-    assert free.params["Fs"] < -0.1
-    bounded_request = replace(free_request, bounds={"Fs": (0.0, 100.0)})
-    bounded = identify(s, bounded_request)
-    assert bounded.params["Fs"] == 0.0 and bounded.bounds == {"Fs": (0.0, 100.0)}
-    assert bounded.metrics["cost"] > free.metrics["cost"]
-    # The same bounds on a full search (every parameter searched) reach the same optimum.
-    full = identify(s, replace(bounded_request, solver=replace(bounded_request.solver, varpro=False, generations=150)))
-    assert full.params["Fs"] >= 0.0 and bounded.metrics["cost"] <= full.metrics["cost"] * (1 + 1e-6)
+    default_request = IdentifyRequest(system="friction-only", friction="stribeck", preprocessing=DIP_RATES,
+                                      solver=SolverOptions("de", varpro=True, pop=20, generations=40))
+    default = identify(s, default_request)
+    assert default.params["Fs"] == 0.0 and np.isnan(default.std["Fs"])
+    assert any(w.startswith("parameter(s) held at 0, their physical bound") and w.endswith("--bounds NAME=LO:HI "
+               "lets one go") and ": Fs;" in w for w in default.warnings), default.warnings
+    free = identify(s, replace(default_request, bounds={"Fs": (-100.0, 100.0)}))
+    assert free.params["Fs"] < -0.1 and free.bounds == {"Fs": (-100.0, 100.0)}
+    assert free.metrics["cost"] < default.metrics["cost"]
+    assert any(w.startswith("Fs = ") and "negative static friction level is not physical" in w
+               for w in free.warnings)
+    full = identify(s, replace(default_request, solver=replace(default_request.solver, varpro=False, generations=150)))
+    assert full.params["Fs"] >= 0.0 and default.metrics["cost"] <= full.metrics["cost"] * (1 + 1e-6)
 
 
 def test_user_bounds_on_the_closed_form(synthetic):

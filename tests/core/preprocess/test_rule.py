@@ -204,10 +204,15 @@ def test_parameter_warnings_each_on_values_built_for_it():
 
 
 def test_negative_viscous_friction_is_flagged_in_the_result():
+    """Data that want Fv = −0.5: held at 0 by default, named in a warning; let go by a bound of
+    the user's, the negative value named."""
     log = joint_log(500.0)
     qd = np.gradient(log.position, log.t, axis=0)
     log.effort = -0.5 * qd + 1.0 * np.sign(qd) + 0.02 * np.random.default_rng(4).standard_normal(qd.shape)
     r = identify(log, IdentifyRequest(system="friction-only")).to_dict()
+    assert r["params"]["a/Fv"] == 0.0
+    assert sum(w.startswith("parameter(s) held at 0, their physical bound") and "a/Fv" in w for w in r["warnings"]) == 1
+    r = identify(log, IdentifyRequest(system="friction-only", bounds={"Fv": (-10.0, 10.0)})).to_dict()
     assert r["params"]["a/Fv"] == pytest.approx(-0.5, rel=0.05)
     assert sum(w.startswith("a/Fv = -0.5") and "negative viscous" in w for w in r["warnings"]) == 1
 

@@ -86,9 +86,17 @@ def test_short_data_unconstrained_infeasible_consistent_near_the_prior(short_fit
 
     free, cons = short_fits
     sys_ = get_system("tx40")
-    with pytest.raises(FrictionIdError, match=r"refused to export an inconsistent result: link 'joint_.*--force"):
+    refused = r"refused to export an inconsistent or implausible result: link 'joint_.*--force"
+    with pytest.raises(FrictionIdError, match=refused):
         export_data(free, sys_)  # the consistency check finds no witness
     assert cons["consistency"]["feasible"] and report_for_result(cons, sys_)["feasible"]
+    # identify itself names the links the 2 s fit cannot be (reconstructed from its base parameters:
+    # a negative mass on joint 6, joint 3 at 2.8 × the model's), and none of the prior's
+    implausible = [w for w in free["warnings"] if "is implausible against the robot model" in w]
+    assert [w.split("'")[1] for w in implausible] == free["plausibility"]["implausible"]
+    assert {"joint_3", "joint_6"} <= set(free["plausibility"]["implausible"])
+    assert "mass -0.0" in free["plausibility"]["links"]["joint_6"]["problems"][0]
+    assert not cons["plausibility"]["implausible"] and cons["plausibility"]["source"] == "the consistent fit's"
     masses = [link["mass"] for link in cons["standard_parameters"].values()]
     assert np.allclose(masses, MASS, rtol=0.30)
     assert sum(masses) == pytest.approx(sum(MASS), rel=0.10)
@@ -108,7 +116,7 @@ def test_export_of_an_inconsistent_result_when_forced(short_fits, tmp_path, caps
     path.write_text(json.dumps(free))
     # (the refusal without --force: test_short_data_unconstrained_infeasible_consistent_near_the_prior)
     assert main(["export", str(path), "--urdf", str(tmp_path / "x.urdf"), "--force"]) == 0
-    assert "exporting an inconsistent result" in capsys.readouterr().out
+    assert "exporting an inconsistent or implausible result" in capsys.readouterr().out
 
 
 def _predicted_rigid(result: dict, system, q, qd, qdd) -> np.ndarray:
@@ -210,7 +218,7 @@ def test_node_parameters_consistent_and_prior_weight(tx40_fits, tmp_path):
     request = node_request(cfg, [])
     assert (request.consistent, request.prior, request.prior_weight) == (True, "urdf", 10.0)
     free, cons = (IdentifyResult.from_dict(r) for r in tx40_fits)
-    assert cons.to_dict() == tx40_fits[1] and list(tx40_fits[1])[17:20] == ["consistency", "standard_parameters",
+    assert cons.to_dict() == tx40_fits[1] and list(tx40_fits[1])[18:21] == ["consistency", "standard_parameters",
                                                                              "preprocessing"]
     assert consistency_text(free) == ""
     text = summary(Job(cons.joints, node_request(cfg, cons.joints)), cons, 1000, 1.0)

@@ -107,10 +107,13 @@ def _truth_block(path: Path, result: dict, args, truth_all: dict) -> dict:
 
     out = compare(result, select_truth(truth_all, args.bag or result.get("source")))
     print(f"{path} vs truth ({args.truth}{'' if not args.bag else ' · ' + args.bag})")
-    print(f"{'parameter':<22} {'estimate':>12} {'truth':>12} {'error %':>9} {'σ %':>9} {'err/σ':>7}  determined")
+    print(f"{'parameter':<22} {'estimate':>12} {'truth':>12} {'error %':>9} {'σ %':>9} {'err/σ':>7} "
+          f"{'robust σ':>10}  determined  1.96σ covers (σ, robust)")
+    covers = {True: "yes", False: "NO", None: "—"}
     for name, r in out["parameters"].items():
         print(f"{name:<22} {fmt(r['estimate']):>12} {fmt(r['truth']):>12} {fmt(r['relerr_pct'], 3):>9} "
-              f"{fmt(r['sigma_pct'], 3):>9} {fmt(r['z'], 3):>7}  {'yes' if r['determined'] else 'no'}")
+              f"{fmt(r['sigma_pct'], 3):>9} {fmt(r['z'], 3):>7} {fmt(r['sigma_robust'], 3):>10}  "
+              f"{'yes' if r['determined'] else 'no':<10}  {covers[r['covered']]}, {covers[r['covered_robust']]}")
     s = out["summary"]
     print(f"{s['determined']} of {s['parameters']} parameters determined (σ < 1 % of |truth|): max |error| "
           f"{fmt(s['max_abs_relerr_pct_determined'])} %; max |z| over all {fmt(s['max_abs_z'])}")
@@ -119,6 +122,8 @@ def _truth_block(path: Path, result: dict, args, truth_all: dict) -> dict:
           f"max |error| {fmt(s['max_abs_relerr_pct_resolvable_5pct'])} %; the other "
           f"{s['parameters'] - s['resolvable_5pct']} cannot be placed within {tol} with 95 % confidence "
           f"on this recording")
+    (hit, n), (hit_r, n_r) = s["coverage"], s["coverage_robust"]
+    print(f"coverage: 1.96 σ holds the truth for {hit} of {n} parameters with a σ, 1.96 robust σ for {hit_r} of {n_r}")
     return out
 
 

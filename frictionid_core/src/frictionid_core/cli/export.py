@@ -17,7 +17,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mujoco", type=Path, metavar="OUT.xml", help="MuJoCo MJCF: inertials, joint damping = Fv, "
                                                                   "frictionloss = Fc, armature = rotor inertia")
     p.add_argument("--yaml", type=Path, metavar="OUT.yaml", help="parameters file for the node and 'validate'")
-    p.add_argument("--force", action="store_true", help="export even when the result is not physically consistent")
+    p.add_argument("--force", action="store_true",
+                   help="export even when the result is not physically consistent or its links are implausible "
+                        "against the robot model")
 
 
 def run(args) -> int:
@@ -35,7 +37,14 @@ def run(args) -> int:
     result = result.to_dict()
     data = export_data(result, result_system(result), args.force)
     if not data.feasible:
-        print("frictionid: warning: exporting an inconsistent result (--force): " + "; ".join(data.problems))
+        print("frictionid: warning: exporting an inconsistent or implausible result (--force): "
+              + "; ".join(data.problems))
+    for joint, m in data.match.items():
+        if m["loss_pct"] > 0.0:
+            f = data.friction[joint]
+            print(f"{joint}: {m['law']} friction exported as damping {f['Fv']:.6g}, frictionloss {f['Fc']:.6g} "
+                  f"(least squares over |v| {m['speeds'][0]:.3g}…{m['speeds'][1]:.3g}, {m['speeds_from']}): loses "
+                  f"{m['loss_pct']:.3g} % (RMS) of the law")
     urdf = urdf_text(data) if (args.urdf or args.mujoco) else None
     texts = []  # every text before any file is written
     if args.urdf:

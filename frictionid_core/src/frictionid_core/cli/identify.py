@@ -1,6 +1,6 @@
 """``frictionid identify SOURCE [SOURCE ...] [--request FILE] [--system S] [--friction F] [--solver X]
 [--start S] [--end S] [--fix NAME=VALUE]... [--bounds NAME=LO:HI]... [--layout FILE]
-[--consistent [--prior urdf --prior-weight W]] [--save-request FILE] [--json OUT]``.
+[--consistent [--prior urdf --prior-weight W] | --known-rigid-body] [--save-request FILE] [--json OUT]``.
 
 The flags and ``--request FILE`` build one :class:`~frictionid_core.identification.IdentifyRequest`
 (:func:`request_of`): the file's values, with every flag given on the command line over the file's
@@ -37,7 +37,7 @@ FLAGS = {"system": "--system", "joints": "--joints", "joint_map": "--joint-map",
          "preprocessing.trim_end_s": "--trim", "preprocessing.min_speed": "--min-speed",
          "preprocessing.velocity": "--velocity", "window": "--start/--end", "window.start_s": "--start",
          "window.end_s": "--end", "consistent": "--consistent", "prior": "--prior", "prior_weight": "--prior-weight",
-         "stribeck_order": "--stribeck-order"}
+         "stribeck_order": "--stribeck-order", "known_rigid_body": "--known-rigid-body"}
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -95,6 +95,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="weight of the --prior divergence against the data term ‖e‖²/2σ̂² (default 1)")
     p.add_argument("--stribeck-order", action="store_true", default=None,
                    help="with --consistent and an Fs parameter: also impose Fs ≥ Fc (off by default: see the docs)")
+    p.add_argument("--known-rigid-body", action="store_true", default=None,
+                   help="tx40, urdf:PATH: hold the model's rigid body (its links) and identify each joint's rotor "
+                        "inertia (armature, ≥ 0: its base parameters and <joint>.Ia), friction and offsets")
     p.add_argument("--warm-start", action=argparse.BooleanOptionalAction,
                    help="global solvers evaluate the closed-form start (never worse than the nested linear model) "
                         "first; --no-warm-start: purely random initial population, the thesis protocol (default on)")
@@ -108,6 +111,7 @@ def given_fields(args) -> dict:
     top = {"system": args.system, "joints": split_list(args.joints), "drive": args.drive, "friction": args.friction,
            "asymmetric": args.asymmetric, "consistent": args.consistent, "prior": args.prior,
            "prior_weight": args.prior_weight, "stribeck_order": args.stribeck_order,
+           "known_rigid_body": args.known_rigid_body,
            "joint_map": None if args.joint_map is None else parse_joint_map(args.joint_map),
            "fixed": None if args.fix is None else parse_fixed(args.fix),
            "bounds": None if args.bounds is None else parse_bounds(args.bounds)}

@@ -37,7 +37,7 @@ def run(args) -> int:
     from dataclasses import replace
 
     from frictionid_core.identification import read_result, validate, window_record
-    from frictionid_core.metrics import check_finite
+    from frictionid_core.identification.plausibility import check_metrics
     from frictionid_core.systems import parse_joint_map
 
     result = read_result(args.params)
@@ -51,7 +51,7 @@ def run(args) -> int:
     names = [s.source for s in sources]
     metrics = validate(sources, result, system=args.system, joint_map=joint_map, joints=split_list(args.joints),
                        window=window_of(args))
-    check_finite(metrics, f"the cross-test of {args.params} on {', '.join(names)}")
+    check_metrics(metrics, f"the cross-test of {args.params} on {', '.join(names)}")
     out = {"source": names[0] if len(names) == 1 else names, "params_file": str(args.params),
            "system": args.system or result.system, "friction": result.friction,
            "asymmetric": result.asymmetric, "drive": result.drive,

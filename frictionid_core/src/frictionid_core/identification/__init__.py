@@ -8,10 +8,11 @@
 One module per job: ``request`` (the request, its YAML file; ``settings``: its solver and
 pre-processing parts; ``checks``: its field checks), ``result`` (the result and its JSON),
 ``orchestration`` (:func:`identify`), ``model`` (data → identification model, metrics),
-``solve`` (solver glue), ``dip_refit`` (the friction-dip refit policy), ``uncertainty`` (σ),
-``reload`` (a result on other data: :func:`model_from_result`, :func:`validate`). Other packages
-import the names of :data:`__all__` from here; each is loaded on first use (PEP 562), so importing
-the request alone stays light.
+``solve`` (solver glue, bounds from the data, the linear special case), ``dip_refit`` (the
+friction-dip refit policy), ``uncertainty`` (σ, white and robust), ``plausibility`` (absurd fits,
+links against the model, the known rigid body's report), ``reload`` (a result on other data:
+:func:`model_from_result`, :func:`validate`). Other packages import the names of :data:`__all__`
+from here; each is loaded on first use (PEP 562), so importing the request alone stays light.
 """
 
 import importlib as _importlib

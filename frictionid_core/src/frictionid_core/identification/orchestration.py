@@ -1,5 +1,6 @@
-"""One identification: data → pre-processing → model → solver (and dip refit) → σ → consistent
-parameters → metrics and warnings (:func:`identify`)."""
+"""One identification: data → pre-processing → model (with the bounds the data ground) → solver (and
+dip refit) → the law against its linear special case on held-back rows → σ (white and robust) →
+consistent parameters → metrics, plausibility and warnings (:func:`identify`)."""
 
 from __future__ import annotations
 
@@ -13,13 +14,21 @@ from frictionid_core.drive import drive_from_dict, load_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_rates
 from frictionid_core.identification.model import Sources, as_sources, build_model, model_metrics, preprocessing_record
+from frictionid_core.identification.plausibility import (
+    check_fit,
+    known_rigid_body_report,
+    robot_plausibility,
+    velocity_range,
+)
 from frictionid_core.identification.request import IdentifyRequest
 from frictionid_core.identification.result import IdentifyResult
-from frictionid_core.identification.solve import fit_model
-from frictionid_core.identification.uncertainty import jacobian_std
+from frictionid_core.identification.solve import fit_model, holdout_comparison, linear_fallback, with_data_bounds
+from frictionid_core.identification.uncertainty import jacobian_std, robust_std, uncertainty_record, white_covariance
 from frictionid_core.identification_model import IdentificationModel
 from frictionid_core.parallel import single_threaded_libraries
+from frictionid_core.robots.consistency_check import plausibility_warnings
 from frictionid_core.systems import System, as_system
+from frictionid_core.systems.robot import LINK_TORQUE, known_rigid_body
 from frictionid_core.timeseries import JointSeries
 
 
@@ -62,59 +71,90 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     if not isinstance(request, IdentifyRequest):
         raise FrictionIdError(f"identify takes an IdentifyRequest, got {type(request).__name__}")
     sys_ = request_system(request)
+    held = known_rigid_body(sys_) if request.known_rigid_body else None
     settings = request.preprocessing.apply(sys_.preprocessing)
     solver = request.solver
     if solver.varpro is None:
         solver = replace(solver, varpro=sys_.robot is not None)
     sources = request_sources(series, request)
+    fixed_request = {**request.fixed, LINK_TORQUE: 1.0} if held else request.fixed
 
     def rebuild(pre) -> IdentificationModel:
-        return build_model(sources, sys_, request.friction, request.asymmetric, pre, request.bounds,
-                           fixed=request.fixed)
+        return with_data_bounds(build_model(sources, held.fit_system if held else sys_, request.friction,
+                                            request.asymmetric, pre, request.bounds, fixed=fixed_request))
 
     model = rebuild(settings)
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
     if errors:
         raise InputError(f"{sources[0].source}: " + "; ".join(errors))
-    fixed = {model.names[i]: v for i, v in model.fixed_values.items()}
+    at_rule_rates = model
     model, (x, std, cond, res) = fit_at_dip_rates(
         model, settings, rebuild, lambda m, previous=None: fit_model(m, solver, progress, previous))
     warnings += dip_warnings(model, x)
     if res is not None:
-        std, design = jacobian_std(model, x)
+        std, design = jacobian_std(model, x, model.held_at_box(x))
         cond = float(np.linalg.cond(design))
+    holdout = None
+    if not model.is_linear and solver.warm_start:
+        holdout = holdout_comparison(model, x, solver)
+        if holdout.get("beats_linear") is False:  # the Coulomb case, at the rates chosen before any dip refit
+            model = at_rule_rates
+            x, std, cond = linear_fallback(model, x)
+            holdout["returned"] = "linear special case"
+            warnings.append(f"{model.friction.label} does not beat its linear special case (Coulomb) on the "
+                            f"held-back quarter of the rows (relerr {holdout['law_relerr_pct']:.4g} % vs "
+                            f"{holdout['linear_relerr_pct']:.4g} %): the Coulomb case is returned (Fs = Fc, no dip); "
+                            "these data do not support the law's dip")
+    undetermined = {n for n, v in std.items() if not np.isfinite(v)}
+    std_robust, robust_cov, robust_names, bandwidth = robust_std(model, x, undetermined)
     consistency = standard = None
     if request.consistent:
         x, consistency, standard = consistent_parameters(model, x, sys_, request)
     metrics = model_metrics(model, x)
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
+    check_fit(model, x, metrics, sources[0].source)
     notes = [*(note for s in sources for note in s.notes), *model.obs.notes]
     warnings = result_warnings(model, x, std, notes, warnings)
+    plausibility = None
+    if sys_.robot is not None and held is None:
+        plausibility = robot_plausibility(dict(zip(model.names, x)), sys_, standard)
+        warnings += plausibility_warnings(plausibility)
+    params = dict(zip(model.names, map(float, x)))
+    fixed = {model.names[i]: v for i, v in model.fixed_values.items()}
+    if held is not None:
+        white_names = [n for n in (model.names[i] for i in model.free_index) if n not in undetermined]
+        params, std, std_robust, fixed = known_rigid_body_report(
+            held, model, x, std, std_robust, (white_names, white_covariance(model, x, white_names)),
+            (robust_names, robust_cov))
     return IdentifyResult(
         system=sys_.name, joint_map=dict(sys_.joint_map), friction=request.friction, asymmetric=request.asymmetric,
         solver=solver.method, source=sources[0].source if len(sources) == 1 else [s.source for s in sources],
-        joints=list(sources[0].joints), params=dict(zip(model.names, map(float, x))), std=std, metrics=metrics,
+        joints=list(sources[0].joints), params=params, std=std, metrics=metrics,
         wall_s=time.perf_counter() - t0, warnings=warnings, notes=notes,
         drive=sys_.drive.to_dict() if sys_.drive else None, window=request.window, fixed=fixed,
         bounds=dict(request.bounds), optimizer=None if res is None else res.to_dict(),
         varpro=None if res is None else solver.varpro, warm_start=None if res is None else solver.warm_start,
         consistency=consistency, standard_parameters=standard,
-        preprocessing=preprocessing_record(model.obs, metrics, sys_.preprocessing, settings), request=request)
+        preprocessing=preprocessing_record(model.obs, metrics, sys_.preprocessing, settings), request=request,
+        std_robust=std_robust, uncertainty=uncertainty_record(bandwidth, model), velocity_range=velocity_range(model),
+        holdout=holdout, plausibility=plausibility)
 
 
 def result_warnings(model: IdentificationModel, x: np.ndarray, std: dict[str, float], notes: list[str],
                     warnings: list[str]) -> list[str]:
     """Every warning of a fit: the stamps (from ``notes``), the accelerations, ``warnings`` (the
-    directions and the dip) and the parameters (at a bound, undetermined)."""
+    directions, the dip, the linear special case) and the parameters (at a bound, held at 0 by
+    the sign constraint, undetermined, negative)."""
     obs = model.obs
     lo, hi = model.bounds()
     free = model.free_index
+    physical = {model.names[i] for i in free if model.physical_bound(i)}
     return (diagnostics.stamp_warnings(notes)
             + diagnostics.acceleration_warnings(obs.report, obs.preprocessing.cutoff_hz,
                                                 "cutoff_hz" in obs.report["from_data"])
             + warnings + diagnostics.parameter_warnings([model.names[i] for i in free], x[free], std,
-                                                        lo[free], hi[free]))
+                                                        lo[free], hi[free], physical))
 
 
 def consistent_parameters(model: IdentificationModel, x: np.ndarray, sys_: System, request: IdentifyRequest

@@ -52,6 +52,11 @@ class IdentifyRequest:
             inertials (log-det divergence weighted by ``prior_weight``); None: no prior.
         prior_weight: weight of that divergence against the data term (≥ 0).
         stribeck_order: with ``consistent``: also Fs ≥ Fc.
+        known_rigid_body: robot systems: the robot model's rigid body held (its links as
+            modelled), the rotor inertia (armature) of each joint or motor identified (≥ 0) with
+            the friction and offsets; the result's base parameters are the links' with the
+            identified rotor inertias in them, each rotor inertia also by its own name
+            (``<joint>.Ia``). The node's ``known_rigid_body`` parameter.
     """
 
     system: str = "emps"
@@ -69,6 +74,7 @@ class IdentifyRequest:
     prior: str | None = None
     prior_weight: float = 1.0
     stribeck_order: bool = False
+    known_rigid_body: bool = False
 
     def __post_init__(self) -> None:
         from frictionid_core.friction import FRICTIONS
@@ -92,7 +98,7 @@ class IdentifyRequest:
 
     def _check_consistency(self) -> None:
         set_ = object.__setattr__
-        for name in ("consistent", "stribeck_order"):
+        for name in ("consistent", "stribeck_order", "known_rigid_body"):
             set_(self, name, flag(name, getattr(self, name)))
         if self.prior == "none":
             set_(self, "prior", None)
@@ -108,6 +114,13 @@ class IdentifyRequest:
         for name, used in (("prior", self.prior is not None), ("stribeck_order", self.stribeck_order)):
             if used and not self.consistent:
                 raise FieldError(name, ": applies to the consistent fit only: set consistent")
+        if self.known_rigid_body:
+            if not (self.system == "tx40" or self.system.startswith("urdf:")):
+                raise FieldError("known_rigid_body", f": needs a robot system ({ROBOT_SYSTEMS}) whose model has the "
+                                                     f"rigid body; system '{self.system}' has none")
+            if self.consistent:
+                raise FieldError("known_rigid_body", ": holds the model's rigid body, which consistent fits; "
+                                                     "choose one")
 
     @classmethod
     def from_dict(cls, data: Mapping, where: str = "request field", names: Mapping[str, str] | None = None

@@ -22,7 +22,7 @@ from frictionid_core.identification.request import IdentifyRequest, _bound, _win
 
 # Keys left out of the JSON when their field is None.
 OPTIONAL_KEYS = ("optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "output_error", "idm",
-                 "idm_params", "request")
+                 "idm_params", "request", "uncertainty", "velocity_range", "holdout", "plausibility")
 REQUIRED_KEYS = ("system", "friction", "asymmetric", "params")
 MAX_PARAMETER = 1e15  # |value| beyond: not an identified parameter in SI units (an overflow, a typo)
 
@@ -37,7 +37,9 @@ class IdentifyResult:
         source: the source's name, or a list with several sources fitted together.
         joints: the data joints fitted, in order.
         params, std: {name: value} and {name: σ} (σ 0 for a fixed parameter, NaN where not
-            determined), SI units.
+            determined or held at a bound), SI units; σ assumes white residuals.
+        std_robust: {name: σ} robust to coloured and heteroscedastic residuals (HAC; same names,
+            same conventions); ``uncertainty`` says how both were obtained.
         metrics: fit metrics on the estimation data (see :mod:`frictionid_core.metrics`), with
             ``cost`` and ``cond``; per joint under ``per_joint``.
         wall_s: the identification's wall time [s].
@@ -56,6 +58,13 @@ class IdentifyResult:
         output_error, idm, idm_params: an output-error identification: True, the IDM start's
             metrics and parameters (None otherwise).
         request: the request that produced it (None: built by hand).
+        uncertainty: how ``std`` and ``std_robust`` were obtained (the HAC bandwidth).
+        velocity_range: {friction row (joint or motor): [slowest, fastest] |velocity| of the rows
+            fitted} (what ``export`` matches a law over).
+        holdout: a nonlinear law against its linear special case (Coulomb) on held-back rows:
+            {held_back_rows, law_relerr_pct, linear_relerr_pct, beats_linear[, returned]}.
+        plausibility: robot systems: the links (fitted or reconstructed) against the robot model's,
+            with the thresholds used (:func:`frictionid_core.robots.consistency_check.link_plausibility`).
     """
 
     system: str
@@ -86,13 +95,19 @@ class IdentifyResult:
     idm: dict | None = None
     idm_params: dict[str, float] | None = None
     request: IdentifyRequest | None = None
+    std_robust: dict[str, float] = field(default_factory=dict)
+    uncertainty: dict | None = None
+    velocity_range: dict[str, list[float]] | None = None
+    holdout: dict | None = None
+    plausibility: dict | None = None
 
     def to_dict(self) -> dict:
         """The result's JSON: the keys of ``frictionid identify --json`` in their order."""
         head = ("system", "joint_map", "friction", "asymmetric", "solver", "source", "joints", "params", "std",
-                "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds", "optimizer", "varpro",
-                "warm_start", "consistency", "standard_parameters", "preprocessing", "layout", "output_error", "idm",
-                "idm_params", "request")
+                "std_robust", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds",
+                "optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "preprocessing", "layout",
+                "output_error", "idm", "idm_params", "request", "uncertainty", "velocity_range", "holdout",
+                "plausibility")
         out = {}
         for key in head:
             value = getattr(self, key)
@@ -152,7 +167,8 @@ def result_fields(data: Mapping) -> dict:
     from frictionid_core.friction import FRICTIONS
 
     given = {f.name: data[f.name] for f in fields(IdentifyResult) if data.get(f.name) is not None}
-    defaults = {"solver": "", "source": "", "joints": [], "std": {}, "metrics": {}, "wall_s": 0.0}
+    defaults = {"solver": "", "source": "", "joints": [], "std": {}, "std_robust": {}, "metrics": {},
+                "wall_s": 0.0}
     checks = {
         "system": lambda k, v: _text(k, v),
         "friction": lambda k, v: choice(k, v, FRICTIONS, "friction model"),
@@ -162,7 +178,7 @@ def result_fields(data: Mapping) -> dict:
         "source": _source,
         "joints": _names,
         "params": _parameters, "fixed": _parameters, "idm_params": _parameters,
-        "std": _sigmas,
+        "std": _sigmas, "std_robust": _sigmas,
         "metrics": _metrics,
         "wall_s": lambda k, v: number(k, v),
         "joint_map": _joint_map,
@@ -171,6 +187,8 @@ def result_fields(data: Mapping) -> dict:
         "window": lambda k, v: _window(mapping(k, v)),
         "bounds": lambda k, v: {n: _bound(f"{k}.{n}", b) for n, b in mapping(k, v).items()},
         "optimizer": mapping, "consistency": mapping, "idm": mapping,
+        "uncertainty": mapping, "holdout": mapping, "plausibility": mapping,
+        "velocity_range": _velocity_range,
         "standard_parameters": _standard_parameters,
         "preprocessing": _preprocessing,
         "request": lambda k, v: v,  # IdentifyRequest.from_dict checks it
@@ -226,6 +244,17 @@ def _sigmas(key: str, value) -> dict[str, float]:
         if isinstance(v, bool) or not isinstance(v, Real):
             raise FieldError(f"{key}.{name}", f" must be a number (NaN: not determined), got {v!r}")
     return value
+
+
+def _velocity_range(key: str, value) -> dict[str, list[float]]:
+    """{row: [slowest, fastest]} speeds, each a number ≥ 0."""
+    out = {}
+    for row, speeds in mapping(key, value).items():
+        if (not isinstance(speeds, list) or len(speeds) != 2
+                or not all(isinstance(v, Real) and not isinstance(v, bool) and v >= 0 for v in speeds)):
+            raise FieldError(f"{key}.{row}", f" must be [slowest, fastest] speeds ≥ 0, got {speeds!r}")
+        out[row] = [float(v) for v in speeds]
+    return out
 
 
 def _metrics(key: str, value) -> dict:

@@ -1,4 +1,17 @@
-"""σ of the estimates of an optimiser's fit, from the residual Jacobian at its solution."""
+"""σ of the estimates: the white-noise σ of the residual Jacobian (``std``) and a σ robust to
+coloured and heteroscedastic residuals (``std_robust``, docs/cli.md#uncertainty).
+
+Both linearise the estimating equations Jᵀe = 0 at the solution (J: the residual Jacobian over
+the free parameters, H = JᵀJ). The white-noise σ assumes independent residuals of one variance:
+cov = s²·H⁻¹. The robust one is the heteroscedasticity-and-autocorrelation-consistent (HAC)
+sandwich cov = H⁻¹·S·H⁻¹ of Newey and West: S sums the products of the scores g_t = Σ_j J_jt·e_jt
+of each instant t (every joint's row at that instant, so joints may share a disturbance) with
+those of the instants within L of it, Bartlett-weighted (1 − l/(L+1)); the bandwidth L comes from
+the data (Newey and West 1994: L = 1.1447·(ŝ₁/ŝ₀)^(2/3)·T^(1/3) from the autocovariances of the
+summed standardised scores). Joints of different noise levels, a residual coloured by the
+filters or by friction the law does not follow are thus counted as they are; a bias that is the
+same over the whole log (a filter's lag, a law that misses everywhere alike) is not.
+"""
 
 from __future__ import annotations
 
@@ -6,15 +19,18 @@ import numpy as np
 
 from frictionid_core.identification_model import IdentificationModel
 
+# Newey–West (1994) bandwidth selection for the Bartlett kernel.
+NW_PILOT_FACTOR = 4.0  # pilot lags n = 4·(T/100)^(2/9)
+NW_GAMMA_FACTOR = 1.1447
 
-def jacobian_std(model: IdentificationModel, x: np.ndarray) -> tuple[dict[str, float], np.ndarray]:
-    """σ of each estimate from the residual Jacobian at x: std(e)·sqrt(diag((JᵀJ)⁻¹)), and the
-    design matrix at x (R, L).
+
+def parameter_jacobian(model: IdentificationModel, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(the Jacobian of the prediction w.r.t. the free parameters at x (R, m), the design matrix at
+    x (R, L)).
 
     The prediction is linear in the linear parameters: their columns of J are the design
     matrix's; central differences for the free nonlinear ones (all perturbed predictions in one
-    batched call); σ 0 for fixed parameters. NaN where J is rank-deficient (a parameter without
-    influence, e.g. a dip that vanished).
+    batched call).
     """
     free = model.free_index
     X = model.design(x[None])[0] if not model.is_linear else model.design()
@@ -30,12 +46,105 @@ def jacobian_std(model: IdentificationModel, x: np.ndarray) -> tuple[dict[str, f
         steps[np.arange(index.size), index] = h
         pred = model.predict(np.vstack([x + steps, x - steps]))
         J[:, nonlinear] = (pred[: index.size] - pred[index.size :]).T / (2.0 * h)
+    return J, X
+
+
+def jacobian_std(model: IdentificationModel, x: np.ndarray, held: set[str] = frozenset()
+                 ) -> tuple[dict[str, float], np.ndarray]:
+    """σ of each estimate from the residual Jacobian at x: std(e)·sqrt(diag((JᵀJ)⁻¹)), and the
+    design matrix at x (R, L). σ 0 for fixed parameters; NaN for those in ``held`` (held at a
+    bound: known, like the fixed ones, to the others) and where J is rank-deficient (a parameter
+    without influence, e.g. a dip that vanished)."""
+    J, X = parameter_jacobian(model, x)
+    names = [model.names[i] for i in model.free_index]
+    keep = [k for k, n in enumerate(names) if n not in held]
     e = model.residuals(x)
+    sd = np.full(len(names), np.nan)
     try:
-        cov = np.linalg.inv(J.T @ J)
-        sd = np.std(e, ddof=1) * np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        cov = np.linalg.inv(J[:, keep].T @ J[:, keep])
+        sd[keep] = np.std(e, ddof=1) * np.sqrt(np.clip(np.diag(cov), 0.0, None))
     except np.linalg.LinAlgError:
-        sd = np.full(free.size, np.nan)
+        pass
     std = dict.fromkeys(model.names, 0.0)
-    std.update((model.names[i], float(v)) for i, v in zip(free, sd))
+    std.update(zip(names, map(float, sd)))
     return std, X
+
+
+def newey_west_bandwidth(scores: np.ndarray) -> int:
+    """The Bartlett bandwidth L (instants) of Newey and West (1994) for the scores (T, m)."""
+    T = scores.shape[0]
+    scale = scores.std(axis=0)
+    z = (scores[:, scale > 0] / scale[scale > 0]).sum(axis=1)
+    z = z - z.mean()
+    pilot = max(1, min(T - 1, int(NW_PILOT_FACTOR * (T / 100.0) ** (2.0 / 9.0))))
+    gamma = np.array([z[lag:] @ z[: T - lag] / T for lag in range(pilot + 1)])
+    s0 = gamma[0] + 2.0 * gamma[1:].sum()
+    s1 = 2.0 * (np.arange(1, pilot + 1) * gamma[1:]).sum()
+    if not s0 > 0.0:
+        return pilot
+    return int(min(T - 1, max(1, NW_GAMMA_FACTOR * abs(s1 / s0) ** (2.0 / 3.0) * T ** (1.0 / 3.0))))
+
+
+def hac_covariance(J: np.ndarray, e: np.ndarray, instants: int) -> tuple[np.ndarray, int]:
+    """(the HAC covariance H⁻¹·S·H⁻¹ (m, m) of least-squares estimates with residual Jacobian J
+    (R, m) and residuals e (R,), rows joint-major over ``instants`` instants, the bandwidth L).
+    LinAlgError when H is singular.
+
+    S is the Bartlett-weighted sum of the score products up to L instants apart, computed as the
+    sums of L+1 consecutive scores (zero-padded at both ends), which weighs a pair l apart by
+    exactly 1 − l/(L+1)."""
+    m = J.shape[1]
+    scores = (J * e[:, None]).reshape(-1, instants, m).sum(axis=0)
+    L = newey_west_bandwidth(scores)
+    padded = np.concatenate([np.zeros((L + 1, m)), scores, np.zeros((L, m))])
+    cumulative = np.cumsum(padded, axis=0)
+    window = cumulative[L + 1 :] - cumulative[: -(L + 1)]
+    S = window.T @ window / (L + 1)
+    Hinv = np.linalg.inv(J.T @ J)
+    dof = instants / max(instants - m, 1)
+    return dof * Hinv @ S @ Hinv, L
+
+
+def robust_std(model: IdentificationModel, x: np.ndarray, held: set[str] = frozenset()
+               ) -> tuple[dict[str, float], np.ndarray | None, list[str], int | None]:
+    """(σ robust to coloured and heteroscedastic residuals by name (0 for a fixed parameter,
+    NaN for one in ``held`` (at a bound in a closed form) or undetermined), the HAC covariance
+    of the others (or None), their names, the bandwidth in instants (or None))."""
+    J, _ = parameter_jacobian(model, x)
+    names = [model.names[i] for i in model.free_index]
+    keep = [k for k, n in enumerate(names) if n not in held]
+    std = dict.fromkeys(model.names, 0.0)
+    std.update(dict.fromkeys(names, float("nan")))
+    kept = [names[k] for k in keep]
+    if not keep:
+        return std, None, kept, None
+    used = model.obs.used
+    try:
+        cov, bandwidth = hac_covariance(J[:, keep] * used[:, None], model.residuals(x) * used, model.obs.n_samples)
+    except np.linalg.LinAlgError:
+        return std, None, kept, None
+    std.update(zip(kept, map(float, np.sqrt(np.clip(np.diag(cov), 0.0, None)))))
+    return std, cov, kept, bandwidth
+
+
+def white_covariance(model: IdentificationModel, x: np.ndarray, names: list[str]) -> np.ndarray | None:
+    """s²·(JᵀJ)⁻¹ over the free parameters ``names`` (the others held), s² the residual variance
+    as :func:`jacobian_std` takes it; None without names or when JᵀJ is singular."""
+    J, _ = parameter_jacobian(model, x)
+    free = [model.names[i] for i in model.free_index]
+    cols = [free.index(n) for n in names]
+    if not cols:
+        return None
+    try:
+        return np.var(model.residuals(x), ddof=1) * np.linalg.inv(J[:, cols].T @ J[:, cols])
+    except np.linalg.LinAlgError:
+        return None
+
+
+def uncertainty_record(bandwidth: int | None, model: IdentificationModel) -> dict:
+    """The ``uncertainty`` block: how ``std`` and ``std_robust`` were obtained."""
+    rate = model.obs.report.get("analysis_rate_hz")
+    return {"std": "white residuals: std(e)·sqrt(diag((JᵀJ)⁻¹))",
+            "std_robust": "HAC sandwich (Newey–West, Bartlett kernel, bandwidth chosen from the data)",
+            "bandwidth_instants": bandwidth,
+            "bandwidth_s": None if bandwidth is None or not rate else bandwidth / float(rate)}

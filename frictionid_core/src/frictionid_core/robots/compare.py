@@ -18,7 +18,9 @@ parameter is judged by its error in units of σ. A parameter is *resolvable* to 
 when 1.96 σ (95 %) is below that fraction of its true magnitude. For least squares under
 Gaussian noise σ is the Cramér–Rao bound, so a parameter whose σ is larger (or whose truth
 is 0) cannot be placed within the tolerance with 95 % confidence by any unbiased estimator on
-that recording; at a given noise level σ shrinks only as 1/√(duration).
+that recording; at a given noise level σ shrinks only as 1/√(duration). The *coverage* counts the
+parameters whose 1.96 σ interval holds the truth, for the white-noise σ and for the robust one
+(``std_robust``): about 95 % when σ means what it says.
 """
 
 from __future__ import annotations
@@ -189,9 +191,18 @@ def select_truth(truth: dict, bag: str | list | None = None) -> dict:
     return bags[name]
 
 
+def _covers(err: float, sd) -> bool | None:
+    """Whether Z95·σ covers the error (None without a finite σ > 0: fixed or undetermined)."""
+    sd = _number(sd)
+    return None if sd is None or not np.isfinite(sd) or sd <= 0 else bool(abs(err) <= Z95 * sd)
+
+
 def compare(result: dict, truth: dict) -> dict:
-    """{parameter: {estimate, truth, error, relerr_pct, sigma, sigma_pct, z, determined}} + a summary."""
+    """{parameter: {estimate, truth, error, relerr_pct, sigma, sigma_pct, z, determined, sigma_robust,
+    covered, covered_robust}} + a summary (with the coverage of 1.96 σ and of 1.96 robust σ:
+    [parameters whose interval holds the truth, parameters with that σ])."""
     exp = _expected(truth, result)
+    robust = result.get("std_robust") or {}
     rows = {}
     for name, est in result["params"].items():
         if name not in exp:
@@ -203,7 +214,9 @@ def compare(result: dict, truth: dict) -> dict:
         determined = bool(tv != 0 and np.isfinite(sd) and sd < DETERMINED_RSD * abs(tv))
         rows[name] = {"estimate": est, "truth": tv, "error": err, "relerr_pct": rel, "sigma": sd,
                       "sigma_pct": 100.0 * sd / abs(tv) if tv != 0 else float("inf"),
-                      "z": err / sd if sd and np.isfinite(sd) else float("nan"), "determined": determined}
+                      "z": err / sd if sd and np.isfinite(sd) else float("nan"), "determined": determined,
+                      "sigma_robust": _number(robust.get(name)), "covered": _covers(err, sd),
+                      "covered_robust": _covers(err, robust.get(name))}
     det = [r for r in rows.values() if r["determined"]]
     resolvable = [r for r in rows.values() if Z95 * r["sigma_pct"] < RESOLVE_TOLERANCE_PCT]
     summary = {
@@ -214,6 +227,9 @@ def compare(result: dict, truth: dict) -> dict:
         "max_abs_relerr_pct_determined": max((abs(r["relerr_pct"]) for r in det), default=float("nan")),
         "max_abs_z": max((abs(r["z"]) for r in rows.values() if np.isfinite(r["z"])), default=float("nan")),
     }
+    for key, label in (("covered", "coverage"), ("covered_robust", "coverage_robust")):
+        known = [r[key] for r in rows.values() if r[key] is not None]
+        summary[label] = [sum(known), len(known)]
     return {"parameters": rows, "summary": summary}
 
 

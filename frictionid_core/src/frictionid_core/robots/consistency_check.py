@@ -47,14 +47,14 @@ def _basis() -> np.ndarray:
 def body_matrices(p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """(m, h = m·c (3,), I about the origin (3, 3)) of [m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]."""
     m, hx, hy, hz, xx, xy, yy, xz, yz, zz = p
-    I = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
-    return float(m), np.array([hx, hy, hz]), I
+    I_o = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+    return float(m), np.array([hx, hy, hz]), I_o
 
 
 def pseudo_inertia(p: np.ndarray) -> np.ndarray:
-    m, h, I = body_matrices(p)
+    m, h, I_o = body_matrices(p)
     J = np.zeros((4, 4))
-    J[:3, :3] = 0.5 * np.trace(I) * np.eye(3) - I
+    J[:3, :3] = 0.5 * np.trace(I_o) * np.eye(3) - I_o
     J[:3, 3] = J[3, :3] = h
     J[3, 3] = m
     return J
@@ -65,12 +65,12 @@ _E = _basis()
 
 def body_report(p: np.ndarray) -> dict:
     """Mass, pseudo-inertia smallest eigenvalue, COM inertia eigenvalues, triangle inequalities."""
-    m, h, I = body_matrices(p)
+    m, h, I_o = body_matrices(p)
     lam_j = float(np.linalg.eigvalsh(pseudo_inertia(p))[0])
     out = {"mass": m, "pseudo_inertia_min_eig": lam_j}
     if m > 0:
         c = h / m
-        Ic = I - m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+        Ic = I_o - m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
         ev = np.linalg.eigvalsh(Ic)
         out["com"] = c.tolist()
         out["com_inertia_eigs"] = ev.tolist()
@@ -101,6 +101,30 @@ def generic_prior(robot) -> np.ndarray:
     return np.concatenate([np.tile(body, robot.model.njoints - 1), np.zeros(robot.nv)])
 
 
+# Scale of the rotor inertias in :func:`projection` with ``rotors_first``: so large against the links'
+# (kg, kg·m, kg·m²) that a change the rotor inertias can make goes to them.
+ROTORS_FIRST_SCALE = 1e3
+
+
+def projection(robot, base, beta_hat: np.ndarray, prior: np.ndarray | None = None,
+               rotors_first: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(the standard parameters nearest ``prior`` (default: the model's own) that reproduce the base
+    parameters ``beta_hat``: the weighted least-squares correction, each parameter measured
+    relative to its scale (kg, kg·m, kg·m²); those scales (P,)). ``rotors_first``: the rotor
+    inertias (which URDFs seldom hold) take up what they can before the links change."""
+    A = base.combination_matrix()
+    beta_hat = np.asarray(beta_hat, dtype=float)
+    if beta_hat.shape != (A.shape[0],):
+        raise FrictionIdError(f"expected {A.shape[0]} base parameters, got {beta_hat.shape}")
+    pi0 = robot.parameters() if prior is None else np.asarray(prior, dtype=float)
+    nb = robot.model.njoints - 1
+    floor = np.concatenate([np.tile([1.0, 0.1, 0.1, 0.1] + [0.01] * 6, nb), np.full(robot.nv, 0.01)])
+    D = np.maximum(np.abs(pi0), floor)
+    if rotors_first:
+        D[10 * nb :] = ROTORS_FIRST_SCALE
+    return pi0 + D * (np.linalg.pinv(A * D) @ (beta_hat - A @ pi0)), D
+
+
 def check_consistency(robot, base, beta_hat: np.ndarray, prior: np.ndarray | None = None,
                       margin: float = 1e-6, prior_label: str = "given prior") -> ConsistencyReport:
     """Search standard parameters consistent with the identified base parameters ``beta_hat``
@@ -111,15 +135,9 @@ def check_consistency(robot, base, beta_hat: np.ndarray, prior: np.ndarray | Non
 
     A = base.combination_matrix()
     beta_hat = np.asarray(beta_hat, dtype=float)
-    if beta_hat.shape != (A.shape[0],):
-        raise FrictionIdError(f"expected {A.shape[0]} base parameters, got {beta_hat.shape}")
-    pi0 = robot.parameters() if prior is None else np.asarray(prior, dtype=float)
-    nb = robot.model.njoints - 1
-    # Scale of each parameter (kg, kg·m, kg·m²): corrections are measured relative to it.
-    floor = np.concatenate([np.tile([1.0, 0.1, 0.1, 0.1] + [0.01] * 6, nb), np.full(robot.nv, 0.01)])
-    D = np.maximum(np.abs(pi0), floor)
+    pi, D = projection(robot, base, beta_hat, prior)
     AD = A * D
-    pi = pi0 + D * (np.linalg.pinv(AD) @ (beta_hat - A @ pi0))
+    nb = robot.model.njoints - 1
     method = "least-squares projection of the " + ("model's parameters" if prior is None else prior_label)
 
     def margins(x: np.ndarray) -> np.ndarray:
@@ -165,9 +183,9 @@ def standard_record(robot, names: list[str], pi: np.ndarray) -> dict:
     nb = robot.model.model.njoints - 1
     out = {}
     for k in range(nb):
-        m, h, I = body_matrices(pi[10 * k : 10 * k + 10])
+        m, h, I_o = body_matrices(pi[10 * k : 10 * k + 10])
         c = h / m if m > 0 else np.zeros(3)
-        Ic = I - m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+        Ic = I_o - m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
         rotor = names[10 * nb + k] if 10 * nb + k < len(names) else None
         out[robot.model.joints[k]] = {
             "mass": m, "com": c.tolist(),
@@ -186,8 +204,8 @@ def link_parameters(link: dict) -> np.ndarray:
     t = link["inertia"]
     Ic = np.array([[t["ixx"], t["ixy"], t["ixz"]], [t["ixy"], t["iyy"], t["iyz"]], [t["ixz"], t["iyz"], t["izz"]]],
                   dtype=float)
-    I = Ic + m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
-    return np.array([m, *(m * c), I[0, 0], I[0, 1], I[1, 1], I[0, 2], I[1, 2], I[2, 2]])
+    I_o = Ic + m * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+    return np.array([m, *(m * c), I_o[0, 0], I_o[0, 1], I_o[1, 1], I_o[0, 2], I_o[1, 2], I_o[2, 2]])
 
 
 def standard_from_record(robot, record: dict) -> np.ndarray:
@@ -214,9 +232,87 @@ def report_for_result(result: dict, system, prior: str = "model") -> dict:
     except KeyError as exc:
         raise FrictionIdError(f"result lacks base parameter {exc}") from None
     pri, label = (None, "") if prior == "model" else (generic_prior(info.model), "generic bodies")
+    rows = info.rows or info.model
+    rotors = rows.parameter_names()[-info.model.nv :]
+    request = result.get("request") or {}
     if prior == "model" and result.get("standard_parameters"):  # a consistent fit's own witness
         pri, prior = standard_from_record(info, result["standard_parameters"]), "result"
         label = "result's own standard parameters (identify --consistent)"
+    elif prior == "model" and request.get("known_rigid_body") and all(n in result["params"] for n in rotors):
+        pri = np.array(rows.parameters(), dtype=float)  # the model's links and the identified rotor inertias
+        pri[-info.model.nv :] = [result["params"][n] for n in rotors]
+        prior, label = "result", "model's links with the result's rotor inertias (identify --known-rigid-body)"
     rep = check_consistency(info.model, info.base, beta, pri, prior_label=label)
     return dict(rep.to_dict(), system=system.name, prior=prior)
 
+
+
+# A link found from the data (fitted, or reconstructed from base parameters) is implausible against
+# the robot model's when its mass is not positive or outside mass_ratio × the model's, its centre of
+# mass lies further from the model's than com_offset_share_of_reach × the link's reach (the farthest
+# child joint origin or the model's centre of mass; at least com_offset_min_m), or the trace of its
+# inertia about the centre of mass is outside inertia_trace_ratio × the model's by more than
+# inertia_trace_min_kgm2; a rotor inertia is implausible below 0 (by more than round-off,
+# rotor_inertia_roundoff_kgm2: a reconstruction gives −1e-17 for 0). Recorded in the result's and the
+# export's "plausibility" blocks.
+PLAUSIBILITY = {"mass_ratio": [0.5, 2.0], "com_offset_share_of_reach": 0.5, "com_offset_min_m": 0.1,
+                "inertia_trace_ratio": [0.2, 5.0], "inertia_trace_min_kgm2": 0.01,
+                "rotor_inertia_roundoff_kgm2": 1e-9}
+
+
+def link_reach(robot) -> dict[str, float]:
+    """{moving joint: distance to its farthest child joint's origin (m), 0 without a child} of a RobotModel."""
+    m = robot.model
+    return {m.names[i]: max((float(np.linalg.norm(m.jointPlacements[c].translation))
+                             for c in range(1, m.njoints) if m.parents[c] == i), default=0.0)
+            for i in range(1, m.njoints)}
+
+
+def link_plausibility(info, pi: np.ndarray, source: str) -> dict:
+    """The ``plausibility`` block of standard parameters ``pi`` (the fit rows' order) of the robot
+    ``info`` (a RobotInfo) against its model's own: {source, thresholds, links: {joint: {mass,
+    model_mass, com_offset_m, com_limit_m, inertia_trace, model_inertia_trace, rotor_inertia,
+    problems}}, implausible: [joint, …]}."""
+    rows = info.rows or info.model
+    names = rows.parameter_names()
+    got = standard_record(info, names, np.asarray(pi, dtype=float))
+    ref = standard_record(info, names, rows.parameters())
+    reach = link_reach(info.model)
+    t = PLAUSIBILITY
+    links = {}
+    for joint, link in got.items():
+        model = ref[joint]
+        problems = []
+        m, m0 = float(link["mass"]), float(model["mass"])
+        if m <= 0.0:
+            problems.append(f"mass {m:.4g} kg ≤ 0 (the model's {m0:.4g} kg)")
+        elif m0 > 0.0 and not t["mass_ratio"][0] <= m / m0 <= t["mass_ratio"][1]:
+            problems.append(f"mass {m:.4g} kg vs the model's {m0:.4g} kg (outside ×{t['mass_ratio'][0]:g}–"
+                            f"{t['mass_ratio'][1]:g})")
+        offset = float(np.linalg.norm(np.subtract(link["com"], model["com"])))
+        limit = max(t["com_offset_min_m"], t["com_offset_share_of_reach"]
+                    * max(reach.get(joint, 0.0), float(np.linalg.norm(model["com"]))))
+        if m > 0.0 and offset > limit:
+            problems.append(f"centre of mass {offset:.3g} m from the model's (> {limit:.3g} m)")
+        trace = sum(float(link["inertia"][k]) for k in ("ixx", "iyy", "izz"))
+        trace0 = sum(float(model["inertia"][k]) for k in ("ixx", "iyy", "izz"))
+        low, high = t["inertia_trace_ratio"]
+        if abs(trace - trace0) > t["inertia_trace_min_kgm2"] and not low * trace0 <= trace <= high * trace0:
+            problems.append(f"inertia about its centre of mass (trace) {trace:.3g} kg·m² vs the model's {trace0:.3g} "
+                            f"(outside ×{low:g}–{high:g})")
+        if link["rotor"] and link["rotor_inertia"] < -t["rotor_inertia_roundoff_kgm2"]:
+            problems.append(f"rotor inertia {link['rotor_inertia']:.4g} kg·m² < 0")
+        links[joint] = {"mass": m, "model_mass": m0, "com_offset_m": offset, "com_limit_m": limit,
+                        "inertia_trace": trace, "model_inertia_trace": trace0,
+                        "rotor_inertia": float(link["rotor_inertia"]), "problems": problems}
+    return {"source": source, "thresholds": dict(t), "links": links,
+            "implausible": [j for j, v in links.items() if v["problems"]]}
+
+
+def plausibility_warnings(block: dict) -> list[str]:
+    """One warning per implausible link of a :func:`link_plausibility` block, naming it."""
+    what = block["source"]
+    return [f"link of joint '{j}' ({what}) is implausible against the robot model: "
+            + "; ".join(block["links"][j]["problems"])
+            + " — base parameters the data do not determine, or a model (URDF) far from the robot; "
+              "--consistent --prior urdf keeps the links near the model" for j in block["implausible"]]

@@ -14,8 +14,15 @@ finds; a result with no consistent witness is refused unless forced (the error n
 * YAML: the result itself (what ``frictionid validate`` and the node read), plus ``export``.
 
 With friction on the motors (a coupled drive) each joint gets the friction of its own motor
-(the motor with that joint's ratio); asymmetric friction exports the mean of the two branches;
-Stribeck exports its Coulomb level Fc (MuJoCo has no Stribeck term).
+(the motor with that joint's ratio). MuJoCo and URDF joints have viscous + Coulomb friction only:
+a Stribeck, Tustin or Threlfall law (or an asymmetric one) exports the damping and frictionloss
+≥ 0 that match it best in least squares over the speeds of its data (the result's
+``velocity_range``, both branches alike), and the export says how much of the law that loses
+(the RMS difference over those speeds relative to the law's RMS, %); a symmetric Coulomb law
+exports its Fv and Fc as they are.
+
+Links far from the robot model's (:func:`~frictionid_core.robots.consistency_check.link_plausibility`)
+are refused like inconsistent ones unless forced.
 """
 
 from __future__ import annotations
@@ -26,10 +33,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.robots.consistency_check import report_for_result, standard_record
+from frictionid_core.robots.consistency_check import link_plausibility, report_for_result, standard_record
 
 # MuJoCo joint attribute ← friction parameter
 MUJOCO_FRICTION = {"damping": "Fv", "frictionloss": "Fc"}
+# Speeds a law is matched over: this many, evenly spread over the data's range; without a range in
+# the result (written before it was recorded), DEFAULT_SPEEDS (rad/s or m/s).
+MATCH_SPEEDS = 2000
+DEFAULT_SPEEDS = (0.0, 1.0)
 
 
 @dataclass
@@ -39,8 +50,10 @@ class ExportData:
     Attributes:
         robot: the RobotModel.
         links: per moving joint :func:`standard_record` entry (mass, com, inertia, rotor_inertia).
-        friction: {joint: {"Fv", "Fc"}} (N·m·s/rad, N·m).
-        feasible: the consistency verdict; ``problems`` the failing links/parameters.
+        friction: {joint: {"Fv", "Fc"}} (N·m·s/rad, N·m): what MuJoCo and the URDF get.
+        match: {joint: {law, speeds [lo, hi], loss_pct}}: how ``friction`` matches the fitted law.
+        plausibility: the exported links against the robot model's (thresholds included).
+        feasible: the consistency and plausibility verdict; ``problems`` the failing links/parameters.
         source: ``urdf:PATH`` file of the robot, or None (built-in model).
     """
 
@@ -51,6 +64,8 @@ class ExportData:
     problems: list[str]
     source: str | None
     result: dict
+    match: dict
+    plausibility: dict
 
 
 def export_data(result: dict, system, force: bool = False) -> ExportData:
@@ -66,33 +81,72 @@ def export_data(result: dict, system, force: bool = False) -> ExportData:
     problems = [f"link '{j}' (mass {b['mass']:.4g} kg, pseudo-inertia λmin {b['pseudo_inertia_min_eig']:.3g})"
                 for j, b in rep["bodies"].items() if not b["consistent"]]
     problems += [f"rotor of '{j}' (Ia {r['Ia']:.4g} kg·m²)" for j, r in rep["rotors"].items() if not r["consistent"]]
-    friction = _joint_friction(result, info)
-    for j, f in friction.items():
-        problems += [f"joint '{j}' {k} {v:.4g} < 0" for k, v in f.items() if v < 0]
+    plausibility = link_plausibility(info, pi, "exported")
+    problems += [f"link of joint '{j}' implausible against the model ("
+                 + "; ".join(plausibility["links"][j]["problems"]) + ")" for j in plausibility["implausible"]]
+    friction, match = _joint_friction(result, info)
+    for j, f in match.items():
+        problems += [f"joint '{j}' {k} {v:.4g} < 0" for k, v in f["fitted"].items() if v < 0]
     if problems and not force:
-        raise FrictionIdError("refused to export an inconsistent result: " + "; ".join(problems)
-                              + " (identify with --consistent, or export anyway with --force)")
+        raise FrictionIdError("refused to export an inconsistent or implausible result: " + "; ".join(problems)
+                              + " (identify with --consistent [--prior urdf], or export anyway with --force)")
     source = system.name.split(":", 1)[1] if system.name.startswith("urdf:") else None
-    return ExportData(info.model, links, friction, not problems, problems, source, result)
+    return ExportData(info.model, links, friction, not problems, problems, source, result, match, plausibility)
 
 
-def _joint_friction(result: dict, info) -> dict:
-    """{joint: {Fv, Fc}} of a result: per joint, or per motor mapped to each motor's own joint."""
+def _joint_friction(result: dict, info) -> tuple[dict, dict]:
+    """({joint: {Fv, Fc}} of a result: per joint, or per motor mapped to each motor's own joint;
+    {joint: {law, speeds, loss_pct, fitted: the law's own Fv and Fc}}): see the module doc."""
     from frictionid_core.drive import friction_rows
+    from frictionid_core.friction import get_model
 
     params = result["params"]
     rows = friction_rows(result)
     owner = dict(zip(info.rows.motors, info.model.joints)) if info.rows is not None else {}
-    out = {}
+    law = get_model(result["friction"], bool(result["asymmetric"]))
+    ranges = result.get("velocity_range") or {}
+    out, match = {}, {}
     for row in rows:
         joint = owner.get(row, row)
         prefix = f"{row}/" if len(rows) > 1 else ""
-        vals = {}
-        for k in ("Fv", "Fc"):
-            v = [params[prefix + k + s] for s in ("", "_pos", "_neg") if prefix + k + s in params]
-            vals[k] = float(np.mean(v)) if v else 0.0
-        out[joint] = vals
-    return out
+        values = np.array([params[prefix + n] for n in law.names], dtype=float)
+        fitted = {k: float(np.mean([params[prefix + n] for n in law.names if n.split("_")[0] == k]))
+                  for k in ("Fv", "Fc", "Fs") if k in law.branch_names}
+        speeds = [float(v) for v in ranges.get(row, DEFAULT_SPEEDS)]
+        entry = {"law": law.label, "speeds": speeds, "speeds_from": "data" if row in ranges else "assumed",
+                 "fitted": fitted}
+        if law.name == "coulomb" and not law.asymmetric:
+            out[joint] = {"Fv": max(fitted["Fv"], 0.0), "Fc": max(fitted["Fc"], 0.0)}
+            entry["loss_pct"] = 0.0 if min(fitted.values()) >= 0 else _loss(law, values, speeds, out[joint])
+        else:
+            out[joint] = _match(law, values, speeds)
+            entry["loss_pct"] = _loss(law, values, speeds, out[joint])
+        match[joint] = entry
+    return out, match
+
+
+def _law_magnitudes(law, values: np.ndarray, speeds) -> tuple[np.ndarray, np.ndarray]:
+    """(speeds (2n,), the law's friction magnitude at +v and at −v over the speeds (2n,))."""
+    v = np.linspace(speeds[0], speeds[1], MATCH_SPEEDS)
+    v = v[v > 0.0] if np.any(v > 0.0) else np.array([speeds[1] or 1.0])
+    return np.concatenate([v, v]), np.concatenate([law.torque(values, v), -law.torque(values, -v)])
+
+
+def _match(law, values: np.ndarray, speeds) -> dict:
+    """The Fv, Fc ≥ 0 whose viscous + Coulomb friction matches the law best (least squares over
+    both branches at the speeds)."""
+    from scipy.optimize import nnls
+
+    v, f = _law_magnitudes(law, values, speeds)
+    (fv, fc), _ = nnls(np.column_stack([v, np.ones_like(v)]), f)
+    return {"Fv": float(fv), "Fc": float(fc)}
+
+
+def _loss(law, values: np.ndarray, speeds, linear: dict) -> float:
+    """RMS of (law − Fv·|v| − Fc) over both branches at the speeds, % of the law's RMS."""
+    v, f = _law_magnitudes(law, values, speeds)
+    scale = float(np.sqrt(np.mean(f**2))) or 1.0
+    return 100.0 * float(np.sqrt(np.mean((f - linear["Fv"] * v - linear["Fc"]) ** 2))) / scale
 
 
 # ------------------------------------------------------------------------------------------ URDF
@@ -259,6 +313,7 @@ def yaml_text(data: ExportData) -> str:
 
     plain = json.loads(json.dumps(data.result, default=float))
     plain["export"] = {"feasible": data.feasible, "problems": data.problems,
-                       "joint_friction": data.friction,
+                       "joint_friction": data.friction, "friction_match": data.match,
+                       "plausibility": data.plausibility,
                        "rotor_inertia": {j: v["rotor_inertia"] for j, v in data.links.items()}}
     return yaml.safe_dump(plain, sort_keys=False, allow_unicode=True)

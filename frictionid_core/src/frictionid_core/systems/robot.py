@@ -11,6 +11,8 @@ the system's joint map). The columns of the data are checked for rank before any
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
+
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError
@@ -70,6 +72,76 @@ def nominal_parameters(system: System) -> dict[str, float]:
     if info is None:
         raise FrictionIdError(f"system '{system.name}' has no robot model (tx40 or urdf:PATH only)")
     return dict(zip(system.rigid_names, map(float, info.base.from_standard(info.model.parameters()))))
+
+
+# The parameter of the model's link torque column in a known-rigid-body fit (held at 1).
+LINK_TORQUE = "link_torque"
+
+
+@dataclass(frozen=True)
+class KnownRigidBody:
+    """A robot system with its links as modelled and its rotor inertias to identify
+    (``IdentifyRequest(known_rigid_body=True)``).
+
+    The fit's rigid columns are the model's link torque W_b·β_links (parameter
+    :data:`LINK_TORQUE`, held at 1) and one rotor column W_b·A[:, Ia] per joint or motor (its
+    standard name, ``<joint>.Ia`` / ``motor_<k>.Ia``): the base regressor W_b, β_links the base
+    parameters of the links alone (every rotor inertia 0), A the base map
+    (:meth:`~frictionid_core.robots.base.BaseParameters.combination_matrix`).
+
+    Attributes:
+        system: the robot system (its base parameters are what a result reports).
+        fit_system: the system of the fit (the columns above).
+        rotor_names: the rotor inertias' names.
+        links: β_links (r,).
+        rotor_map: A[:, Ia] (r, rotors): base parameters = links + rotor_map·Ia.
+    """
+
+    system: System
+    fit_system: System
+    rotor_names: tuple[str, ...]
+    links: np.ndarray
+    rotor_map: np.ndarray
+
+    def base_parameters(self, rotor: np.ndarray) -> np.ndarray:
+        """The system's base parameters (r,) for rotor inertias ``rotor`` (rotors,)."""
+        return self.links + self.rotor_map @ np.asarray(rotor, dtype=float)
+
+    def held(self) -> list[str]:
+        """The base parameters no rotor inertia enters: held at the model's values."""
+        return [n for n, row in zip(self.system.rigid_names, self.rotor_map) if not np.any(row)]
+
+
+def known_rigid_body(system: System) -> KnownRigidBody:
+    """The known-rigid-body fit of the robot ``system`` (see :class:`KnownRigidBody`)."""
+    info = system.robot
+    if info is None:
+        raise FrictionIdError(f"system '{system.name}' has no robot model: known_rigid_body needs tx40 or urdf:PATH")
+    rows = info.rows or info.model
+    standard = rows.parameter_names()
+    nominal = np.asarray(rows.parameters(), dtype=float)
+    rotor = np.arange(len(standard) - info.model.nv, len(standard))
+    links = nominal.copy()
+    links[rotor] = 0.0
+    beta_links = info.base.from_standard(links)
+    rotor_map = info.base.combination_matrix()[:, rotor]
+    transform = np.column_stack([beta_links, rotor_map])
+    names = (LINK_TORQUE, *(standard[i] for i in rotor))
+
+    def columns(p: Prepared, joints: list[str]) -> np.ndarray:
+        return info.base_columns(p.q, p.qd, p.qdd, joints) @ transform
+
+    def excitation(cols: np.ndarray, p: Prepared, joints: list[str]) -> tuple[np.ndarray, list[str]]:
+        """The rank test of the rotor columns (the held link torque column is known)."""
+        if info.rows is None:
+            return _excitation_rows(cols[:, 1:], p.qd, joints, list(names[1:]))
+        drive = info.rows.drive
+        return _excitation_rows(cols[:, 1:], drive.motor_velocity(p.qd), drive.motor_names(), list(names[1:]))
+
+    scale = np.maximum(1.0, 10.0 * np.abs(nominal[rotor]))
+    bounds = {LINK_TORQUE: (0.0, 2.0), **{n: (0.0, float(s)) for n, s in zip(names[1:], scale)}}
+    fit = replace(system, columns=columns, rigid_names=names, rigid_bounds=bounds, excitation=excitation)
+    return KnownRigidBody(system, fit, tuple(names[1:]), beta_links, rotor_map)
 
 
 def _excitation_rows(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list[str]
