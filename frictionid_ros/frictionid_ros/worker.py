@@ -318,7 +318,10 @@ def main() -> int:
         _warm_up()
     except Exception:  # a warm-up problem shows again on the first request
         pass
-    _send(out, ("ready", os.getpid()))
+    try:
+        _send(out, ("ready", os.getpid()))
+    except BrokenPipeError:  # the node stopped (or replaced) us while we started: it reads no more
+        return 0
     return _Child(inp, out).serve()
 
 

@@ -57,3 +57,18 @@ def test_a_job_that_overruns_while_the_child_starts_leaves_a_child_that_is_only_
         assert worker.run(emps, IdentifyRequest(system="emps"))[0] == "ok" and worker.pid == pid
     finally:
         worker.stop()
+
+
+@pytest.mark.slow
+def test_a_child_whose_node_stopped_reading_while_it_started_exits_quietly():
+    """A node that stops (or replaces) its worker while the child starts closes the child's stdout: the
+    child's "ready" finds a broken pipe and it exits 0 without a traceback."""
+    import subprocess
+    import sys
+
+    child = subprocess.Popen([sys.executable, "-m", "frictionid_ros.worker"], stdin=subprocess.PIPE,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    child.stdout.close()  # before it is ready: imports and warm-up take a while
+    child.stdin.close()
+    assert child.wait(120) == 0
+    assert "Traceback" not in child.stderr.read().decode(), "the child printed a traceback"
