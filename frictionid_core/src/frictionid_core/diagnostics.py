@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from frictionid_core.identification_model import parameter_kind
+from frictionid_core.parameter_names import parameter_kind
 
 # A parameter is at a bound when it lies within this many σ of it (judged against its own σ, not
 # the width of the search range); without a finite σ, when it is at the bound to round-off.
@@ -121,19 +121,21 @@ def stamp_warnings(notes: list[str]) -> list[str]:
 
 
 def direction_problems(obs, names: list[str]) -> tuple[list[str], list[str]]:
-    """(errors, warnings) for joints that move in one direction only (or not at all) on the used
-    rows of ``obs``, given the model's free parameter ``names``: then a constant offset and the
-    Coulomb level (or the other branch of an asymmetric law) cannot be told apart."""
+    """(errors, warnings): errors for joints that never move on the used rows of ``obs``,
+    warnings for joints that move in one direction only, given the model's free parameter
+    ``names``: then a constant offset and the Coulomb level (or the other branch of an asymmetric
+    law) cannot be told apart, and the fit holds one of them (identifiability)."""
     errors, warnings = [], []
     nd, nj = obs.n_samples, len(obs.joints)
     for j, joint in enumerate(obs.joints):
         prefix = f"{joint}/" if nj > 1 else ""
         used = obs.used[j * nd : (j + 1) * nd]
         v = obs.velocity[used, j]
-        if v.size == 0:
-            speed = obs.report.get("min_speed_rows", {}).get(joint, obs.preprocessing.min_speed.get(joint, np.nan))
+        if not np.any(v):  # no used row, or none that moves (a noise-free log of a joint at rest)
+            speed = obs.report.get("min_speed_rows", {}).get(joint, np.nan)
             errors.append(f"{joint} never moves faster than its min speed {speed:.3g}: nothing to identify its "
-                          "friction from; lower --min-speed or leave the joint out (--joints)")
+                          "friction from; record it moving (back and forth), lower --min-speed, or leave it out of "
+                          "the fitted joints (--joints without it; a robot model still uses its logged position)")
             continue
         pos, neg = int(np.count_nonzero(v > 0)), int(np.count_nonzero(v < 0))
         minority = min(pos, neg)
@@ -150,6 +152,6 @@ def direction_problems(obs, names: list[str]) -> tuple[list[str], list[str]]:
             if not lost:
                 continue
             msg = f"{where}: {', '.join(lost)} are not identifiable; use a symmetric friction law (no --asymmetric)"
-        (errors if minority == 0 else warnings).append(msg)
+        warnings.append(msg)  # the fit drops the direction the data cannot resolve (identifiability)
     return errors, warnings
 

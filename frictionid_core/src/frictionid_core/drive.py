@@ -144,7 +144,8 @@ class Drive:
     def recorded_effort_matrix(self) -> np.ndarray:
         """M (J, J) with recorded efforts ``e = M·τ`` of joint torques τ (N·m):
         diag(1/effort_scale)·R⁻ᵀ on the motor side, else diag(1/effort_scale)."""
-        return (self._R_inv.T if self.side == "motor" else np.eye(len(self.joints))) / np.array(self.effort_scale)[:, None]
+        per_joint = self._R_inv.T if self.side == "motor" else np.eye(len(self.joints))
+        return per_joint / np.array(self.effort_scale)[:, None]
 
     def coupled_motors(self) -> list[int]:
         """0-based indices of the motors that turn with more than one joint."""
@@ -163,8 +164,15 @@ class Drive:
         already in the drive's order. Log names are kept; columns come out in the drive's order. Motor side:
         ``q = R⁻¹·q_m + position_offset``, ``q̇ = R⁻¹·q̇_m``, ``τ = Rᵀ·(effort_scale·e)``; joint side:
         ``q = q_rec + position_offset``, ``τ = effort_scale·e``. What was done goes to ``notes``;
-        ``extras`` and ``meta`` pass through unchanged.
+        ``extras`` and ``meta`` pass through unchanged. A log of some of the drive's joints is
+        converted by the drive restricted to them (:meth:`restricted`).
         """
+        named = [(joint_map or {}).get(j, j) for j in series.joints]
+        if set(named) < set(self.joints) and len(set(named)) == len(named):
+            try:
+                return self.restricted(named).to_joint_side(series, joint_map)
+            except InputError as exc:
+                raise InputError(f"{series.source}: {exc}") from None
         s = self._aligned(series, joint_map)
         scaled = s.effort * np.array(self.effort_scale)
         if self.side == "motor":
@@ -177,6 +185,24 @@ class Drive:
             qd, tau = s.velocity, scaled
             done = "q = q + position_offset, τ = effort_scale·e"
         return self._with(s, q, tau, qd, f"{self._label}: {self.side}-side log to joint side: {done}")
+
+    def restricted(self, joints: list[str]) -> Drive:
+        """This drive on its joints ``joints`` only (kept in the drive's order); InputError when a
+        coupling term links one of them with a joint left out (the log then needs both)."""
+        keep = [k for k, j in enumerate(self.joints) if j in joints]
+        kept = set(keep)
+        crossing = [(self.joints[m], self.joints[j]) for m, j, _ in self.coupling if (m in kept) != (j in kept)]
+        if crossing:
+            raise InputError(f"{self._label}: coupling term(s) between the joints {crossing} link a joint of the "
+                             f"data {sorted(joints)} with one it lacks; the log needs both")
+        at = {k: i for i, k in enumerate(keep)}
+        def _pick(values: tuple) -> tuple:
+            return tuple(values[k] for k in keep)
+
+        return Drive(joints=_pick(self.joints), side=self.side, gear_ratio=_pick(self.gear_ratio),
+                     coupling=tuple((at[m], at[j], r) for m, j, r in self.coupling if m in kept),
+                     effort_scale=_pick(self.effort_scale), position_offset=_pick(self.position_offset),
+                     friction_on=self.friction_on, name=self.name, source=self.source)
 
     def to_recorded_side(self, series: JointSeries) -> JointSeries:
         """Inverse of :meth:`to_joint_side`: what this drive logs for joint-side data.

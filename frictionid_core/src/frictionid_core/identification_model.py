@@ -25,24 +25,9 @@ import numpy as np
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import FrictionModel
-from frictionid_core.linear import least_squares
+from frictionid_core.linear import box_quadratic, least_squares
 from frictionid_core.observation import Observation
-
-# Parameters that cannot be negative, by the last component of their name (after "/" and ".",
-# without _pos/_neg): viscous, Coulomb and static friction, a mass (EMPS M, a link's exact m), an
-# inertia (J, the TX40 joint-2 ZZ) and a rotor inertia (``<joint>.Ia``, not a regrouped ``IaR``).
-NONNEGATIVE = ("Fv", "Fc", "Fs", "M", "m", "J", "ZZ", "Ia")
-
-
-def parameter_kind(name: str) -> str:
-    """The last component of a parameter name without branch suffix: ``joint_2/Fc_pos`` → ``Fc``,
-    ``joint_3.Ia`` → ``Ia``."""
-    return name.rsplit("/", 1)[-1].rsplit(".", 1)[-1].removesuffix("_pos").removesuffix("_neg")
-
-
-def cannot_be_negative(name: str) -> bool:
-    """True for a parameter that is physically ≥ 0 (see :data:`NONNEGATIVE`)."""
-    return parameter_kind(name) in NONNEGATIVE
+from frictionid_core.parameter_names import cannot_be_negative, parameter_keys
 
 
 @dataclass
@@ -242,11 +227,11 @@ class IdentificationModel:
 
     def _resolve(self, overrides: dict, what: str) -> dict[int, object]:
         """{parameter index: value} of ``overrides`` keyed by a full name, a base name or a family
-        (the first of these that a parameter matches); FrictionIdError for a key matching none."""
+        (the first of :func:`parameter_keys` that a parameter matches); FrictionIdError for a key
+        matching none."""
         out, unknown = {}, set(overrides)
         for i, name in enumerate(self.names):
-            base = name.rsplit("/", 1)[-1]
-            for key in (name, base, base.removesuffix("_pos").removesuffix("_neg"), base.rsplit(".", 1)[-1]):
+            for key in parameter_keys(name):
                 if key in overrides:
                     out[i] = overrides[key]
                     unknown.discard(key)
@@ -490,56 +475,6 @@ class IdentificationModel:
             sd[free], cond = fit.std, fit.cond
         x[self.linear_index] = coef
         return x, {**dict(zip(names, map(float, sd))), **std}, cond
-
-
-def box_quadratic(G: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """argmin ½zᵀGz − bᵀz subject to lo ≤ z ≤ hi, for each of P problems at once.
-
-    G (P, n, n) symmetric positive definite, b (P, n), lo/hi (n,) or (P, n) with ±inf for no
-    bound and lo = hi for a fixed entry. Primal active set: every bound a free entry crosses is
-    made active; then the active bound whose multiplier has the wrong sign is released, one per
-    problem per step. Returns (z (P, n), held (P, n): entries at a bound); z is always feasible.
-    """
-    n_pop, n = b.shape
-    lo, hi = np.broadcast_to(lo, (n_pop, n)), np.broadcast_to(hi, (n_pop, n))
-    held = lo == hi
-    value = np.where(held, lo, 0.0)
-    z = _equality_solve(G, b, held, value)
-    rows = np.arange(n_pop)
-    for _ in range(4 * n + 10):
-        zr, hr, lr, ur = z[rows], held[rows], lo[rows], hi[rows]
-        below, above = ~hr & (zr < lr), ~hr & (zr > ur)
-        crossed = below | above
-        # Multipliers of the held bounds: at a lower bound the cost must not fall as z grows (g ≥ 0).
-        g = np.einsum("pij,pj->pi", G[rows], zr) - b[rows]
-        wrong = np.where(hr & (lr != ur), np.where(value[rows] == lr, -g, g), 0.0)
-        tol = 1e-8 * np.max(np.abs(b[rows]), axis=1, keepdims=True)
-        release = ~crossed.any(axis=1) & (wrong > tol).any(axis=1)
-        held[rows] |= crossed
-        value[rows] = np.where(below, lr, np.where(above, ur, value[rows]))
-        held[rows[release], np.argmax(wrong[release], axis=1)] = False
-        rows = rows[crossed.any(axis=1) | release]
-        if rows.size == 0:
-            return z, held
-        z[rows] = _equality_solve(G[rows], b[rows], held[rows], value[rows])
-    while True:  # cycling (degenerate problems): make every problem feasible, bounds only added
-        below, above = ~held & (z < lo), ~held & (z > hi)
-        crossed = (below | above).any(axis=1)
-        if not crossed.any():
-            return z, held
-        held |= below | above
-        value = np.where(below, lo, np.where(above, hi, value))
-        z[crossed] = _equality_solve(G[crossed], b[crossed], held[crossed], value[crossed])
-
-
-def _equality_solve(G: np.ndarray, b: np.ndarray, held: np.ndarray, value: np.ndarray) -> np.ndarray:
-    """argmin ½zᵀGz − bᵀz with the ``held`` entries (P, n) at ``value``: their rows and columns
-    become the identity and their known contribution moves to the right-hand side."""
-    known = np.where(held, value, 0.0)
-    rhs = np.where(held, known, b - np.einsum("pij,pj->pi", G, known))
-    free = ~held
-    M = G * (free[:, :, None] & free[:, None, :]) + np.eye(b.shape[1]) * held[:, None, :]
-    return np.linalg.solve(M, rhs[..., None])[..., 0]
 
 
 def _place(col: np.ndarray, j: int, nj: int, nd: int) -> np.ndarray:

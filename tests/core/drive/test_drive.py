@@ -114,12 +114,29 @@ def test_joint_columns_named_as_the_drive_are_reordered_and_log_names_kept():
     np.testing.assert_array_equal(out.position, d.to_joint_side(s).position)
 
 
-@pytest.mark.parametrize("joints, fragment", [(["a", "b"], "do not match"), (["a", "b", "x"], "missing ['c']")])
+@pytest.mark.parametrize("joints, fragment", [(["a", "b"], "coupling term(s) between the joints [('c', 'a')]"),
+                                              (["a", "b", "x"], "missing ['c']")])
 def test_data_joints_that_do_not_fit_the_drive(joints, fragment):
     s = random_series(joints)
     with pytest.raises(InputError) as e:
         Drive(**COUPLED).to_joint_side(s)
     assert "mem" in str(e.value) and fragment in str(e.value)
+
+
+def test_a_log_of_some_of_the_drives_joints_is_converted_by_those():
+    """A drive may describe more joints than the log holds: each joint converted as the whole
+    drive converts it, when no coupling links it with a joint the log lacks."""
+    d = Drive(**{**COUPLED, "coupling": [[0, 1, -3.0]]})  # a and b coupled, c alone
+    whole = d.to_joint_side(random_series(["a", "b", "c"], seed=5))
+    part = d.to_joint_side(random_series(["a", "b", "c"], seed=5).select(["c"]))
+    assert part.joints == ["c"]
+    np.testing.assert_array_equal(part.position[:, 0], whole.position[:, 2])
+    np.testing.assert_array_equal(part.effort[:, 0], whole.effort[:, 2])
+    pair = d.to_joint_side(random_series(["a", "b", "c"], seed=5).select(["b", "a"]))
+    np.testing.assert_allclose(pair.effort, whole.effort[:, :2], rtol=1e-14)
+    with pytest.raises(InputError, match=r"^mem: drive 'coupled': coupling term\(s\) between the joints "
+                                         r"\[\('a', 'b'\)\]"):
+        d.to_joint_side(random_series(["a", "b", "c"], seed=5).select(["a"]))
 
 
 def test_to_dict_round_trips_through_dict_yaml_and_json(tmp_path):

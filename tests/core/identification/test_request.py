@@ -25,7 +25,8 @@ from support.data import EMPS_ESTIMATION
 # The keys of 'frictionid identify --json' (a closed-form fit), in their order: a contract.
 RESULT_KEYS = ["system", "joint_map", "friction", "asymmetric", "solver", "source", "joints", "params", "std",
                "std_robust", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds",
-               "preprocessing", "layout", "request", "uncertainty", "velocity_range"]
+               "preprocessing", "layout", "identifiability", "no_effort_joints", "request", "uncertainty",
+               "velocity_range"]
 OPTIMIZER_KEYS = ["optimizer", "varpro", "warm_start"]  # after "bounds", with an optimiser
 
 
@@ -71,7 +72,13 @@ def test_a_short_request_is_the_default_and_values_are_normalised():
     (dict(asymmetric="yes"), r"^request field 'asymmetric' must be true or false, got 'yes'"),
     (dict(prior_weight=-1.0), r"^request field 'prior_weight' must be >= 0, got -1.0"),
     (dict(consistent=True), r"^request field 'consistent': needs a robot system .* system 'emps' has none"),
-    (dict(system="tx40", prior="urdf"), r"^request field 'prior': applies to the consistent fit only"),
+    (dict(prior="urdf"), r"^request field 'prior': needs a robot system .* system 'emps' has none"),
+    (dict(system="tx40", stribeck_order=True), r"^request field 'stribeck_order': applies to the consistent fit only"),
+    (dict(system="joint", hold={"j": 0.0}), r"^request field 'hold': needs a robot system .* 'joint' has none"),
+    (dict(system="tx40", hold={"joint_1": float("inf")}), r"^request field 'hold.joint_1' must be a finite position"),
+    (dict(system="tx40", hold={"joint_1": "up"}), r"^request field 'hold.joint_1' must be a number, got 'up'"),
+    (dict(hold_missing=True), r"^request field 'hold_missing': needs a robot system"),
+    (dict(system="tx40", gravity=True), r"^request field 'gravity': adds g_sin·sin q .*'tx40' has its own gravity"),
     (dict(system="tx40", consistent=True, prior="cad"), r"^request field 'prior': unknown prior 'cad'; choose"),
 ])
 def test_a_bad_value_is_refused_on_creation_naming_its_field(fields, message):

@@ -24,8 +24,8 @@ from frictionid_core.identification import (
     model_from_result,
     validate,
 )
-from frictionid_core.identification_model import box_quadratic
 from frictionid_core.io.csv import save_csv
+from frictionid_core.linear import box_quadratic
 from frictionid_core.observation import concat_observations
 from frictionid_core.preprocess import Preprocessing
 from frictionid_core.systems import get_system, observe
@@ -174,15 +174,28 @@ def test_each_source_is_filtered_alone():
         assert stacked.params[name] == pytest.approx(alone.params[name], rel=0.05), name
 
 
-def test_sources_with_other_joints_are_refused(capsys, tmp_path):
-    a = friction_series(2.0, joints=("j1", "j2"), source="a")
-    b = friction_series(2.0, joints=("j1", "j3"), source="b")
-    with pytest.raises(InputError, match=r"^b: joints \['j1', 'j3'\] differ from those of a"):
-        identify([a, b], IdentifyRequest(system="friction-only"))
+def test_sources_with_other_joints_are_fitted_together(tmp_path):
+    """a holds j1, j2 and b holds j1, j3: one fit over j1, j2, j3, each joint from the sources
+    that hold it (j3's friction from b alone), as on the command line; a joint in no source is
+    refused naming the sources."""
+    coulomb = {**STRIBECK, "Fs": STRIBECK["Fc"]}
+    a = friction_series(10.0, params=coulomb, joints=("j1", "j2"), source="a")
+    b = friction_series(10.0, params={**coulomb, "Fv": 3.0}, joints=("j1", "j3"), phase=1.0, source="b")
+    b.effort[:, 0] = friction_series(10.0, params=coulomb, phase=1.0).effort[:, 0]  # j1 as in a
+    r = identify([a, b], IdentifyRequest(system="friction-only", friction="coulomb"))
+    assert r.joints == ["j1", "j2", "j3"] and r.source == ["a", "b"]
+    assert r.params["j3/Fv"] == pytest.approx(3.0, rel=0.01) and r.params["j2/Fv"] == pytest.approx(2.0, rel=0.01)
+    assert r.params["j1/Fv"] == pytest.approx(2.0, rel=0.01)
+    assert set(r.preprocessing["min_speed"]) == {"j1", "j2", "j3"}
+    v = validate([a, b], r)
+    assert v["relerr_pct"] == pytest.approx(r.metrics["relerr_pct"], rel=1e-9)
+    with pytest.raises(InputError, match=r"joint\(s\) \['j4'\] in none of the sources \(a: \['j1', 'j2'\]; b:"):
+        identify([a, b], IdentifyRequest(system="friction-only", joints=["j1", "j4"]))
     save_csv(a, tmp_path / "a.csv")
     save_csv(b, tmp_path / "b.csv")
-    msg = fails(["identify", tmp_path / "a.csv", tmp_path / "b.csv", "--system", "friction-only"], capsys)
-    assert "b.csv: joints" in msg and "--joints" in msg
+    cli = run_json(["identify", tmp_path / "a.csv", tmp_path / "b.csv", "--system", "friction-only", "--joints",
+                    "j2,j3"], tmp_path / "r.json")
+    assert cli["joints"] == ["j2", "j3"] and cli["params"]["j3/Fv"] == pytest.approx(3.0, rel=0.01)
 
 
 def test_cli_several_sources(tmp_path):
@@ -267,12 +280,20 @@ def test_fixed_names_full_base_and_family():
         build_model(s, "friction-only", "coulomb", False, fixed={"Fv": 9.0}, bounds={"Fv": (0.0, 5.0)})
 
 
-def test_one_direction_move_needs_the_offset_fixed(tmp_path, capsys):
-    """The issue's case: 'offset not identifiable' and no way out; --fix offset=0 is the way out."""
+def test_one_direction_move_drops_the_offset_or_takes_it_fixed(tmp_path, capsys):
+    """A move one way cannot separate the offset from the Coulomb level: the fit warns and drops the
+    offset (held at 0, as --fix offset=0 would), naming it; --fix offset=0 (or a zero-width bound)
+    gives the same parameters, as the user's choice."""
     save_csv(one_way_series(), tmp_path / "oneway.csv")
-    msg = fails(["identify", tmp_path / "oneway.csv"], capsys)
-    assert "moves in one direction" in msg and "--fix offset=0" in msg
+    dropped = run_json(["identify", tmp_path / "oneway.csv"], tmp_path / "d.json")
+    assert any("moves in one direction" in w and "--fix offset=0" in w for w in dropped["warnings"])
+    assert dropped["identifiability"]["unresolved"] == ["offset"] and dropped["identifiability"]["action"] == "dropped"
+    assert dropped["identifiability"]["folded_into"]["offset"] == {"Fc": pytest.approx(1.0, rel=1e-9)}
+    sigma = dropped["std"]["offset"]  # undetermined: NaN (null in the JSON)
+    assert dropped["params"]["offset"] == 0.0 and (sigma is None or np.isnan(sigma))
     r = run_json(["identify", tmp_path / "oneway.csv", "--fix", "offset=0"], tmp_path / "r.json")
+    assert r["identifiability"]["action"] == "fixed" and r["identifiability"]["unresolved"] == ["offset"]
+    assert r["params"] == pytest.approx(dropped["params"], rel=1e-9)
     assert r["fixed"] == {"offset": 0.0} and r["params"]["offset"] == 0.0 and r["std"]["offset"] == 0.0
     assert r["params"]["Fc"] == pytest.approx(20.0, rel=0.01) and r["params"]["M"] == pytest.approx(95.0, rel=0.01)
     out = capsys.readouterr().out

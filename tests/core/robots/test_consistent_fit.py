@@ -61,7 +61,7 @@ def test_consistent_needs_a_robot_system():
     series = load_bag(BAGS / "emps_estimation")
     with pytest.raises(FrictionIdError, match="request field 'consistent': needs a robot system .*'emps'"):
         identify(series, IdentifyRequest(system="emps", consistent=True))
-    with pytest.raises(FrictionIdError, match="request field 'prior': applies to the consistent fit only"):
+    with pytest.raises(FrictionIdError, match="request field 'prior': needs a robot system .*'emps'"):
         identify(series, IdentifyRequest(system="emps", prior="urdf"))
     with pytest.raises(FrictionIdError, match="request field 'stribeck_order': applies to the consistent fit only"):
         identify(series, IdentifyRequest(system="emps", stribeck_order=True))

@@ -33,7 +33,7 @@ from frictionid_core.robots.tx40 import (
     build_tx40,
     joint2_effective_parameters,
 )
-from frictionid_core.systems import as_system, get_system, observe, parse_joint_map
+from frictionid_core.systems import as_system, get_system, parse_joint_map
 
 UR5 = "ur_description/urdf/ur5_robot.urdf"
 
@@ -164,13 +164,26 @@ def test_trajectory_beyond_the_limits_is_refused(tx40):
         check_trajectory(tx40, other)
 
 
-def test_rank_deficient_motion_names_the_unidentifiable_parameters(tx40):
-    """Only joint 2 moves: the full-robot system cannot separate most parameters."""
+def test_joints_that_never_move_are_refused_by_name_and_can_be_left_out(tx40):
+    """Only joint 2 moves: the full-robot fit refuses naming a joint that never moves and the way
+    out; fitting joint 2 alone (--joints joint_2) works, the other joints held at their logged
+    positions: the thesis model of joint 2, with its fit."""
+    from frictionid_core.identification import IdentifyRequest, identify
+
     traj = FourierTrajectory(list(tx40.joints), np.zeros(6), np.zeros((6, 2)), np.zeros((6, 2)), 2 * np.pi / 2, 3.0)
     traj.a[1] = [0.5, 0.2]
     series, _ = synthesize(tx40, traj, position_noise=0.0, torque_noise=0.0)
-    with pytest.raises(InputError, match=r"rank-deficient.*does not excite.*joint_6\..*frictionid excite"):
-        observe(series, get_system("tx40"))
+    with pytest.raises(InputError, match=r"joint_1 never moves faster than its min speed.*record it moving.*--joints"):
+        identify(series, IdentifyRequest(system="tx40"))
+    r = identify(series, IdentifyRequest(system="tx40", joints=["joint_2"]))
+    # the joints that do not move are held where the log has them: the model is that of joint 2
+    assert r.joints == ["joint_2"] and r.held_joints == {j: 0.0 for j in tx40.joints if j != "joint_2"}
+    # its inertia about the axis, two gravity moments (base combinations), Fv, Fc, offset
+    assert r.identifiability == {**r.identifiability, "rank": 6, "columns": 6, "unresolved": [], "action": None}
+    thesis = identify(series.select(["joint_2"]), IdentifyRequest(system="tx40-j2"))
+    assert r.metrics["relerr_pct"] == pytest.approx(thesis.metrics["relerr_pct"], rel=1e-3)
+    for name in ("Fv", "Fc"):
+        assert r.params[name] == pytest.approx(thesis.params[name], rel=1e-3)  # one fitted joint: no prefix
 
 
 # ------------------------------------------------------------------- identification

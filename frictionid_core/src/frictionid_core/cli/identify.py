@@ -1,6 +1,7 @@
 """``frictionid identify SOURCE [SOURCE ...] [--request FILE] [--system S] [--friction F] [--solver X]
 [--start S] [--end S] [--fix NAME=VALUE]... [--bounds NAME=LO:HI]... [--layout FILE]
-[--consistent [--prior urdf --prior-weight W] | --known-rigid-body] [--save-request FILE] [--json OUT]``.
+[--hold JOINT=VALUE]... [--hold-missing] [--gravity] [--prior urdf]
+[--consistent [--prior-weight W] | --known-rigid-body] [--save-request FILE] [--json OUT]``.
 
 The flags and ``--request FILE`` build one :class:`~frictionid_core.identification.IdentifyRequest`
 (:func:`request_of`): the file's values, with every flag given on the command line over the file's
@@ -18,6 +19,7 @@ from frictionid_core.cli._common import (
     load_sources,
     parse_bounds,
     parse_fixed,
+    parse_joint_values,
     print_table,
     refuse_overwriting,
     save_json,
@@ -28,6 +30,8 @@ from frictionid_core.cli._common import (
 )
 from frictionid_core.errors import FrictionIdError
 
+HELD_LISTED = 6  # held joints named on the "held still:" line
+
 # Request field (dotted: nested) → the flag that sets it, for messages.
 FLAGS = {"system": "--system", "joints": "--joints", "joint_map": "--joint-map", "drive": "--drive",
          "friction": "--friction", "asymmetric": "--asymmetric", "solver.method": "--solver", "solver.seed": "--seed",
@@ -37,7 +41,8 @@ FLAGS = {"system": "--system", "joints": "--joints", "joint_map": "--joint-map",
          "preprocessing.trim_end_s": "--trim", "preprocessing.min_speed": "--min-speed",
          "preprocessing.velocity": "--velocity", "window": "--start/--end", "window.start_s": "--start",
          "window.end_s": "--end", "consistent": "--consistent", "prior": "--prior", "prior_weight": "--prior-weight",
-         "stribeck_order": "--stribeck-order", "known_rigid_body": "--known-rigid-body"}
+         "stribeck_order": "--stribeck-order", "hold": "--hold", "hold_missing": "--hold-missing",
+         "gravity": "--gravity", "known_rigid_body": "--known-rigid-body"}
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -90,7 +95,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "rotor inertia, Fv, Fc ≥ 0; cvxpy + Clarabel); the result adds standard_parameters and "
                         "consistency")
     p.add_argument("--prior", choices=("urdf",),
-                   help="with --consistent: pull each link toward the robot's own URDF inertials (log-det divergence)")
+                   help="tx40, urdf:PATH: hold the directions the data do not resolve at the robot model's own values "
+                        "(default: dropped); with --consistent also pull each link toward the model's inertials "
+                        "(log-det divergence)")
+    p.add_argument("--hold", action="append", metavar="JOINT=VALUE",
+                   help="tx40, urdf:PATH: hold a model joint still at this position (rad or m), e.g. one the log "
+                        "lacks; repeatable (or JOINT=VALUE,JOINT=VALUE)")
+    p.add_argument("--hold-missing", action="store_true", default=None,
+                   help="tx40, urdf:PATH: hold every model joint the log lacks still at 0 (or at the drive's "
+                        "position_offset of that joint); the result lists them in held_joints")
+    p.add_argument("--gravity", action="store_true", default=None,
+                   help="--system joint: add g_sin·sin q + g_cos·cos q per joint (a joint loaded by gravity)")
     p.add_argument("--prior-weight", type=float, metavar="W",
                    help="weight of the --prior divergence against the data term ‖e‖²/2σ̂² (default 1)")
     p.add_argument("--stribeck-order", action="store_true", default=None,
@@ -111,7 +126,8 @@ def given_fields(args) -> dict:
     top = {"system": args.system, "joints": split_list(args.joints), "drive": args.drive, "friction": args.friction,
            "asymmetric": args.asymmetric, "consistent": args.consistent, "prior": args.prior,
            "prior_weight": args.prior_weight, "stribeck_order": args.stribeck_order,
-           "known_rigid_body": args.known_rigid_body,
+           "hold": None if args.hold is None else parse_joint_values(",".join(args.hold), "--hold", "POSITION"),
+           "hold_missing": args.hold_missing, "gravity": args.gravity, "known_rigid_body": args.known_rigid_body,
            "joint_map": None if args.joint_map is None else parse_joint_map(args.joint_map),
            "fixed": None if args.fix is None else parse_fixed(args.fix),
            "bounds": None if args.bounds is None else parse_bounds(args.bounds)}
@@ -174,12 +190,20 @@ def run(args) -> int:
 
         from frictionid_core.identification import identify
 
-        args.joints = None if request.joints is None else ",".join(request.joints)  # --joints or the file's
+        # the sources are read whole: the request's joints are the fit's rows (a robot system also
+        # uses the log's other joints; each of several sources may hold its own joints)
+        robot = request.system == "tx40" or request.system.startswith("urdf:")
+        selected = request.joints is not None and not robot and len(args.source) == 1
+        args.joints = ",".join(request.joints) if selected else None
         layout = None if args.layout is None else str(args.layout)
         result = replace(identify(load_sources(args), request), layout=layout)
     finite = ("position_relerr_pct",) if args.output_error else FINITE_METRICS  # output error: the simulation's
     check_finite(result.metrics, "the identification", finite)
     print_table(result.to_dict())
+    if result.held_joints:
+        held = [f"{j} = {v:g}" for j, v in result.held_joints.items()]
+        more = f", … ({len(held)} joints: the result's held_joints)" if len(held) > HELD_LISTED else ""
+        print("held still: " + ", ".join(held[:HELD_LISTED]) + more)
     if result.consistency is not None:
         c = result.consistency
         print(f"consistent parameters: {'FEASIBLE' if c['feasible'] else 'NOT FEASIBLE'} ({c['solver']}, "

@@ -7,8 +7,9 @@
 
 One module per job: ``request`` (the request, its YAML file; ``settings``: its solver and
 pre-processing parts; ``checks``: its field checks), ``result`` (the result and its JSON),
-``orchestration`` (:func:`identify`), ``model`` (data → identification model, metrics),
-``solve`` (solver glue, bounds from the data, the linear special case), ``dip_refit`` (the
+``orchestration`` (:func:`identify`), ``plan`` (what each source gives a fit),
+``identifiability`` (what the data resolve), ``model_building`` (data → identification model,
+metrics), ``solve`` (solver glue, bounds from the data, the linear special case), ``dip_refit`` (the
 friction-dip refit policy), ``uncertainty`` (σ, white and robust), ``plausibility`` (absurd fits,
 links against the model, the known rigid body's report), ``reload`` (a result on other data:
 :func:`model_from_result`, :func:`validate`). Other packages import the names of :data:`__all__`
@@ -25,8 +26,8 @@ _LAZY = {
     "FieldError": "checks",
     "IdentifyResult": "result", "read_result": "result",
     "identify": "orchestration",
-    "Sources": "model", "build_model": "model", "observe_sources": "model", "as_sources": "model",
-    "model_metrics": "model", "metric_model": "model",
+    "Sources": "model_building", "build_model": "model_building", "observe_sources": "model_building",
+    "as_sources": "model_building", "model_metrics": "model_building", "metric_model": "model_building",
     "solve_model": "solve",
     "model_from_result": "reload", "validate": "reload",
 }

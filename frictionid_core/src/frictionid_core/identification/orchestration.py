@@ -13,7 +13,15 @@ from frictionid_core import diagnostics
 from frictionid_core.drive import drive_from_dict, load_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_rates
-from frictionid_core.identification.model import Sources, as_sources, build_model, model_metrics, preprocessing_record
+from frictionid_core.identification.identifiability import identifiability
+from frictionid_core.identification.model_building import (
+    Sources,
+    as_sources,
+    build_model,
+    model_metrics,
+    preprocessing_record,
+)
+from frictionid_core.identification.plan import Holds, plan_fit
 from frictionid_core.identification.plausibility import (
     check_fit,
     known_rigid_body_report,
@@ -27,7 +35,7 @@ from frictionid_core.identification.uncertainty import jacobian_std, robust_std,
 from frictionid_core.identification_model import IdentificationModel
 from frictionid_core.parallel import single_threaded_libraries
 from frictionid_core.robots.consistency_check import plausibility_warnings
-from frictionid_core.systems import System, as_system
+from frictionid_core.systems import System, as_system, nominal_parameters
 from frictionid_core.systems.robot import LINK_TORQUE, known_rigid_body
 from frictionid_core.timeseries import JointSeries
 
@@ -39,16 +47,13 @@ def request_system(request: IdentifyRequest) -> System:
         drive = load_drive(drive)
     elif drive is not None:
         drive = drive_from_dict(drive, "the request's drive")
-    return as_system(request.system, request.joint_map, drive)
+    return as_system(request.system, request.joint_map, drive, request.gravity)
 
 
 def request_sources(series: Sources, request: IdentifyRequest) -> list[JointSeries]:
-    """``series`` as a list of sources cut to the request's window, with the request's joints."""
-    sources = as_sources(series, request.window)
-    joints = request.joints
-    if joints is not None:
-        sources = [s if list(s.joints) == list(joints) else s.select(list(joints)) for s in sources]
-    return sources
+    """``series`` as a list of sources cut to the request's window (the request's joints are
+    selected by the fit's plan: :func:`~frictionid_core.identification.plan.plan_fit`)."""
+    return as_sources(series, request.window)
 
 
 # One BLAS thread: the tall products (FᵀF of the dip refit's 161k rows, the Jacobian's JᵀJ) gain
@@ -57,88 +62,117 @@ def request_sources(series: Sources, request: IdentifyRequest) -> list[JointSeri
 @single_threaded_libraries()
 def identify(series: Sources, request: IdentifyRequest | None = None, *, progress=None) -> IdentifyResult:
     """Identify the parameters ``request`` asks for (default ``IdentifyRequest()``: EMPS, Coulomb,
-    ls) from ``series``: one source, or several with the same joints (each pre-processed alone,
-    the observations stacked).
+    ls) from ``series``: one source, or several (each pre-processed alone, the observations
+    stacked; each may hold its own joints: see :func:`~frictionid_core.identification.plan.plan_fit`).
 
     ``progress(generation, evaluations, best_cost)`` is called during an optimiser run (see
     :class:`frictionid_core.optim.Problem`; an exception it raises stops the run); not by ``ls``.
     With a drive whose friction acts on the motors, friction, offsets and rotor inertias are per
     motor (``motor_<k>/…``, fit in the referred motor torques) and the metrics on the joint
-    torques Cᵀ·u. With ``consistent``, σ stay those of the unconstrained fit.
+    torques Cᵀ·u. The directions the data do not resolve are held (at 0, or at the robot model's
+    values with ``prior``: :mod:`~frictionid_core.identification.identifiability`), σ NaN. With
+    ``consistent``, σ stay those of the unconstrained fit.
     """
     t0 = time.perf_counter()
     request = IdentifyRequest() if request is None else request
     if not isinstance(request, IdentifyRequest):
         raise FrictionIdError(f"identify takes an IdentifyRequest, got {type(request).__name__}")
     sys_ = request_system(request)
-    held = known_rigid_body(sys_) if request.known_rigid_body else None
     settings = request.preprocessing.apply(sys_.preprocessing)
     solver = request.solver
     if solver.varpro is None:
         solver = replace(solver, varpro=sys_.robot is not None)
     sources = request_sources(series, request)
-    fixed_request = {**request.fixed, LINK_TORQUE: 1.0} if held else request.fixed
+    where = sources[0].source if len(sources) == 1 else ", ".join(s.source for s in sources)
+    plan = plan_fit(sources, sys_, request.joints, Holds(dict(request.hold), request.hold_missing))
+    sys_ = plan.system
+    rigid = known_rigid_body(sys_) if request.known_rigid_body else None
+    fixed_request = {**request.fixed, LINK_TORQUE: 1.0} if rigid else dict(request.fixed)
+    held: dict[str, float] = {}  # the directions the data do not resolve, held (identifiability)
+    fit_plan = replace(plan, system=rigid.fit_system) if rigid else plan
 
     def rebuild(pre) -> IdentificationModel:
-        return with_data_bounds(build_model(sources, held.fit_system if held else sys_, request.friction,
-                                            request.asymmetric, pre, request.bounds, fixed=fixed_request))
+        return with_data_bounds(build_model(fit_plan, fit_plan.system, request.friction, request.asymmetric, pre,
+                                            request.bounds, fixed={**fixed_request, **held}))
 
     model = rebuild(settings)
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
     if errors:
-        raise InputError(f"{sources[0].source}: " + "; ".join(errors))
+        raise InputError(f"{where}: " + "; ".join(errors))
+    prior = nominal_parameters(sys_) if request.prior == "urdf" and rigid is None else None
+    resolved = identifiability(model, prior)
+    if resolved.held:
+        held.update(resolved.held)
+        model = replace(model, fixed={**fixed_request, **held})
     at_rule_rates = model
     model, (x, std, cond, res) = fit_at_dip_rates(
         model, settings, rebuild, lambda m, previous=None: fit_model(m, solver, progress, previous))
-    warnings += dip_warnings(model, x)
+    inertia_warnings = list(sys_.robot.model.inertia_warnings) if sys_.robot is not None else []
+    warnings = inertia_warnings + plan.warnings() + resolved.warning() + warnings + dip_warnings(model, x)
     if res is not None:
         std, design = jacobian_std(model, x, model.held_at_box(x))
         cond = float(np.linalg.cond(design))
     holdout = None
     if not model.is_linear and solver.warm_start:
-        holdout = holdout_comparison(model, x, solver)
-        if holdout.get("beats_linear") is False:  # the Coulomb case, at the rates chosen before any dip refit
-            model = at_rule_rates
-            x, std, cond = linear_fallback(model, x)
-            holdout["returned"] = "linear special case"
-            warnings.append(f"{model.friction.label} does not beat its linear special case (Coulomb) on the "
-                            f"held-back quarter of the rows (relerr {holdout['law_relerr_pct']:.4g} % vs "
-                            f"{holdout['linear_relerr_pct']:.4g} %): the Coulomb case is returned (Fs = Fc, no dip); "
-                            "these data do not support the law's dip")
+        model, x, std, cond, holdout = against_linear_case(model, at_rule_rates, x, (std, cond), solver, warnings)
+    std = {**std, **dict.fromkeys(held, float("nan"))}
     undetermined = {n for n, v in std.items() if not np.isfinite(v)}
     std_robust, robust_cov, robust_names, bandwidth = robust_std(model, x, undetermined)
     consistency = standard = None
     if request.consistent:
-        x, consistency, standard = consistent_parameters(model, x, sys_, request)
+        # dropped directions are free in the program (0 need not be physical); the prior's stay at its values
+        released = {model.names.index(n) for n in held} if resolved.action == "dropped" else set()
+        x, consistency, standard = consistent_parameters(model, x, sys_, request, released)
     metrics = model_metrics(model, x)
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
-    check_fit(model, x, metrics, sources[0].source)
-    notes = [*(note for s in sources for note in s.notes), *model.obs.notes]
+    check_fit(model, x, metrics, where)
+    notes = [*(note for s in sources for note in s.notes), *model.obs.notes, *plan.notes()]
     warnings = result_warnings(model, x, std, notes, warnings)
-    plausibility = None
-    if sys_.robot is not None and held is None:
-        plausibility = robot_plausibility(dict(zip(model.names, x)), sys_, standard)
-        warnings += plausibility_warnings(plausibility)
     params = dict(zip(model.names, map(float, x)))
-    fixed = {model.names[i]: v for i, v in model.fixed_values.items()}
-    if held is not None:
+    fixed = {model.names[i]: v for i, v in model.fixed_values.items() if model.names[i] not in held}
+    plausibility = None
+    if rigid is not None:
         white_names = [n for n in (model.names[i] for i in model.free_index) if n not in undetermined]
         params, std, std_robust, fixed = known_rigid_body_report(
-            held, model, x, std, std_robust, (white_names, white_covariance(model, x, white_names)),
+            rigid, model, x, std, std_robust, (white_names, white_covariance(model, x, white_names)),
             (robust_names, robust_cov))
+    elif sys_.robot is not None:
+        plausibility = robot_plausibility(params, sys_, standard)
+        warnings += plausibility_warnings(plausibility)
     return IdentifyResult(
         system=sys_.name, joint_map=dict(sys_.joint_map), friction=request.friction, asymmetric=request.asymmetric,
         solver=solver.method, source=sources[0].source if len(sources) == 1 else [s.source for s in sources],
-        joints=list(sources[0].joints), params=params, std=std, metrics=metrics,
+        joints=list(plan.rows), params=params, std=std, metrics=metrics,
         wall_s=time.perf_counter() - t0, warnings=warnings, notes=notes,
         drive=sys_.drive.to_dict() if sys_.drive else None, window=request.window, fixed=fixed,
         bounds=dict(request.bounds), optimizer=None if res is None else res.to_dict(),
         varpro=None if res is None else solver.varpro, warm_start=None if res is None else solver.warm_start,
         consistency=consistency, standard_parameters=standard,
-        preprocessing=preprocessing_record(model.obs, metrics, sys_.preprocessing, settings), request=request,
+        preprocessing=preprocessing_record(model.obs, metrics, sys_.preprocessing, settings),
+        identifiability=resolved.to_dict(), held_joints=dict(plan.held) if sys_.robot is not None else None,
+        no_effort_joints=list(plan.no_effort), request=request,
         std_robust=std_robust, uncertainty=uncertainty_record(bandwidth, model), velocity_range=velocity_range(model),
         holdout=holdout, plausibility=plausibility)
+
+
+def against_linear_case(model: IdentificationModel, linear_rates: IdentificationModel, x: np.ndarray,
+                        uncertainty: tuple[dict, float], solver, warnings: list[str]) -> tuple:
+    """(model, x, std, cond, holdout) after comparing the nonlinear law of ``model`` with its
+    linear special case (Coulomb) on held-back rows: the law's fit as it is when it wins, else
+    the Coulomb case fitted on ``linear_rates`` (the model at the rule's rates, before any dip
+    refit) with a warning appended to ``warnings``."""
+    std, cond = uncertainty
+    holdout = holdout_comparison(model, x, solver)
+    if holdout.get("beats_linear") is False:
+        model = linear_rates
+        x, std, cond = linear_fallback(model, x)
+        holdout["returned"] = "linear special case"
+        warnings.append(f"{model.friction.label} does not beat its linear special case (Coulomb) on the "
+                        f"held-back quarter of the rows (relerr {holdout['law_relerr_pct']:.4g} % vs "
+                        f"{holdout['linear_relerr_pct']:.4g} %): the Coulomb case is returned (Fs = Fc, no dip); "
+                        "these data do not support the law's dip")
+    return model, x, std, cond, holdout
 
 
 def result_warnings(model: IdentificationModel, x: np.ndarray, std: dict[str, float], notes: list[str],
@@ -157,17 +191,19 @@ def result_warnings(model: IdentificationModel, x: np.ndarray, std: dict[str, fl
                                                         lo[free], hi[free], physical))
 
 
-def consistent_parameters(model: IdentificationModel, x: np.ndarray, sys_: System, request: IdentifyRequest
-                          ) -> tuple[np.ndarray, dict, dict]:
+def consistent_parameters(model: IdentificationModel, x: np.ndarray, sys_: System, request: IdentifyRequest,
+                          released: set[int] = frozenset()) -> tuple[np.ndarray, dict, dict]:
     """(the consistent parameters, the ``consistency`` record with the unconstrained fit's
-    metrics, the standard parameters per link) at the nonlinear shapes of ``x``."""
+    metrics, the standard parameters per link) at the nonlinear shapes of ``x``; ``released``:
+    the indices of parameters held only because the data do not resolve them (the program
+    leaves the rigid-body ones to the prior)."""
     from frictionid_core.robots.consistency_check import standard_record
     from frictionid_core.robots.consistent_fit import consistent_fit
 
     use_prior = request.prior == "urdf"
     unconstrained = model_metrics(model, x)
     fit = consistent_fit(model, x, sys_.robot, prior_weight=request.prior_weight if use_prior else 0.0,
-                         stribeck_order=request.stribeck_order)
+                         stribeck_order=request.stribeck_order, released=released)
     fit.record["unconstrained"] = {"params": dict(zip(model.names, map(float, x))),
                                    "relerr_pct": unconstrained.get("relerr_pct"), "rmse": unconstrained.get("rmse")}
     fit.record["prior"] = "urdf" if use_prior else "none"

@@ -9,7 +9,8 @@ import numpy as np
 
 from frictionid_core.drive import result_drive
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.identification.model import Sources, as_sources, build_model, metric_model, model_metrics
+from frictionid_core.identification.model_building import Sources, as_sources, build_model, metric_model, model_metrics
+from frictionid_core.identification.plan import Holds, plan_fit
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification_model import IdentificationModel
 from frictionid_core.preprocess import Preprocessing
@@ -25,9 +26,11 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
     written by hand or by an earlier version) on ``series`` (one source or several) and its
     identified parameters (k,).
 
-    System, joint map, joints, friction, drive and pre-processing come from the result; each
-    argument given overrides its part (``joint_map`` goes with ``system`` when both are given).
-    ``window`` cuts ``series`` (s from the first sample); the result's own window is not reused.
+    System, joint map, joints, friction, drive, pre-processing and held joints come from the
+    result; each argument given overrides its part (``joint_map`` goes with ``system`` when both
+    are given). ``window`` cuts ``series`` (s from the first sample); the result's own window is
+    not reused. The joints the result held still are held again where it held them (the base
+    parameters are those of that regressor; a logged column of such a joint is not used).
     """
     if isinstance(result, IdentifyResult):
         result = result.to_dict()
@@ -41,15 +44,17 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         friction, asymmetric = result["friction"], bool(result["asymmetric"])
         joints = joints or result.get("joints")  # None (a hand-written file): the data's joints
         values = result["params"]
+        asked = result.get("request") or {}
+        held = dict(result.get("held_joints") or {})
     except KeyError as exc:
         raise FrictionIdError(f"parameter file lacks {exc}; expected the JSON written by "
                               "'frictionid identify'") from None
     sources = as_sources(series, window)  # on the recorded side: the system's drive converts them
     if preprocessing is None and result.get("preprocessing"):
         preprocessing = Preprocessing.from_dict(result["preprocessing"], 1.0 / sources[0].dt)
-    if joints:
-        sources = [s.select(list(joints)) for s in sources]
-    model = build_model(sources, sys_, friction, asymmetric, preprocessing)
+    holds = Holds({**(asked.get("hold") or {}), **held}, bool(asked.get("hold_missing")))
+    plan = plan_fit(sources, sys_, list(joints) if joints else None, holds, structure=held, judge_effort=False)
+    model = build_model(plan, plan.system, friction, asymmetric, preprocessing)
     missing = [n for n in model.names if n not in values]
     if missing:
         raise FrictionIdError(f"parameter file lacks parameter(s) {missing} of the model (it has {list(values)}); "

@@ -48,10 +48,17 @@ class IdentifyRequest:
         bounds: {name: (lo, hi)} the user's bounds, held by every solver path (names as ``fixed``).
         consistent: robot systems: physically consistent standard parameters (the result gains
             ``standard_parameters`` and ``consistency``).
-        prior: with ``consistent``: ``urdf`` pulls each link toward the robot model's own
-            inertials (log-det divergence weighted by ``prior_weight``); None: no prior.
+        prior: robot systems: ``urdf`` holds the directions the data do not resolve at the robot
+            model's own values (see ``identifiability`` in the result) and, with ``consistent``,
+            pulls each link toward the model's inertials (log-det divergence weighted by
+            ``prior_weight``); None: no prior (unresolved directions are dropped).
         prior_weight: weight of that divergence against the data term (≥ 0).
         stribeck_order: with ``consistent``: also Fs ≥ Fc.
+        hold: robot systems: {model joint: position (rad or m)} joints held still at that position
+            in every source (a logged column of that joint is not used).
+        hold_missing: robot systems: every model joint absent from a source is held still at 0
+            (or at the drive's ``position_offset`` of that joint).
+        gravity: system ``joint``: each joint also gets ``g_sin``·sin q + ``g_cos``·cos q.
         known_rigid_body: robot systems: the robot model's rigid body held (its links as
             modelled), the rotor inertia (armature) of each joint or motor identified (≥ 0) with
             the friction and offsets; the result's base parameters are the links' with the
@@ -74,6 +81,9 @@ class IdentifyRequest:
     prior: str | None = None
     prior_weight: float = 1.0
     stribeck_order: bool = False
+    hold: dict[str, float] = field(default_factory=dict)
+    hold_missing: bool = False
+    gravity: bool = False
     known_rigid_body: bool = False
 
     def __post_init__(self) -> None:
@@ -98,8 +108,13 @@ class IdentifyRequest:
 
     def _check_consistency(self) -> None:
         set_ = object.__setattr__
-        for name in ("consistent", "stribeck_order", "known_rigid_body"):
+        for name in ("consistent", "stribeck_order", "hold_missing", "gravity", "known_rigid_body"):
             set_(self, name, flag(name, getattr(self, name)))
+        hold = {k: number(f"hold.{k}", v) for k, v in mapping("hold", self.hold).items()}
+        bad = [k for k, v in hold.items() if not math.isfinite(v)]
+        if bad:
+            raise FieldError(f"hold.{bad[0]}", f" must be a finite position (rad or m), got {hold[bad[0]]}")
+        set_(self, "hold", hold)
         if self.prior == "none":
             set_(self, "prior", None)
         if self.prior is not None:
@@ -108,14 +123,20 @@ class IdentifyRequest:
         if not 0.0 <= weight < math.inf:
             raise FieldError("prior_weight", f" must be >= 0, got {weight}")
         set_(self, "prior_weight", weight)
-        if self.consistent and not (self.system == "tx40" or self.system.startswith("urdf:")):
-            raise FieldError("consistent", f": needs a robot system ({ROBOT_SYSTEMS}) with body parameters; "
-                                           f"system '{self.system}' has none")
-        for name, used in (("prior", self.prior is not None), ("stribeck_order", self.stribeck_order)):
-            if used and not self.consistent:
-                raise FieldError(name, ": applies to the consistent fit only: set consistent")
+        robot = self.system == "tx40" or self.system.startswith("urdf:")
+        for name, used in (("consistent", self.consistent), ("prior", self.prior is not None),
+                           ("hold", bool(self.hold)), ("hold_missing", self.hold_missing)):
+            if used and not robot:
+                raise FieldError(name, f": needs a robot system ({ROBOT_SYSTEMS}) with body parameters; "
+                                       f"system '{self.system}' has none")
+        if self.stribeck_order and not self.consistent:
+            raise FieldError("stribeck_order", ": applies to the consistent fit only: set consistent")
+        if self.gravity and self.system != "joint":
+            raise FieldError("gravity", f": adds g_sin·sin q + g_cos·cos q to the one-joint model (system 'joint'); "
+                                        f"system '{self.system}' "
+                             + ("has its own gravity terms" if robot else "has none"))
         if self.known_rigid_body:
-            if not (self.system == "tx40" or self.system.startswith("urdf:")):
+            if not robot:
                 raise FieldError("known_rigid_body", f": needs a robot system ({ROBOT_SYSTEMS}) whose model has the "
                                                      f"rigid body; system '{self.system}' has none")
             if self.consistent:

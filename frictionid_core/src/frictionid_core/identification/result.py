@@ -22,7 +22,8 @@ from frictionid_core.identification.request import IdentifyRequest, _bound, _win
 
 # Keys left out of the JSON when their field is None.
 OPTIONAL_KEYS = ("optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "output_error", "idm",
-                 "idm_params", "request", "uncertainty", "velocity_range", "holdout", "plausibility")
+                 "idm_params", "identifiability", "held_joints", "no_effort_joints", "request", "uncertainty",
+                 "velocity_range", "holdout", "plausibility")
 REQUIRED_KEYS = ("system", "friction", "asymmetric", "params")
 MAX_PARAMETER = 1e15  # |value| beyond: not an identified parameter in SI units (an overflow, a typo)
 
@@ -57,6 +58,11 @@ class IdentifyResult:
         layout: the CSV layout file the source was read with (the command line), or None.
         output_error, idm, idm_params: an output-error identification: True, the IDM start's
             metrics and parameters (None otherwise).
+        identifiability: what the data resolve: {rank, columns, unresolved, action, …} (see
+            :class:`~frictionid_core.identification.identifiability.Identifiability`).
+        held_joints: robot systems: {model joint: position (rad or m)} held still in every
+            source (None for the other systems).
+        no_effort_joints: data joints that moved without a usable effort, left out of the fit.
         request: the request that produced it (None: built by hand).
         uncertainty: how ``std`` and ``std_robust`` were obtained (the HAC bandwidth).
         velocity_range: {friction row (joint or motor): [slowest, fastest] |velocity| of the rows
@@ -94,6 +100,9 @@ class IdentifyResult:
     output_error: bool | None = None
     idm: dict | None = None
     idm_params: dict[str, float] | None = None
+    identifiability: dict | None = None
+    held_joints: dict[str, float] | None = None
+    no_effort_joints: list[str] | None = None
     request: IdentifyRequest | None = None
     std_robust: dict[str, float] = field(default_factory=dict)
     uncertainty: dict | None = None
@@ -106,8 +115,8 @@ class IdentifyResult:
         head = ("system", "joint_map", "friction", "asymmetric", "solver", "source", "joints", "params", "std",
                 "std_robust", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds",
                 "optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "preprocessing", "layout",
-                "output_error", "idm", "idm_params", "request", "uncertainty", "velocity_range", "holdout",
-                "plausibility")
+                "output_error", "idm", "idm_params", "identifiability", "held_joints", "no_effort_joints", "request",
+                "uncertainty", "velocity_range", "holdout", "plausibility")
         out = {}
         for key in head:
             value = getattr(self, key)
@@ -191,6 +200,9 @@ def result_fields(data: Mapping) -> dict:
         "velocity_range": _velocity_range,
         "standard_parameters": _standard_parameters,
         "preprocessing": _preprocessing,
+        "identifiability": mapping,
+        "held_joints": _parameters,  # {model joint: position (rad or m)}, each finite
+        "no_effort_joints": _names,
         "request": lambda k, v: v,  # IdentifyRequest.from_dict checks it
     }
     nulls = [k for k in REQUIRED_KEYS if data[k] is None]

@@ -11,7 +11,8 @@ import numpy as np
 
 from frictionid_core.friction import DEFAULT_BOUNDS, get_model
 from frictionid_core.identification.settings import SolverOptions
-from frictionid_core.identification_model import IdentificationModel, parameter_kind
+from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.parameter_names import parameter_kind
 
 if TYPE_CHECKING:
     from frictionid_core.optim.problem import OptimResult, Problem

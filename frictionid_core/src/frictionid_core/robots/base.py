@@ -19,14 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from frictionid_core.errors import InputError
-
 # |R_kk| / |R_00| below this is numerically zero (structural rank on random samples).
 RANK_TOL = 1e-9
 # Entries of K smaller than this are set to 0 (round-off of exact structural zeros).
 K_TOL = 1e-10
-# Rank test on data: a column whose normalised pivot |R_kk|/|R_00| falls below this is not excited.
-DATA_RANK_TOL = 1e-6
 
 
 @dataclass
@@ -154,29 +150,23 @@ def robot_base_parameters(robot, samples: int | None = None, seed: int = 0, rows
     return base_parameters(Y.reshape(-1, Y.shape[-1]), names)
 
 
-def check_excitation(columns: np.ndarray, names: list[str], what: str, tol: float = DATA_RANK_TOL) -> None:
-    """Raise InputError when the observation columns (rows, C) are rank-deficient, naming the
-    parameters the data cannot separate from the others (the pivot tail of a QR with column
-    pivoting on unit-norm columns)."""
-    from scipy import linalg
-
-    norms = np.linalg.norm(columns, axis=0)
-    zero = [names[i] for i in np.flatnonzero(norms == 0.0)]
-    keep = np.flatnonzero(norms > 0.0)
-    msgs = []
-    if zero:
-        msgs.append(f"no effect at all on the data: {', '.join(zero)}")
-    if keep.size:
-        A = columns[:, keep] / norms[keep]
-        _, R, piv = linalg.qr(A, mode="economic", pivoting=True)
-        d = np.abs(np.diag(R))
-        r = int(np.sum(d > tol * d[0]))
-        if r < keep.size:
-            tail = [names[keep[i]] for i in piv[r:]]
-            msgs.append(f"linearly dependent on the others (rank {r} of {keep.size}): {', '.join(tail)}")
-    if msgs:
-        raise InputError(
-            f"{what}: the observation matrix is rank-deficient — the motion does not excite every parameter; "
-            + "; ".join(msgs)
-            + ". Record a richer excitation ('frictionid excite') or use a smaller model (e.g. --system tx40-j2)"
-        )
+def restricted_base_parameters(robot, base: BaseParameters, held: dict[str, float], rows: list[str],
+                               samples: int | None = None, seed: int = 0) -> BaseParameters:
+    """Base parameters of ``robot`` (with its base parameters ``base``) when its joints ``held``
+    stay still at those positions (rad or m; q̇ = q̈ = 0) and only the torques of the joints
+    ``rows`` are observed: the base columns on random samples of that regressor, reduced again
+    (:func:`base_parameters`) and composed with ``base``, so β' = A'·π with A' = A₂·A."""
+    index = {j: k for k, j in enumerate(robot.joints)}
+    n = samples or max(50, 4 * base.rank // max(1, len(rows)) + 10)
+    q, qd, qdd = random_samples(robot, n, seed)
+    for joint, value in held.items():
+        k = index[joint]
+        q[:, k], qd[:, k], qdd[:, k] = value, 0.0, 0.0
+    W = base.reduce(robot.regressor(q, qd, qdd))[:, [index[j] for j in rows], :]
+    second = base_parameters(W.reshape(-1, base.rank), [base.names[i] for i in base.base_index])
+    A = second.combination_matrix() @ base.combination_matrix()
+    keep = base.base_index[second.base_index]
+    dependent = np.setdiff1d(np.arange(len(base.names)), keep)
+    K = A[:, dependent]
+    K[np.abs(K) < K_TOL] = 0.0
+    return BaseParameters(list(base.names), keep, dependent, K)

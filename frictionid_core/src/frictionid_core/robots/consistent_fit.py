@@ -64,12 +64,15 @@ def _friction_kind(name: str) -> str:
 
 
 def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = None, prior_weight: float = 0.0,
-                   stribeck_order: bool = False, margin: float = MARGIN) -> ConsistentFit:
+                   stribeck_order: bool = False, margin: float = MARGIN, released=frozenset()) -> ConsistentFit:
     """Consistent standard + friction parameters on the rows of ``model`` (an IdentificationModel
     of a robot system) with the nonlinear shapes of ``x0`` (its unconstrained solution, (k,));
     ``robot``: the system's :class:`~frictionid_core.systems.system.RobotInfo`; ``prior``:
     standard parameters whose pseudo-inertias the log-det term pulls toward with ``prior_weight``
-    (default: the model's own); ``stribeck_order``: also Fs ≥ Fc per branch."""
+    (default: the model's own); ``stribeck_order``: also Fs ≥ Fc per branch. A fixed parameter
+    of the model keeps its value, a base parameter as A·π; one whose index is in ``released``
+    (held only because the data do not resolve it) is left free when it is a base parameter:
+    the prior's divergence (or the tie-break) decides it."""
     import cvxpy as cp
 
     rows = robot.rows or robot.model
@@ -111,6 +114,10 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
         Js.append(J)
     if nrot:
         cons.append(z[10 * nb : P] >= 0)
+    for pos in range(r):
+        i = model.linear_index[pos]
+        if i in model.fixed_values and i not in released:
+            cons.append(A[pos] @ z[:P] == model.fixed_values[i])
     used_prior = []
     weight = prior_weight if prior_weight > 0 else TIE_BREAK
     if weight > 0:

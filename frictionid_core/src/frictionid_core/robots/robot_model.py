@@ -50,6 +50,8 @@ class RobotModel:
         lower, upper: position limits (nv,) (±inf when unlimited).
         velocity_limit, acceleration_limit: (nv,) magnitudes.
         source: where the model came from (file or table).
+        inertia_warnings: one line per moving body whose inertia breaks the triangle inequalities
+            (:func:`check_inertials`): kept, but not a prior the consistent fit can pull toward.
     """
 
     name: str
@@ -60,6 +62,7 @@ class RobotModel:
     velocity_limit: np.ndarray
     acceleration_limit: np.ndarray
     source: str = ""
+    inertia_warnings: tuple[str, ...] = ()
     _data: object = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
@@ -196,7 +199,8 @@ def load_urdf(path: str | Path, acceleration_limit: np.ndarray | float | None = 
 
     The file's numbers are checked first (:func:`check_urdf_numbers`: the parser would print
     errors and carry on with a zero inertia), the moving bodies' inertials after the build
-    (:func:`check_inertials`); InputError naming the link or joint.
+    (:func:`check_inertials`); InputError naming the link or joint, a body's inertia that only
+    breaks the triangle inequalities kept in ``inertia_warnings``.
     """
     pin = _pin()
     path = Path(path)
@@ -214,7 +218,7 @@ def load_urdf(path: str | Path, acceleration_limit: np.ndarray | float | None = 
         raise InputError(f"{path}: not a valid URDF model ({msg[:300]})") from None
     robot = from_pinocchio(pmodel, pmodel.name or path.stem, str(path), acceleration_limit)
     children = {j.get("name"): c.get("link") for j in root.iter("joint") if (c := j.find("child")) is not None}
-    check_inertials(pmodel, children, str(path))
+    robot.inertia_warnings = tuple(check_inertials(pmodel, children, str(path)))
     return robot
 
 
@@ -259,11 +263,14 @@ def check_urdf_numbers(root, where: str) -> None:
                         raise InputError(f"{where}: link '{name}': negative mass {values[0]:g} kg")
 
 
-def check_inertials(pmodel, children: dict[str, str], where: str) -> None:
+def check_inertials(pmodel, children: dict[str, str], where: str) -> list[str]:
     """InputError naming the link (``children``: joint → its child link) when the body a movable
-    joint of ``pmodel`` moves (its link and the links fixed to it) has no positive mass or an
-    inertia no rigid body has (principal moments about the centre of mass negative or breaking
-    the triangle inequalities): the model's inertials are the consistent fit's prior."""
+    joint of ``pmodel`` moves (its link and the links fixed to it) has no positive mass or a
+    negative principal moment about its centre of mass; a warning (returned, one line per link)
+    when its moments break the triangle inequalities: no rigid body has that inertia, but real
+    CAD exports do (the real TIAGo's arm_1_link, by 2 %), and the data fit does not need it, only
+    the consistent fit's prior, which skips such a body."""
+    warnings = []
     for i in range(1, pmodel.njoints):
         joint, body = pmodel.names[i], pmodel.inertias[i]
         link = f"link '{children.get(joint, joint)}' (moved by joint '{joint}')"
@@ -272,10 +279,14 @@ def check_inertials(pmodel, children: dict[str, str], where: str) -> None:
                              "(its <inertial>)")
         moments = np.linalg.eigvalsh(body.inertia)  # ascending, about the centre of mass
         tol = max(INERTIA_TOLERANCE * moments[-1], INERTIA_FLOOR)
-        if moments[0] < -tol or moments[0] + moments[1] < moments[2] - tol:
-            raise InputError(f"{where}: {link} has an inertia no rigid body has: principal moments "
-                             f"{', '.join(f'{m:.6g}' for m in moments)} kg·m² about its centre of mass (each must be "
-                             "≥ 0 and at most the sum of the other two)")
+        shown = f"principal moments {', '.join(f'{m:.6g}' for m in moments)} kg·m² about its centre of mass"
+        if moments[0] < -tol:
+            raise InputError(f"{where}: {link} has an inertia no rigid body has: {shown} (each must be ≥ 0 and at "
+                             "most the sum of the other two)")
+        if moments[0] + moments[1] < moments[2] - tol:
+            warnings.append(f"{where}: {link} has an inertia no rigid body has: {shown} (the largest exceeds the "
+                            "sum of the other two); --prior urdf does not pull that link toward it")
+    return warnings
 
 
 def example_robot_data_dir() -> Path:

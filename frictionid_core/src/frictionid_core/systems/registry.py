@@ -11,7 +11,7 @@ from frictionid_core.drive import Drive, result_drive
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.robots.robot_model import load_urdf
 from frictionid_core.robots.tx40 import build_tx40
-from frictionid_core.systems.emps import ONE_JOINT
+from frictionid_core.systems.emps import JOINT_GRAVITY, ONE_JOINT
 from frictionid_core.systems.friction_only import FRICTION_ONLY
 from frictionid_core.systems.robot import robot_system
 from frictionid_core.systems.system import System, parse_joint_map
@@ -25,8 +25,10 @@ SYSTEM_NAMES = (*FIXED_SYSTEMS, "tx40", f"{URDF_PREFIX}PATH")
 _PACKED_MAP = "?map="
 
 
-def get_system(name: str, joint_map: dict[str, str] | None = None, drive: Drive | None = None) -> System:
-    """The system ``name`` (one of SYSTEM_NAMES, ``urdf:PATH`` naming any fixed-base URDF file).
+def get_system(name: str, joint_map: dict[str, str] | None = None, drive: Drive | None = None,
+               gravity: bool = False) -> System:
+    """The system ``name`` (one of SYSTEM_NAMES, ``urdf:PATH`` naming any fixed-base URDF file);
+    ``gravity``: ``joint`` with a gravity term per joint (``g_sin``, ``g_cos``).
 
     ``joint_map`` {data joint: model joint} renames data joints for the robot systems; ``drive``
     (:mod:`frictionid_core.drive`) converts the log to the joint side, and with friction on the
@@ -34,10 +36,16 @@ def get_system(name: str, joint_map: dict[str, str] | None = None, drive: Drive 
     modification time, joint map and motor-side drive (its base parameters are computed once).
     """
     joint_map = dict(joint_map or {})
-    if name in FIXED_SYSTEMS:
+    if gravity:
+        if name != JOINT_GRAVITY.name:
+            raise FrictionIdError(f"system '{name}' takes no gravity term (only '{JOINT_GRAVITY.name}' does)")
+        fixed_system = JOINT_GRAVITY
+    else:
+        fixed_system = FIXED_SYSTEMS.get(name)
+    if fixed_system is not None:
         if joint_map:
             raise FrictionIdError(f"system '{name}' takes no joint map; select joints with --joints")
-        return with_drive(FIXED_SYSTEMS[name], drive)
+        return with_drive(fixed_system, drive)
     if name == "tx40":
         stamp = None
     elif name.startswith(URDF_PREFIX):
@@ -78,19 +86,22 @@ def with_drive(system: System, drive: Drive | None) -> System:
     return replace(system, drive=drive)
 
 
-def as_system(system: str | System, joint_map: dict[str, str] | None = None, drive: Drive | None = None) -> System:
+def as_system(system: str | System, joint_map: dict[str, str] | None = None, drive: Drive | None = None,
+              gravity: bool = False) -> System:
     """``system`` itself (reading its logs through ``drive`` when given), or the system of that
-    name with ``joint_map`` and ``drive``."""
+    name with ``joint_map``, ``drive`` and ``gravity`` (see :func:`get_system`)."""
     if isinstance(system, System):
         if joint_map:
             raise FrictionIdError(f"a joint map goes with a system name, not with the System '{system.name}' "
                                   "(it carries its own)")
         return with_drive(system, drive)
-    return get_system(system, joint_map, drive)
+    return get_system(system, joint_map, drive, gravity)
 
 
 def result_system(result: dict) -> System:
     """The system of an identification result (``IdentifyResult.to_dict()``): its ``system``,
-    ``joint_map`` (older results pack the map into the name: ``tx40?map=a=b,c=d``) and ``drive``."""
+    ``joint_map`` (older results pack the map into the name: ``tx40?map=a=b,c=d``), ``drive`` and
+    its gravity terms (``g_sin`` parameters)."""
     name, _, packed = str(result["system"]).partition(_PACKED_MAP)
-    return get_system(name, result.get("joint_map") or parse_joint_map(packed), result_drive(result))
+    gravity = any(str(p).rsplit("/", 1)[-1] == "g_sin" for p in result.get("params") or {})
+    return get_system(name, result.get("joint_map") or parse_joint_map(packed), result_drive(result), gravity)

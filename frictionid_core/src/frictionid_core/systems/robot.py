@@ -4,9 +4,10 @@
 columns are the robot's *base* regressor (Pinocchio's joint torque regressor, 10 parameters
 per body, plus one rotor-inertia column q̈_j per joint, reduced to the base parameters by QR
 with column pivoting): τ = W_b(q, q̇, q̈)·β + τ_f(q̇) + offset. Rows are the data's joints
-(joint-major); the data must hold every model joint (bag names matched to model names through
-the system's joint map). The columns of the data are checked for rank before any solve
-(:attr:`System.excitation`).
+(joint-major); the data hold every model joint (bag names matched to model names through
+the system's joint map) or the fit holds the others still (:func:`restricted_system`: the base
+parameters of that regressor). What the data resolve is checked on the fit's own rows
+(:mod:`frictionid_core.identification.identifiability`).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import numpy as np
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.preprocess import Prepared, Preprocessing
-from frictionid_core.robots.base import base_parameter_names, robot_base_parameters
+from frictionid_core.robots.base import base_parameter_names, restricted_base_parameters, robot_base_parameters
 from frictionid_core.systems.system import RobotInfo, System
 
 # Robot data: every setting chosen from the data (frictionid_core.preprocess): the cut-off from
@@ -28,10 +29,9 @@ from frictionid_core.systems.system import RobotInfo, System
 # rates follow makes identify() refit at the rates the dip needs.
 ROBOT_PREPROCESSING = Preprocessing()
 
-# Rows of the excitation test: one in this many samples, more on long logs (at most about
-# _CHECK_SAMPLES samples: the pivoted QR of every tenth sample of a 5 kHz minute takes seconds).
-_CHECK_STRIDE = 10
-_CHECK_SAMPLES = 5000
+# Restricted base parameters already computed: {(id of the RobotInfo, held, rows): (that RobotInfo, base)}.
+_RESTRICTED: dict = {}
+_RESTRICTED_MAX = 16
 
 
 def robot_system(robot, name: str, joint_map: dict[str, str] | None = None, base=None,
@@ -48,21 +48,35 @@ def robot_system(robot, name: str, joint_map: dict[str, str] | None = None, base
     base = base or robot_base_parameters(robot, rows=rows)
     info = RobotInfo(robot, base, rows)
     names = tuple(base_parameter_names(base))
-    nominal = base.from_standard(robot.parameters())
-    # Bounds only matter for solvers searching every parameter (use --varpro instead).
-    bounds = {n: (-max(1.0, 10.0 * abs(v)), max(1.0, 10.0 * abs(v))) for n, v in zip(names, nominal)}
+    bounds = _bounds(names, base.from_standard(robot.parameters()))
+    return System(name, tuple(robot.joints), info.columns, names, bounds, preprocessing, dict(joint_map or {}),
+                  robot=info, drive=drive)
 
-    def columns(p: Prepared, joints: list[str]) -> np.ndarray:
-        return info.base_columns(p.q, p.qd, p.qdd, joints)
 
-    def excitation(cols: np.ndarray, p: Prepared, joints: list[str]) -> tuple[np.ndarray, list[str]]:
-        if rows is None:
-            return _excitation_rows(cols, p.qd, joints, list(names))
-        # friction on each motor's referred velocity; data joints are in the drive's order
-        return _excitation_rows(cols, drive.motor_velocity(p.qd), drive.motor_names(), list(names))
+def _bounds(names: tuple[str, ...], nominal: np.ndarray) -> dict[str, tuple[float, float]]:
+    """Search bounds of base parameters around their model values (only solvers searching every
+    parameter use them; use --varpro instead)."""
+    return {n: (-max(1.0, 10.0 * abs(v)), max(1.0, 10.0 * abs(v))) for n, v in zip(names, nominal)}
 
-    return System(name, tuple(robot.joints), columns, names, bounds, preprocessing, dict(joint_map or {}),
-                  robot=info, drive=drive, excitation=excitation)
+
+def restricted_system(system: System, held: dict[str, float], rows: list[str]) -> System:
+    """``system`` (a robot system) on data whose model joints ``held`` stay still at those
+    positions (rad or m) and whose fitted rows are the model joints ``rows``: its base parameters
+    those of that regressor (:func:`~frictionid_core.robots.base.restricted_base_parameters`:
+    a body no fitted row feels drops out, bodies moving together regroup). ``system`` itself when
+    nothing is held and every joint is fitted, or when its rows are a drive's motors."""
+    info = system.robot
+    if info is None or info.rows is not None or (not held and set(rows) == set(system.joints)):
+        return system
+    key = (id(info), tuple(sorted(held.items())), tuple(rows))
+    if key not in _RESTRICTED:
+        if len(_RESTRICTED) >= _RESTRICTED_MAX:
+            _RESTRICTED.pop(next(iter(_RESTRICTED)))
+        _RESTRICTED[key] = (info, restricted_base_parameters(info.model, info.base, held, rows))
+    restricted = replace(info, base=_RESTRICTED[key][1])
+    names = tuple(base_parameter_names(restricted.base))
+    return replace(system, columns=restricted.columns, rigid_names=names, robot=restricted,
+                   rigid_bounds=_bounds(names, restricted.base.from_standard(info.model.parameters())))
 
 
 def nominal_parameters(system: System) -> dict[str, float]:
@@ -128,33 +142,11 @@ def known_rigid_body(system: System) -> KnownRigidBody:
     transform = np.column_stack([beta_links, rotor_map])
     names = (LINK_TORQUE, *(standard[i] for i in rotor))
 
-    def columns(p: Prepared, joints: list[str]) -> np.ndarray:
-        return info.base_columns(p.q, p.qd, p.qdd, joints) @ transform
-
-    def excitation(cols: np.ndarray, p: Prepared, joints: list[str]) -> tuple[np.ndarray, list[str]]:
-        """The rank test of the rotor columns (the held link torque column is known)."""
-        if info.rows is None:
-            return _excitation_rows(cols[:, 1:], p.qd, joints, list(names[1:]))
-        drive = info.rows.drive
-        return _excitation_rows(cols[:, 1:], drive.motor_velocity(p.qd), drive.motor_names(), list(names[1:]))
+    def columns(p: Prepared, joints: list[str], rows: list[str] | None = None) -> np.ndarray:
+        return info.base_columns(p.q, p.qd, p.qdd, joints, rows) @ transform
 
     scale = np.maximum(1.0, 10.0 * np.abs(nominal[rotor]))
     bounds = {LINK_TORQUE: (0.0, 2.0), **{n: (0.0, float(s)) for n, s in zip(names[1:], scale)}}
-    fit = replace(system, columns=columns, rigid_names=names, rigid_bounds=bounds, excitation=excitation)
+    fit = replace(system, columns=columns, rigid_names=names, rigid_bounds=bounds)
     return KnownRigidBody(system, fit, tuple(names[1:]), beta_links, rotor_map)
 
-
-def _excitation_rows(rows: np.ndarray, qd: np.ndarray, joints: list[str], names: list[str]
-                     ) -> tuple[np.ndarray, list[str]]:
-    """(rows, names) of the rank test of the data: the rigid + Coulomb/viscous columns on a subset
-    of the samples (``qd``: each row block's friction velocity, ``joints``: the blocks' names)."""
-    nj, n = len(joints), qd.shape[0]
-    sel = np.arange(0, n, max(_CHECK_STRIDE, n // _CHECK_SAMPLES))
-    rigid = np.concatenate([rows[j * n + sel] for j in range(nj)], axis=0)
-    fric = np.zeros((rigid.shape[0], 2 * nj))
-    for j in range(nj):
-        v = qd[sel, j]
-        fric[j * sel.size : (j + 1) * sel.size, 2 * j] = v
-        fric[j * sel.size : (j + 1) * sel.size, 2 * j + 1] = np.sign(v)
-    fnames = [f"{j}/{p}" for j in joints for p in ("Fv", "Fc")]
-    return np.hstack([rigid, fric]), names + fnames

@@ -32,8 +32,8 @@ if TYPE_CHECKING:
     from frictionid_core.drive import Drive
 
 
-# Samples per chunk of the standard regressor (a few tens of MB).
-_REGRESSOR_CHUNK = 8192
+# Values per chunk of the standard regressor (samples × joints × parameters: a few tens of MB).
+_REGRESSOR_CHUNK_VALUES = 4_000_000
 
 
 @dataclass(frozen=True)
@@ -46,21 +46,29 @@ class RobotInfo:
     base: object  # frictionid_core.robots.base.BaseParameters
     rows: object = None  # frictionid_core.robots.motor_side.MotorSide, or None: joint rows
 
-    def base_columns(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, joints: list[str]) -> np.ndarray:
-        """Base regressor rows (J·N, r), joint-major in the order of the model joints ``joints``
-        (with motor rows: row block k is the motor of ``joints[k]``); q, q̇, q̈ (N, J) hold every
-        model joint in that order (rad, rad/s, rad/s²)."""
+    def columns(self, p: Prepared, joints: list[str], rows: list[str] | None = None) -> np.ndarray:
+        """The system's columns (:attr:`System.columns`): :meth:`base_columns` of ``p``."""
+        return self.base_columns(p.q, p.qd, p.qdd, joints, rows)
+
+    def base_columns(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, joints: list[str],
+                     rows: list[str] | None = None) -> np.ndarray:
+        """Base regressor rows (B·N, r) of the model joints ``rows`` (default ``joints``; B of
+        them), joint-major in that order (with motor rows: row block k is the motor of
+        ``rows[k]``); q, q̇, q̈ (N, J) hold every model joint in the order of ``joints`` (rad,
+        rad/s, rad/s²)."""
         index = {j: k for k, j in enumerate(self.model.joints)}
         order = [index[j] for j in joints]
+        blocks = order if rows is None else [index[j] for j in rows]
         n = q.shape[0]
         qm, qdm, qddm = (np.empty((n, self.model.nv)) for _ in range(3))
         qm[:, order], qdm[:, order], qddm[:, order] = q, qd, qdd
-        out = np.empty((len(order) * n, self.base.rank))
+        out = np.empty((len(blocks) * n, self.base.rank))
         # in chunks of samples: the standard regressor (N, nv, P) of a long log would take GBs
-        for k0 in range(0, n, _REGRESSOR_CHUNK):
-            k1 = min(n, k0 + _REGRESSOR_CHUNK)
+        chunk = max(64, _REGRESSOR_CHUNK_VALUES // (self.model.nv * len(self.base.names)))
+        for k0 in range(0, n, chunk):
+            k1 = min(n, k0 + chunk)
             Y = self.base.reduce((self.rows or self.model).regressor(qm[k0:k1], qdm[k0:k1], qddm[k0:k1]))
-            for b, m in enumerate(order):
+            for b, m in enumerate(blocks):
                 out[b * n + k0 : b * n + k1] = Y[:, m, :]
         return out
 
@@ -74,7 +82,8 @@ class System:
         joints: the data joints it models: their count, the model's joint names (the data must
             hold each, through ``joint_map``), or None (any joints).
         columns: prepared signals + model joint names (data order) → rigid columns (J·N, R),
-            joint-major rows.
+            joint-major rows. A robot system's also takes ``rows=``: the model joints whose rows
+            to build (its signals then hold every model joint, those of ``rows`` among them).
         rigid_names: rigid-body parameter names (R), or with ``per_joint`` the base names of one
             joint's parameters (see :meth:`parameter_names`).
         rigid_bounds: default search bounds of those parameters (by base name with ``per_joint``).
@@ -86,9 +95,6 @@ class System:
             drive's motors (see :func:`observe`); a robot system's columns are then its motor rows.
         per_joint: each joint has its own ``rigid_names`` (``<joint>/J`` with several joints),
             its columns acting on its own rows only.
-        excitation: (rigid columns, the prepared signals they are of, model joint names) →
-            (rows, column names) of the rank test :func:`observe` makes before any solve (over
-            every segment of a log at once); None: no test.
     """
 
     name: str
@@ -101,7 +107,6 @@ class System:
     robot: RobotInfo | None = None
     per_joint: bool = False
     drive: Drive | None = None
-    excitation: Callable[[np.ndarray, Prepared, list[str]], tuple[np.ndarray, list[str]]] | None = None
 
     @property
     def motor_rows(self) -> bool:
@@ -126,8 +131,9 @@ class System:
         """The model's names of the data joints ``joints``."""
         return [self.joint_map.get(j, j) for j in joints]
 
-    def check_joints(self, joints: list[str], source: str = "") -> None:
-        """Raise InputError when the data joints ``joints`` (of ``source``) do not fit the system."""
+    def check_joints(self, joints: list[str], source: str = "", held=()) -> None:
+        """Raise InputError when the data joints ``joints`` (of ``source``) do not fit the system;
+        the model joints ``held`` (held still) need no data."""
         where = f"{source}: " if source else ""
         if isinstance(self.joints, int):
             if len(joints) != self.joints:
@@ -145,10 +151,12 @@ class System:
         dup = sorted({m for m in mapped if mapped.count(m) > 1})
         if dup:
             raise InputError(f"{where}system '{self.name}': several data joints map to model joint(s) {dup}")
-        missing = [m for m in self.joints if m not in mapped]
+        missing = [m for m in self.joints if m not in mapped and m not in held]
         if missing:
+            hint = "; for joint 2 alone use --system tx40-j2" if self.name == "tx40" else ""
             raise InputError(f"{where}system '{self.name}' needs every joint of its model: missing from the data: "
-                             f"{missing} (data joints: {list(joints)}); for one joint of the TX40 use --system tx40-j2")
+                             f"{missing} (data joints: {list(joints)}); hold them still with --hold-missing (at 0, "
+                             f"or at the drive's position_offset) or --hold JOINT=VALUE (rad or m){hint}")
 
 
 def parse_joint_map(text: str | None) -> dict[str, str]:
@@ -162,10 +170,15 @@ def parse_joint_map(text: str | None) -> dict[str, str]:
     return out
 
 
-def observe(series: JointSeries, system: System, settings: Preprocessing | None = None) -> Observation:
+def observe(series: JointSeries, system: System, settings: Preprocessing | None = None, *,
+            held: dict[str, float] | None = None, rows: list[str] | None = None) -> Observation:
     """Pre-process ``series`` (unset settings chosen from its data) and build the decimated
     observation of ``system`` (``settings`` overrides the system's pre-processing), without its
     slow rows (see :func:`exclude_rows`).
+
+    ``rows``: the data joints whose efforts are fitted (default: every data joint); a robot
+    system's columns still see the motion of the others. ``held``: {model joint: position (rad
+    or m)} of a robot system's joints the data lack, held still (q̇ = q̈ = 0) in its columns.
 
     A system with a drive first takes the log to the joint side (:meth:`Drive.to_joint_side`).
     With friction on the motors the rows are the referred motor torques u = C⁻ᵀ·τ, named after
@@ -177,31 +190,42 @@ def observe(series: JointSeries, system: System, settings: Preprocessing | None 
     segments too short to filter are left out, with a note.
     """
     drive = system.drive
+    held = dict(held or {})
     if drive is not None:
         series = drive.to_joint_side(series, system.joint_map)
-    system.check_joints(list(series.joints), series.source)
+    joints = list(series.joints)
+    system.check_joints(joints, series.source, held)
+    rows = joints if rows is None else [j for j in joints if j in rows]
+    if not rows:
+        raise InputError(f"{series.source}: no joint's effort to fit (data joints {joints})")
+    if system.motor_rows and (held or rows != joints):
+        raise InputError(f"{series.source}: drive '{drive.name}' puts friction on the motors: the data must hold "
+                         f"every joint it drives and fit them all (held: {sorted(held)}, not fitted: "
+                         f"{[j for j in joints if j not in rows]})")
+    if system.robot is None and rows != joints:  # independent joints: the others play no part
+        series = series.select(rows)
     segments = series.segments()
     if len(segments) == 1:
-        return _observe_segment(series, system, settings)
-    return _observe_segments(series, segments, system, settings)
+        return _observe_segment(series, system, settings, held, rows)
+    return _observe_segments(series, segments, system, settings, held, rows)
 
 
 def _observe_segments(series: JointSeries, segments: list[JointSeries], system: System,
-                      settings: Preprocessing | None) -> Observation:
+                      settings: Preprocessing | None, held: dict[str, float], rows: list[str]) -> Observation:
     """The observation of a series cut at the gaps of its stamps: each segment pre-processed
     alone (no filter runs across a gap) with the settings resolved on the longest, trimmed by
     TRIM_PERIODS / cut-off at each gap (the filters' transients, as the rule trims a record's
     ends), the observations stacked in time order; segments too short for that are left out
-    (noted). The system's rank test is made on the segments together."""
+    (noted). What the data resolve is judged on the segments together (by the identification)."""
     longest = max(range(len(segments)), key=lambda k: len(segments[k]))
     resolved, chosen = choose_preprocessing(resample_uniform(segments[longest]), settings or system.preprocessing)
     seam = TRIM_PERIODS / resolved.cutoff_hz
-    observed, dropped, excitation = {}, [], []
+    observed, dropped = {}, []
     for k, segment in enumerate(segments):
         trims = {"trim_start_s": seam if k > 0 else resolved.trim_start_s,  # the log's ends: its own trims
                  "trim_end_s": seam if k < len(segments) - 1 else resolved.trim_end_s}
         try:
-            observed[k] = _observe_segment(segment, system, replace(resolved, **trims), excitation)
+            observed[k] = _observe_segment(segment, system, replace(resolved, **trims), held, rows)
         except TooFewSamples:
             if k == longest:
                 raise
@@ -210,8 +234,6 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
         for o in (observed[k], observed[k].sampled):
             if o is not None:
                 o.preprocessing = resolved  # stacked under one setting; the seams' trims are noted
-    if excitation:  # the segments together, not each alone, must excite every parameter
-        _check_excitation(system, excitation)
     obs = concat_observations([observed[k] for k in sorted(observed)])
     # the longest segment's report, with what the rule chose and the counts and extremes of them all
     report = dict(observed[longest].report)
@@ -240,48 +262,44 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
 
 
 def _observe_segment(series: JointSeries, system: System, settings: Preprocessing | None,
-                     excitation: list | None = None) -> Observation:
-    """:func:`observe` of a series without gaps, on the joint side; TooFewSamples names its source.
-    With ``excitation`` (a list) the rows of the system's rank test are appended to it, not tested."""
+                     held: dict[str, float], rows: list[str]) -> Observation:
+    """:func:`observe` of a series without gaps, on the joint side; TooFewSamples names its source."""
     try:
-        return _observe_gapless(series, system, settings, excitation)
+        return _observe_gapless(series, system, settings, held, rows)
     except TooFewSamples as exc:
         if str(exc).startswith(f"{series.source}:"):
             raise
         raise TooFewSamples(f"{series.source}: {exc}") from None
 
 
-def _check_excitation(system: System, tests: list[tuple[np.ndarray, list[str]]]) -> None:
-    """The system's rank test on the rows ``tests`` of :attr:`System.excitation` together."""
-    from frictionid_core.robots.base import check_excitation
-
-    check_excitation(np.vstack([rows for rows, _ in tests]), tests[0][1], f"system '{system.name}'")
-
-
 def _observe_gapless(series: JointSeries, system: System, settings: Preprocessing | None,
-                     excitation: list | None) -> Observation:
+                     held: dict[str, float], rows: list[str]) -> Observation:
     drive = system.drive
     joints = list(series.joints)
     prepared, resolved, report, notes = preprocess(series, settings or system.preprocessing)
     # a robot regressor is smooth in the filtered signals: computed at a fraction of the rate
     stride = column_stride(1.0 / prepared.dt, resolved) if system.robot is not None else 1
-    sampled = subsample(prepared, stride)
-    rigid = system.columns(sampled, system.model_joints(joints))
-    if system.excitation is not None:
-        test = system.excitation(rigid, sampled, system.model_joints(joints))
-        if excitation is None:
-            _check_excitation(system, [test])
-        else:
-            excitation.append(test)
+    signals = subsample(prepared, stride)
+    if system.robot is not None:
+        still = np.zeros((signals.q.shape[0], len(held)))
+        signals = replace(signals, q=np.hstack([signals.q, still + np.array(list(held.values()))]),
+                          qd=np.hstack([signals.qd, still]), qdd=np.hstack([signals.qdd, still]))
+        rigid = system.columns(signals, system.model_joints(joints) + list(held), rows=system.model_joints(rows))
+    else:
+        rigid = system.columns(signals, system.model_joints(joints))
     report["rigid_column_stride"] = stride
-    rows, row_names = prepared, joints
-    min_speed = np.array([resolved.min_speed[j] for j in joints])
+    if rows != joints:
+        pick = [joints.index(j) for j in rows]
+        prepared = replace(prepared, q=prepared.q[:, pick], qd=prepared.qd[:, pick], qdd=prepared.qdd[:, pick],
+                           tau=prepared.tau[:, pick])
+    row_names = rows
+    min_speed = np.array([resolved.min_speed[j] for j in rows])
     if system.motor_rows:
-        rows = replace(prepared, qd=drive.motor_velocity(prepared.qd), qdd=drive.motor_velocity(prepared.qdd),
-                       tau=drive.referred_motor_torque(prepared.tau))
+        prepared = replace(prepared, qd=drive.motor_velocity(prepared.qd), qdd=drive.motor_velocity(prepared.qdd),
+                           tau=drive.referred_motor_torque(prepared.tau))
         row_names = drive.motor_names()
         min_speed = np.array([min_speed[drive.C[m] != 0.0].max() for m in range(len(joints))])
-    obs = build_observation(rows, row_names, rigid, system.parameter_names(joints), resolved, stride)
+    obs = build_observation(prepared, row_names, rigid, system.parameter_names(rows), resolved, stride)
     obs.report, obs.notes = report, notes
     slow = np.abs(obs.velocity) < min_speed
     for o in (obs, obs.sampled):

@@ -1,0 +1,168 @@
+"""The identification model of data: sources → plan → observation → :class:`IdentificationModel`, and its metrics."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import fields, replace
+
+import numpy as np
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.friction import get_model
+from frictionid_core.identification.plan import FitPlan, SourcePlan, plan_fit
+from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.metrics import observation_metrics
+from frictionid_core.observation import VELOCITY_COLUMNS, Observation, concat_observations
+from frictionid_core.preprocess import Preprocessing, choose_preprocessing, resample_uniform
+from frictionid_core.systems import System, as_system, observe
+from frictionid_core.timeseries import JointSeries
+
+# One source, or several fitted together.
+Sources = JointSeries | Sequence[JointSeries]
+
+
+def build_model(series: Sources | FitPlan, system: str | System, friction: str, asymmetric: bool,
+                preprocessing: Preprocessing | None = None,
+                bounds: dict[str, tuple[float, float]] | None = None, *,
+                joint_map: dict[str, str] | None = None, fixed: dict[str, float] | None = None) -> IdentificationModel:
+    """The identification model of ``system`` (a name, with ``joint_map``, or a System) +
+    ``friction`` on the data of ``series`` (one source or several: :func:`observe_sources`; or
+    the :class:`FitPlan` of sources, whose own system is then the one fitted).
+
+    ``preprocessing`` overrides the system's default; ``bounds`` are the user's bounds and
+    ``fixed`` the parameters held at a value (see ``IdentificationModel``).
+    """
+    plan = series if isinstance(series, FitPlan) else plan_fit(as_sources(series), as_system(system, joint_map))
+    obs = observe_plan(plan, preprocessing)
+    return IdentificationModel(obs, get_model(friction, asymmetric),
+                               rigid_bounds=plan.system.parameter_bounds(plan.rows),
+                               bound_overrides=dict(bounds or {}), fixed=dict(fixed or {}))
+
+
+def observe_sources(series: Sources, system: System, settings: Preprocessing | None = None) -> Observation:
+    """The observation of one source, or of several (:func:`observe_plan` of their plan: every
+    data joint fitted, nothing held)."""
+    return observe_plan(plan_fit(as_sources(series), system), settings)
+
+
+def observe_plan(plan: FitPlan, settings: Preprocessing | None = None) -> Observation:
+    """The observation of the sources of ``plan``: each pre-processed alone (no filter runs across
+    the seam between two recordings), then their rows stacked per joint (a joint a source does not
+    fit has no rows there).
+
+    One pre-processing describes the fit: the first source resolves the settings left to the
+    data, its cut-off the largest that any source's motion asks for; a joint the first source
+    lacks takes its min speed from the first source that has it."""
+    system = plan.system
+    requested = settings or system.preprocessing
+    first, rest = plan.sources[0], plan.sources[1:]
+    if rest and requested.cutoff_hz is None:
+        fastest = max(choose_preprocessing(resample_uniform(_preprocessed(sp, system)), requested)[0].cutoff_hz
+                      for sp in plan.sources)
+        requested = replace(requested, cutoff_hz=fastest)
+    observations = [observe(first.series, system, requested, held=first.held, rows=first.rows)]
+    resolved = observations[0].preprocessing
+    if requested is not (settings or system.preprocessing):
+        observations[0].report["from_data"].insert(0, "cutoff_hz")
+    speeds = dict(resolved.min_speed)
+    for sp in rest:
+        series = _preprocessed(sp, system)
+        missing = [j for j in series.joints if j not in speeds]
+        if missing:
+            own = choose_preprocessing(resample_uniform(series), replace(resolved, min_speed=None))[0].min_speed
+            speeds.update((j, own[j]) for j in missing)
+        observations.append(observe(sp.series, system, replace(resolved, min_speed=dict(speeds)), held=sp.held,
+                                    rows=sp.rows))
+    if not rest:
+        return observations[0]
+    merged = replace(resolved, min_speed=speeds)
+    joints = list(dict.fromkeys(j for o in observations for j in o.joints))
+    names = system.parameter_names(joints)
+    stacked = [_on_rows(o, joints, names, system.per_joint, merged) for o in observations]
+    out = concat_observations(stacked)
+    out.report = _merged_report([o.report for o in observations])
+    if out.sampled is not None:
+        out.sampled.report = out.report
+    return out
+
+
+def _preprocessed(sp: SourcePlan, system: System) -> JointSeries:
+    """The joints of a source that its pre-processing sees (all of a robot system's; the rows otherwise)."""
+    return sp.series if system.robot is not None or sp.rows == list(sp.series.joints) else sp.series.select(sp.rows)
+
+
+def _on_rows(obs: Observation, joints: list[str], names: list[str], per_joint: bool,
+             settings: Preprocessing) -> Observation:
+    """``obs`` on the row joints ``joints`` (its own among them) and rigid columns ``names`` (its
+    own among them), with ``settings``: the rows of the joints it lacks are zero and unused."""
+    nd, nj = obs.n_samples, len(joints)
+    own = list(obs.rigid_names)
+    if per_joint and len(obs.joints) == 1 and len(joints) > 1:
+        own = [f"{obs.joints[0]}/{n}" for n in own]
+    cols = [names.index(n) for n in own]
+    y, used = np.zeros(nj * nd), np.zeros(nj * nd, dtype=bool)
+    rigid, velocity = np.zeros((nj * nd, len(names))), np.zeros((nd, nj))
+    columns = [{k: np.zeros(nd) for k in VELOCITY_COLUMNS} for _ in joints]
+    for j, joint in enumerate(obs.joints):
+        k = joints.index(joint)
+        src, dst = slice(j * nd, (j + 1) * nd), slice(k * nd, (k + 1) * nd)
+        y[dst], used[dst], velocity[:, k], columns[k] = obs.y[src], obs.used[src], obs.velocity[:, j], obs.columns[j]
+        rigid[dst, cols] = obs.rigid[src]
+    sampled = None if obs.sampled is None else _on_rows(obs.sampled, joints, names, per_joint, settings)
+    return Observation(list(joints), y, rigid, list(names), velocity, columns, obs.t, settings, obs.report,
+                       list(obs.notes), used, sampled, obs.coupling, obs.data_joints, obs.weight)
+
+
+def _merged_report(reports: list[dict]) -> dict:
+    """The first source's report, each per-joint entry taken from the first source in which that
+    joint moves (else the first that has it): a joint-wise sweep's still joints say nothing of
+    their motion."""
+    out = dict(reports[0])
+    for key, value in reports[0].items():
+        if isinstance(value, dict):
+            merged = {}
+            for joint in dict.fromkeys(j for r in reports for j in (r.get(key) or {})):
+                having = [r for r in reports if joint in (r.get(key) or {})]
+                moving = [r for r in having if joint in r.get("moving_joints", [])]
+                merged[joint] = (moving or having)[0][key][joint]
+            out[key] = merged
+        elif key == "moving_joints":
+            out[key] = list(dict.fromkeys(j for r in reports for j in r.get(key, [])))
+    return out
+
+
+def as_sources(series: Sources, window: tuple[float | None, float | None] | None = None) -> list[JointSeries]:
+    """``series`` as a non-empty list of sources, each cut to ``window`` (start_s, end_s), s from
+    its first sample (see :meth:`JointSeries.window`)."""
+    sources = [series] if isinstance(series, JointSeries) else list(series)
+    if not sources:
+        raise FrictionIdError("no source given")
+    return [s.window(*window) for s in sources] if window else sources
+
+
+def model_metrics(model: IdentificationModel, x) -> dict:
+    """:func:`~frictionid_core.metrics.observation_metrics` of the parameters ``x`` on the
+    model's metric observation (the recorded effort at the analysis instants, predicted from
+    the unfiltered columns there; or the model's own filtered rows under the EMPS protocol)."""
+    on = metric_model(model)
+    return observation_metrics(on.obs, on.predict(x))
+
+
+def metric_model(model: IdentificationModel) -> IdentificationModel:
+    """``model`` on its metric observation (:attr:`Observation.metric`: the recorded effort at the
+    analysis instants with the unfiltered columns there, or its own rows under the EMPS protocol)."""
+    obs = model.obs.metric
+    return model if obs is model.obs else IdentificationModel(obs, model.friction, model.offset)
+
+
+def preprocessing_record(obs: Observation, metrics: dict, default: Preprocessing, requested: Preprocessing) -> dict:
+    """The JSON ``preprocessing`` block of an identification: the resolved settings of ``obs``,
+    what the data said (its report, without the ``_``-keys), the torque noise floor of
+    ``metrics``, and ``overridden``: the settings of ``requested`` that differ from the system's
+    ``default``."""
+    record = obs.preprocessing.to_dict()
+    record.update({k: v for k, v in obs.report.items() if not k.startswith("_")})
+    record["torque_noise_floor_pct"] = metrics.get("noise_floor_pct")
+    record["overridden"] = [f.name for f in fields(Preprocessing)
+                            if getattr(requested, f.name) != getattr(default, f.name)]
+    return record
