@@ -39,7 +39,9 @@ demo-fleet: setup
 demo-loop: setup
 	$(VENV)/bin/frictionid loop --robot tx40 --json demo_loop.json --plots demo_loop_plots
 
+# The lint (ruff, configured in pyproject.toml) is part of the suite: a finding fails it.
 test: setup
+	$(VENV)/bin/ruff check .
 	$(VENV)/bin/pytest -q tests
 
 # The quick tier: no ROS node or process, no test over ~3 s (markers in pytest.ini).
