@@ -6,7 +6,7 @@ PIP    := $(PY) -m pip
 STAMP  := $(VENV)/.frictionid-setup
 IFACE_STAMP := $(VENV)/.frictionid-interfaces
 
-.PHONY: setup demo demo-loop test test-core bags bench-optim clean
+.PHONY: setup demo demo-loop demo-fleet test test-core bags bench-optim clean
 
 setup: $(STAMP) $(IFACE_STAMP)
 
@@ -28,11 +28,20 @@ demo: setup
 	$(VENV)/bin/frictionid identify bags/emps_estimation --system emps --friction coulomb --solver ls --json demo_result.json
 	$(VENV)/bin/frictionid validate bags/emps_validation --params demo_result.json --json demo_validation.json
 
+# A small synthetic fleet (4 robots × 16 daily logs, one Coulomb drift, one broken log) identified on 2
+# local workers, with its drift alarm and dashboard (demo_fleet/out/index.html; ~1 min).
+demo-fleet: setup
+	rm -rf demo_fleet
+	$(PY) tools/synth_fleet.py demo_fleet/data --robots 4 --logs 16 --drift 2:1:11:0.25:3 --broken 1:5:truncated
+	$(VENV)/bin/frictionid fleet demo_fleet/data/fleet.yaml --out demo_fleet/out --workers 2
+
 # Friction compensation in the loop: simulated arm, controller and node over ROS 2 (~2.5 min).
 demo-loop: setup
 	$(VENV)/bin/frictionid loop --robot tx40 --json demo_loop.json --plots demo_loop_plots
 
+# The lint (ruff, configured in pyproject.toml) is part of the suite: a finding fails it.
 test: setup
+	$(VENV)/bin/ruff check .
 	$(VENV)/bin/pytest -q tests
 
 # The quick tier: no ROS node or process, no test over ~3 s (markers in pytest.ini).

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from frictionid_core import FRICTIONS, Drive, FrictionIdError, IdentifyRequest, budget_field, check_choice, load_drive
+from frictionid_core.io import MIN_SAMPLES
 from frictionid_core.optim import SOLVERS
 from frictionid_ros.realtime import parse_priority
 
@@ -77,13 +78,15 @@ class Parameter:
         kind = type(self.default)
         try:
             value = kind(raw)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise FrictionIdError(f"{where} must be a {kind.__name__}, got {raw!r}") from None
         if self.choices:
             return check_choice(where, value, self.choices, name.replace("_", " "))
         if not self._in_range(value):
             verb = "lie in" if self.low is not None and self.high is not None else "be"
             raise FrictionIdError(f"{where} must {verb} {self.rule}, got {raw}")
+        if kind is float and not math.isfinite(value):
+            raise FrictionIdError(f"{where} must be a finite number, got {raw}")
         return value
 
     def _in_range(self, value: float) -> bool:
@@ -147,9 +150,14 @@ def _drive(path_or_name: str) -> Drive | None:
 
 
 def _joint_names(value, where: str) -> tuple[str, ...]:
+    from frictionid_ros.buffer import name_problem, shown_names
+
     joints = tuple(str(j) for j in value if str(j))
     if len(set(joints)) != len(joints):
-        raise FrictionIdError(f"{where}: duplicated names in {list(joints)}")
+        raise FrictionIdError(f"{where}: duplicated names in {shown_names(joints)}")
+    problem = name_problem(joints) if joints else ""
+    if problem:
+        raise FrictionIdError(f"{where}: {problem}")
     return joints
 
 
@@ -194,7 +202,7 @@ class Config:
         "max_rate_hz samples)", unit="Hz", low=0.0, exclusive=True)
     window_seconds: float = parameter(0.0, "default identification window; 0 = the whole buffer", unit="s",
                                       low=0.0, read_only=False)
-    min_samples: int = parameter(200, "fewest joint-state samples an identification accepts", low=0,
+    min_samples: int = parameter(200, "fewest joint-state samples an identification accepts", low=MIN_SAMPLES,
                                  read_only=False)
     max_missing_pct: float = parameter(5.0, "refuse a window whose stamps show more than this share of lost "
                                        "samples", unit="%", low=0.0, read_only=False)
@@ -220,9 +228,9 @@ class Config:
     reference_topic: str = parameter("reference_joint_states", "desired/reference sensor_msgs/JointState topic "
                                      "(velocity_source = reference)")
     feedforward_rate_hz: float = parameter(0.0, "feed-forward publish rate; 0 = on every velocity-source message",
-                                           unit="Hz", low=0.0)
+                                           unit="Hz", low=0.0, high=10_000.0)
     smoothing_eps: float = parameter(0.01, "sign smoothing tanh(v/eps) of the feed-forward; 0 = sign(v)",
-                                     unit="rad/s | m/s", low=0.0, read_only=False)
+                                     unit="rad/s | m/s", low=0.0, high=1.0, read_only=False)
     results_file: Path = parameter(
         "~/.ros/frictionid/parameters.json", "JSON file of the active parameters: written after each "
         "identification, read at start", parse=_absolute_path)
@@ -253,12 +261,19 @@ class Config:
                                        exclusive=True)
     online_holdout: float = parameter(0.25, "share of the online window held back (its newest samples) for the "
                                       "safety gate", low=0.0, high=1.0, exclusive=True)
-    gate_max_abs: float = parameter(1000.0, "the safety gate refuses a parameter larger than this in magnitude",
-                                    unit="SI units", low=0.0, exclusive=True)
-    feedforward_max: float = parameter(0.0, "clamp of the feed-forward per joint; 0 = none", unit="N·m | N",
-                                       low=0.0)
+    gate_max_abs: float = parameter(
+        1000.0, "the safety screen refuses every parameter set (identification, ~/load, results_file, online "
+        "candidate) with a parameter larger than this in magnitude", unit="SI units", low=0.0, high=1e9,
+        exclusive=True)
+    feedforward_max: float = parameter(
+        100.0, "clamp of the feed-forward: each joint's torque stays within ±min(feedforward_max, the joint's effort "
+        "limit: the URDF's, else that of the data its parameters were identified on); also the effort limit of the "
+        "safety screen for parameters without either", unit="N·m | N", low=0.0, high=1e6, exclusive=True)
     feedforward_ramp_s: float = parameter(0.0, "new parameters blend in over this long (feed-forward rate "
-                                          "limit); 0 = at once", unit="s", low=0.0)
+                                          "limit); 0 = at once", unit="s", low=0.0, high=600.0)
+    unique_name: bool = parameter(
+        True, "refuse to start when another node of this name and namespace is on the ROS graph (looked for "
+        "during the first seconds, as discovery takes a moment); false: allow several")
     drive: Drive | None  # loaded from drive_file at start
 
     @property

@@ -9,11 +9,13 @@ motor-side parameters (``motor_<k>``) acts on w = C·q̇ and gives the joint tor
 which are published as recorded efforts (:meth:`Drive.recorded_effort_matrix`).
 
 Rate limit and clamp: new parameters blend in linearly over ``ramp_s`` (τ = (1 − α)·τ_old + α·τ_new,
-α from 0 to 1), and every joint's torque is clamped to ±``limit`` (0: neither).
+α from 0 to 1; 0: at once), and every joint's torque is clamped to ±``limit`` (one value, or one per
+joint; the node's is always finite: :meth:`frictionid_ros.store.Screen.clamp`).
 """
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -30,15 +32,26 @@ class FeedForward:
     parameter block at the g velocities gives a (g, g) array whose diagonal is the answer.
     """
 
-    def __init__(self, joints: list[str], eps: float = 0.0, drive=None, limit: float = 0.0, ramp_s: float = 0.0):
+    def __init__(self, joints: list[str], eps: float = 0.0, drive=None, limit=math.inf, ramp_s: float = 0.0):
         self.joints = list(joints)
         self.eps = float(eps)
         self.drive = drive
-        self.limit, self.ramp_s = float(limit), float(ramp_s)
+        self.limit = limit
+        self.ramp_s = float(ramp_s)
         self._ramp: tuple = (None, 0.0)  # (state before the last change, time of the change [s, monotonic])
         # (groups (model, owner indices, parameters), drive maps (order, A, B) or None)
         self._state: tuple[tuple, tuple | None] = ((), None)
         self.active: tuple[str, ...] = ()
+
+    @property
+    def limit(self) -> np.ndarray:
+        """The clamp of each joint's torque [N·m | N, or the drive's effort unit], (J,)."""
+        return self._bounds[0]
+
+    @limit.setter
+    def limit(self, value) -> None:
+        high = np.broadcast_to(np.asarray(value, dtype=float), (len(self.joints),)).copy()
+        self._bounds = (high, -high)  # one tuple, swapped at once: torque() never sees half a change
 
     def set_params(self, per_joint: dict[str, JointParams]) -> list[str]:
         """Use ``per_joint`` (by joint, or by motor under a drive; other names are ignored);
@@ -100,8 +113,9 @@ class FeedForward:
             else:
                 out *= alpha
                 out += (1.0 - alpha) * self._torque(old, v)
-        if self.limit > 0.0:
-            np.clip(out, -self.limit, self.limit, out=out)
+        high, low = self._bounds
+        np.minimum(out, high, out=out)  # np.clip costs twice as much
+        np.maximum(out, low, out=out)
         return out
 
     def _torque(self, state, v: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:

@@ -19,8 +19,8 @@ from frictionid_ros.buffer import (
     JointRing,
     NameMap,
     long_fields,
+    name_problem,
     put,
-    repeated_names,
     stamp_ns,
 )
 from frictionid_ros.feedforward import FeedForward
@@ -39,12 +39,14 @@ class Inputs:
     Buffers are created when the joints are known (:meth:`setup`: from the configuration or the
     first joint state). ``v`` is the velocity of the feed-forward [rad/s | m/s], ``ff_stamp`` the
     stamp of the message that set it [ns]. ``settings()`` returns the node's current
-    :class:`~frictionid_ros.config.Config`; ``warn`` logs a rejected message (once per reason).
+    :class:`~frictionid_ros.config.Config`; ``warn`` logs a rejected message (once per reason);
+    ``clamp(joints, per_joint)``: the feed-forward's clamp per joint (default: ``feedforward_max``).
     """
 
-    def __init__(self, settings, warn):
+    def __init__(self, settings, warn, clamp=None):
         self._settings = settings
         self._warn = warn
+        self._clamp = clamp or (lambda joints, per_joint: self._settings().feedforward_max)
         self.ring: JointRing | None = None
         self.effort_ring: JointRing | None = None
         self._map = self._effort_map = self._ref_map = None
@@ -78,7 +80,8 @@ class Inputs:
             self._ref_prev = np.full(nj, np.nan)
         self.v = np.zeros(nj)
         self.tau = np.zeros(nj)
-        ff = FeedForward(joints, cfg.smoothing_eps, cfg.drive, cfg.feedforward_max, cfg.feedforward_ramp_s)
+        ff = FeedForward(joints, cfg.smoothing_eps, cfg.drive, self._clamp(joints, self._per_joint),
+                         cfg.feedforward_ramp_s)
         for problem in ff.set_params(self._per_joint):
             self._warn(f"feed-forward: {problem}")
         self.ff = ff
@@ -87,7 +90,14 @@ class Inputs:
     def set_params(self, per_joint: dict) -> list[str]:
         """Feed forward the friction of ``per_joint`` (store.JointParams by joint); returns problems."""
         self._per_joint = per_joint
-        return self.ff.set_params(per_joint) if self.ff is not None else []
+        ff = self.ff
+        if ff is None:
+            return []
+        limit = np.broadcast_to(np.asarray(self._clamp(ff.joints, per_joint), dtype=float), ff.limit.shape)
+        ff.limit = np.minimum(ff.limit, limit)  # the lower clamp while the parameters change (another thread reads)
+        problems = ff.set_params(per_joint)
+        ff.limit = limit
+        return problems
 
     def reject(self, what: str) -> None:
         self.rejected += 1
@@ -101,7 +111,7 @@ class Inputs:
         names = msg.name
         n = len(names)
         if ring is None:
-            problem = "JointState without joint names" if not names else repeated_names(names)
+            problem = "JointState without joint names" if not names else name_problem(names)
             if problem:
                 self.reject(f"'{self._settings().joint_states_topic}': {problem}")
                 return False

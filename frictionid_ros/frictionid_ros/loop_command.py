@@ -269,7 +269,11 @@ def offer_bad_parameters(client: Client, results_file: Path) -> bool:
         p["params"] = {k: -3.0 * v if k.startswith("Fc") else v for k, v in p["params"].items()}
     bad["params"] = {k: -3.0 * v if k.rsplit("/", 1)[-1].startswith("Fc") else v for k, v in bad["params"].items()}
     write_json(results_file.parent / "bad.json", bad)
-    res = client.call(ParametersFile, "/frictionid/load", ParametersFile.Request(path="bad.json"))
+    while True:  # the online re-identification may hold the slot for a moment (answered "busy" at once)
+        res = client.call(ParametersFile, "/frictionid/load", ParametersFile.Request(path="bad.json"))
+        if res.success or "busy" not in res.message:
+            break
+        time.sleep(0.2)
     params = lambda results: {joint: p["params"] for joint, p in results["per_joint"].items()}
     active = params(json.loads(results_file.read_text()))
     return (not res.success) and "safety gate" in res.message and active != params(bad)

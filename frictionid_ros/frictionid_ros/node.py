@@ -23,7 +23,9 @@ lifecycle services; without it (the default) it configures and activates itself.
 
 Online re-identification (``online_period_s`` > 0, :mod:`.online`): the recent window is identified
 and its result activated only if the safety gate accepts it; ``~/load`` is gated too; every
-decision is in ``/diagnostics`` ("safety gate").
+decision is in ``/diagnostics`` ("safety gate"). Every parameter set passes the safety screen first
+and the feed-forward is clamped (:class:`.store.Screen`); a node of the same name on the graph at
+start: refused (``unique_name``).
 
 Concurrency: the input callbacks (joint states, effort, reference, feed-forward) run on a hidden
 helper node ``_frictionid_input`` spun in its own thread by rclpy's EventsExecutor (or a
@@ -68,9 +70,9 @@ from frictionid_ros.messages import diagnostic_array, parameters_msg
 from frictionid_ros.online import Online
 from frictionid_ros.parameters import changed_config, declare_parameters
 from frictionid_ros.realtime import schedule_this_thread
-from frictionid_ros.runner import make_input_executor, run
+from frictionid_ros.runner import check_unique_name, make_input_executor, run
 from frictionid_ros.service import IdentifyService
-from frictionid_ros.store import ActiveParameters, Results
+from frictionid_ros.store import ActiveParameters, Results, Screen
 from frictionid_ros.worker import WorkerProcess, rss_kb
 
 SERVICE_DEPTH = 1000  # request queue of each service [requests]
@@ -109,6 +111,8 @@ class FrictionIdNode(LifecycleNode):
         super().__init__(NODE_NAME, context=context, enable_communication_interface=lifecycle)
         self.cfg = cfg = declare_parameters(self)
         self._log = self.get_logger()
+        if cfg.unique_name:
+            check_unique_name(self)
         self._logged_errors: set = set()
         self._ff_on = False  # publish the feed-forward (lifecycle state active)
         self._entities: list = []  # (destroy, entity) of what configure created, for cleanup
@@ -151,13 +155,15 @@ class FrictionIdNode(LifecycleNode):
     def _open(self) -> None:
         """Create what the node serves with (configure)."""
         cfg = self.cfg
-        self.inputs = Inputs(lambda: self.cfg, self._log.warning)
+        self.inputs = Inputs(lambda: self.cfg, self._log.warning,
+                             lambda joints, per_joint: self.active.screen.clamp(joints, per_joint, self.cfg.drive))
         try:
             cfg.results_dir.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             self._log.warning(f"results folder {cfg.results_dir}: {exc.strerror or exc}")
         # Active parameters: restored from the results file so the feed-forward resumes.
-        self.active = ActiveParameters(cfg.results_file, self._on_parameters, self._log, cfg.results_dir)
+        self.active = ActiveParameters(cfg.results_file, self._on_parameters, self._log, cfg.results_dir,
+                                       Screen.of(cfg))
         self.active.restore()
         self.inputs.set_params(self.active.results.per_joint)
         self._worker = WorkerProcess(cfg.worker_nice) if cfg.identification_worker == "process" else None
@@ -211,13 +217,14 @@ class FrictionIdNode(LifecycleNode):
             self._keep(self.destroy_timer, self.create_timer(cfg.online_period_s, self._on_online,
                                                              callback_group=MutuallyExclusiveCallbackGroup()))
         # Deep request queues: a burst of calls is answered (most of them "busy"), not dropped by DDS.
+        # A group each: ~/reset and ~/save never wait for a ~/load judged in the worker.
         qos_srv = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=SERVICE_DEPTH,
                              reliability=ReliabilityPolicy.RELIABLE)
-        admin, identify = MutuallyExclusiveCallbackGroup(), ReentrantCallbackGroup()
+        identify = ReentrantCallbackGroup()
         for typ, name, callback, group in ((Identify, "~/identify", self._on_identify, identify),
-                                           (Trigger, "~/reset", self._on_reset, admin),
-                                           (ParametersFile, "~/save", self._on_save, admin),
-                                           (ParametersFile, "~/load", self._on_load, admin)):
+                                           (Trigger, "~/reset", self._on_reset, MutuallyExclusiveCallbackGroup()),
+                                           (ParametersFile, "~/save", self._on_save, MutuallyExclusiveCallbackGroup()),
+                                           (ParametersFile, "~/load", self._on_load, MutuallyExclusiveCallbackGroup())):
             self._keep(self.destroy_service, self.create_service(typ, name, callback, qos_profile=qos_srv,
                                                                  callback_group=group))
         self._keep(self.destroy_timer, self.create_timer(cfg.diagnostics_period_s, self._on_diagnostics,

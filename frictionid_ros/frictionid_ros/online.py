@@ -14,9 +14,10 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 from frictionid_core import FrictionIdError
-from frictionid_core.loop import Decision, screen
+from frictionid_core.loop import Decision
 from frictionid_ros.request import Job, node_request
 from frictionid_ros.store import Results, read_results, split_identification
 from frictionid_ros.window import Selection
@@ -58,36 +59,51 @@ class Online:
                 sel = self._service.window(job)
                 fit, held = split(sel.series, cfg.online_holdout)
                 gate = Gate(self._active.results.last, held, cfg.gate_max_abs)
-                result, decision, _ = self._service.run_job(job, JobControl(),
+                result, decision, _ = self._service.run_job(job, JobControl(cfg.max_wall_s),
                                                             Selection(fit, sel.start_ns, sel.end_ns, sel.notes), gate)
             except (FrictionIdError, Cancelled) as exc:
                 return self._skip(str(exc))
             if decision.accepted:
                 stamp = time.time_ns()
-                self._active.activate(Results(split_identification(result, stamp), result, sel.start_ns,
-                                              sel.end_ns, len(fit.t), stamp))
+                limits = self._service.limits(result, fit)
+                try:
+                    self._active.activate(Results(split_identification(result, stamp, limits), result, sel.start_ns,
+                                                  sel.end_ns, len(fit.t), stamp))
+                except FrictionIdError as exc:  # the safety screen
+                    decision = Decision(False, f"rejected: {exc}", decision.current_rmse, decision.candidate_rmse)
             return self._record(decision, "online re-identification")
 
     def offer(self, path) -> tuple[bool, str]:
-        """``~/load`` through the gate: the file's parameters are judged on the newest
-        ``online_window_s·online_holdout`` of data and activated only if accepted."""
+        """``~/load`` through the gate: the file's parameters pass the safety screen, then are judged
+        on the newest ``online_window_s·online_holdout`` of data and activated only if accepted.
+        Answered "busy" at once while an identification holds the worker."""
         cfg = self._settings()
-        try:
-            loaded = read_results(path)
-            if loaded.last is None:
-                raise FrictionIdError(f"{path}: no complete identification result to judge")
-            decision = screen(loaded.last, cfg.gate_max_abs)
-            if decision is None:  # the predictions run in the worker (they would take the GIL here)
-                job = self._job(cfg.online_window_s * cfg.online_holdout)
-                sel = self._service.window(job)
-                gate = Gate(self._active.results.last, sel.series, cfg.gate_max_abs, candidate=loaded.last)
-                decision = self._service.run_job(job, JobControl(), sel, gate)[1]
-        except (FrictionIdError, Cancelled) as exc:
-            return False, f"not loaded: {exc}"
-        decision = self._record(decision, f"load {path}")
-        if not decision.accepted:
-            return False, f"{path}: safety gate: {decision.reason}; active parameters unchanged"
-        self._active.activate(Results(loaded.per_joint, loaded.last, stamp_ns=time.time_ns()))
+        with self._service.slot() as free:
+            if not free:
+                return False, f"{path}: not loaded: busy: an identification is running; try again later"
+            try:
+                loaded = replace(read_results(path), stamp_ns=time.time_ns())
+                if loaded.last is None:
+                    raise FrictionIdError(f"{path}: no complete identification result to judge")
+                try:
+                    self._active.screen.check(loaded)
+                    decision = None
+                except FrictionIdError as exc:
+                    decision = Decision(False, f"rejected: {exc}")
+                if decision is None:  # the predictions run in the worker (they would take the GIL here)
+                    job = self._job(cfg.online_window_s * cfg.online_holdout)
+                    sel = self._service.window(job)
+                    gate = Gate(self._active.results.last, sel.series, cfg.gate_max_abs, candidate=loaded.last)
+                    decision = self._service.run_job(job, JobControl(cfg.max_wall_s), sel, gate)[1]
+            except (FrictionIdError, Cancelled) as exc:
+                return False, f"not loaded: {exc}"
+            decision = self._record(decision, f"load {path}")
+            if not decision.accepted:
+                return False, f"{path}: safety gate: {decision.reason}; active parameters unchanged"
+            try:
+                self._active.activate(loaded)
+            except FrictionIdError as exc:
+                return False, f"{path}: not loaded: {exc}; active parameters unchanged"
         return True, f"loaded parameters of {sorted(loaded.per_joint)} from {path}; safety gate: {decision.reason}"
 
     def _skip(self, why: str) -> None:
@@ -112,7 +128,7 @@ class Online:
         message = f"{self.last_source}: {d.reason}" if d is not None else self.last_note
         if d is not None and self.last_note:
             message += f" (then {self.last_note})"
-        fmt = lambda x: "" if x is None or not math.isfinite(x) else f"{x:.6g}"  # noqa: E731
+        fmt = lambda x: "" if x is None or not math.isfinite(x) else f"{x:.6g}"
         return (d is None or d.accepted), message[:300], {
             "reviews": self.reviews, "accepted": self.accepted, "rejected": self.rejected, "skipped": self.skipped,
             "last_accepted": "" if d is None else d.accepted, "last_source": self.last_source,

@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from frictionid_core import FrictionIdError, IdentifyRequest, IdentifyResult, InputError, PreprocessingOverrides
-from frictionid_ros.buffer import NS, stamp_ns
+from frictionid_ros.buffer import NS, shown_names, stamp_ns
 from frictionid_ros.config import Config, solve_options
 
 
@@ -69,9 +69,10 @@ def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
     joints = list(req.joints) or list(buffered)
     unknown = [j for j in joints if j not in buffered]
     if unknown:
-        raise InputError(f"unknown joint(s) {unknown}; buffered joints: {buffered or 'none yet'}")
+        raise InputError(f"unknown joint(s) {shown_names(unknown)}; buffered joints: "
+                         f"{shown_names(buffered) if buffered else 'none yet'}")
     if len(set(joints)) != len(joints):
-        raise InputError(f"duplicated joint names in {joints}")
+        raise InputError(f"duplicated joint names in {shown_names(joints)}")
     default = cfg.solve
     seed = int(req.seed) if req.seed > 0 else default.solver.seed if req.seed == 0 else \
         int(np.random.SeedSequence().entropy % 2**63)
@@ -80,6 +81,11 @@ def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
     fields.update((k, v) for k, v in (("friction_model", req.friction_model), ("solver", req.solver)) if v)
     request = node_request(cfg, joints, "request field", **fields)
     ws = float(req.window_seconds)
+    for name in ("window_start", "window_end"):
+        stamp = getattr(req, name)
+        if not (0 <= stamp.nanosec < NS and stamp.sec >= 0):
+            raise InputError(f"request field '{name}' = {stamp.sec} s + {stamp.nanosec} ns is not a time stamp "
+                             f"(sec >= 0, 0 <= nanosec < {NS})")
     start, end = stamp_ns(req.window_start), stamp_ns(req.window_end)
     if not math.isfinite(ws) or ws < 0.0:
         raise InputError(f"window_seconds must be >= 0, got {ws}")

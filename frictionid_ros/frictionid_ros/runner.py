@@ -6,6 +6,7 @@ import argparse
 import gc
 import sys
 import threading
+import time
 import warnings
 from pathlib import Path
 
@@ -17,7 +18,8 @@ with warnings.catch_warnings():
 from frictionid_core import FrictionIdError
 
 GIL_SWITCH_INTERVAL = 0.0005  # [s]
-SERVICE_THREADS = 6  # identify (service and action), cancel, reset/save/load, lifecycle, diagnostics
+SERVICE_THREADS = 8  # identify (service and action), cancel, reset, save, load, online, lifecycle, diagnostics
+NAME_CHECK_S = 2.0  # how long a starting node looks for another node of its name on the graph [s]
 
 
 def parse_argv(argv: list[str]) -> tuple[list[str], bool]:
@@ -40,6 +42,23 @@ def parse_argv(argv: list[str]) -> tuple[list[str], bool]:
     rest = [a for a in argv[1:] if a != "--lifecycle"]
     # ours first: explicit --ros-args -p/--params-file given later take precedence
     return argv[:1] + (["--ros-args", *extra, "--"] if extra else []) + rest, opts.lifecycle
+
+
+def check_unique_name(node, seconds: float = NAME_CHECK_S) -> None:
+    """FrictionIdError (one line) when another node of ``node``'s name and namespace is on the ROS
+    graph: looked for during ``seconds`` (discovery of the others takes a moment; found earlier,
+    the answer comes at once). Two nodes started at the same moment may both refuse."""
+    me = (node.get_name(), node.get_namespace())
+    deadline = time.monotonic() + seconds
+    while True:
+        if sum(1 for entry in node.get_node_names_and_namespaces() if tuple(entry) == me) > 1:
+            domain = node.context.get_domain_id()
+            raise FrictionIdError(f"another node named {node.get_fully_qualified_name()} is running on ROS domain "
+                                  f"{domain}; not starting a second one (set the parameter unique_name to false to "
+                                  "allow it)")
+        if time.monotonic() >= deadline:
+            return
+        time.sleep(0.1)
 
 
 def make_input_executor(kind: str, log, context=None):

@@ -10,11 +10,20 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from frictionid_core import FrictionIdError
+from frictionid_core.safety import Limit, data_limits
 from frictionid_ros.inputs import Inputs
 from frictionid_ros.request import Job, consistency_text, parse_request, summary
 from frictionid_ros.store import ActiveParameters, Results, split_identification
 from frictionid_ros.window import Selection, window_series
-from frictionid_ros.worker import Cancelled, Gate, JobControl, WorkerProcess, checked_result, run_identification
+from frictionid_ros.worker import (
+    KILLED_NOTE,
+    Cancelled,
+    Gate,
+    JobControl,
+    WorkerProcess,
+    checked_result,
+    run_identification,
+)
 
 if TYPE_CHECKING:
     from frictionid_core import IdentifyResult
@@ -99,6 +108,7 @@ class IdentifyService:
         identification and read its progress; ``on_wait(control)`` is called every WAIT_PERIOD_S
         while it runs (the action publishes its feedback there)."""
         control = control or JobControl()
+        control.wall_s = self._settings().max_wall_s  # the watchdog of the worker too (JobControl.check_wall)
         try:
             job = parse_request(req, self._settings(), self._inputs.joints)
         except FrictionIdError as exc:
@@ -128,21 +138,20 @@ class IdentifyService:
                 done.set()
 
         threading.Thread(target=work, name="frictionid-identify", daemon=True).start()
-        limit = self._settings().max_wall_s
         while not done.wait(WAIT_PERIOD_S):
             if self.stopping.is_set():
                 control.cancel("node shutting down")
                 return self._record(False, "node shutting down")
-            if time.monotonic() - control.t_start > limit:
-                control.cancel(f"stopped: over the wall-time limit max_wall_s = {limit:g} s")
+            control.check_wall()
             if on_wait is not None:
                 on_wait(control)
         exc = box.get("error")
         if control.cancelled or isinstance(exc, Cancelled):
             self.last_cancel_ms = (control.stopped_at - control.cancelled_at) * 1e3
+            killed = f"; {KILLED_NOTE}" if control.killed else ""
             return self._record(False, f"{control.reason or exc} after {control.stopped_at - control.t_start:.2f} s "
-                                       f"(identification stopped {self.last_cancel_ms:.0f} ms after the cancel); "
-                                       "active parameters unchanged", cancelled=True)
+                                       f"(identification stopped {self.last_cancel_ms:.0f} ms after the cancel"
+                                       f"{killed}); active parameters unchanged", cancelled=True)
         if exc is not None:
             if isinstance(exc, FrictionIdError):
                 return self._record(False, str(exc))
@@ -151,13 +160,26 @@ class IdentifyService:
         result, _, sel = box["result"]
         stamp = time.time_ns()
         n = len(sel.series)
-        identified = Results(split_identification(result, stamp), result, sel.start_ns, sel.end_ns, n, stamp)
+        identified = Results(split_identification(result, stamp, self.limits(result, sel.series)), result,
+                             sel.start_ns, sel.end_ns, n, stamp)
         text = summary(job, result, n, time.monotonic() - control.t_start)
         self.last_consistency = consistency_text(result)
-        text += " (dry run: active parameters unchanged)" if job.dry_run else self._active.activate(identified)
+        try:
+            self._active.screen.check(identified)
+            text += " (dry run: active parameters unchanged)" if job.dry_run else self._active.activate(identified)
+        except FrictionIdError as exc:
+            return self._record(False, f"{text}; {exc}; active parameters unchanged")
         if sel.notes:
             text += "; notes: " + "; ".join(sel.notes)
         return self._record(True, text, identified)
+
+    def limits(self, result: IdentifyResult, series) -> dict[str, Limit]:
+        """{owner: Limit} of the data ``series`` an identification ``result`` ran on
+        (:func:`frictionid_core.safety.data_limits`, through the node's drive), kept with its parameters."""
+        try:
+            return data_limits(series, self._settings().drive, result.friction_rows())
+        except FrictionIdError:  # joints that do not match the drive: the screen's default limit then
+            return {}
 
     def window(self, job: Job) -> Selection:
         """The buffered data window of ``job`` (InputError if unusable)."""

@@ -4,7 +4,10 @@ The results file is JSON: the last identification exactly as ``IdentifyResult.to
 (system, friction, asymmetric, solver, source, joints, params, std, metrics, wall_s), plus
 
 * ``per_joint``: {joint: {system, friction, asymmetric, solver, params, std, metrics, samples,
-  stamp_ns}} — the *active* parameters of every joint, names without the ``<joint>/`` prefix;
+  stamp_ns[, limit]}} — the *active* parameters of every joint, names without the ``<joint>/``
+  prefix; ``limit``: {effort, speed, source} of the data they were identified on
+  (:func:`frictionid_core.safety.data_limits`), the limits of the safety screen and the clamp when the
+  robot model gives none;
 * ``window_start_ns``, ``window_end_ns``, ``window_samples``, ``stamp_ns``: the data window
   of the last identification and when it ran [ns since the epoch].
 
@@ -12,7 +15,9 @@ A plain ``frictionid identify --json`` file (no ``per_joint``), or its YAML from
 is accepted by :func:`read_results`.
 Files are written atomically (temporary file + ``os.replace``), never over a file the node did
 not write; requests name files inside the node's results folder only (:func:`request_path`).
-:class:`ActiveParameters` holds the node's active parameters and saves them.
+:class:`ActiveParameters` holds the node's active parameters and saves them; every set it is given
+(an identification, ``~/load``, the ``results_file`` at start, an online candidate) passes the
+safety screen first (:class:`Screen`, :func:`frictionid_core.safety.screen_parameters`).
 """
 
 from __future__ import annotations
@@ -25,7 +30,11 @@ import time
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
+import numpy as np
+
 from frictionid_core import YAML_SUFFIXES, FrictionIdError, IdentifyResult, get_model, read_json, write_json
+from frictionid_core.safety import Limit, explicit_bounds, robot_limits, screen_parameters
+from frictionid_ros.config import PARAMETERS
 
 FORMAT = "frictionid_ros/1"
 # Keys of the results file around the last identification's.
@@ -46,6 +55,7 @@ class JointParams:
     metrics: dict[str, float] = field(default_factory=dict)
     samples: int = 0
     stamp_ns: int = 0
+    limit: Limit | None = None
 
     def friction_vector(self):
         """(model, parameter vector in the model's order) for the feed-forward."""
@@ -58,11 +68,17 @@ class JointParams:
     def to_dict(self) -> dict:
         d = asdict(self)
         d.pop("joint")
+        if self.limit is None:
+            d.pop("limit")
+        else:
+            d["limit"] = self.limit.to_dict()
         return d
 
 
-def split_identification(result: IdentifyResult, stamp_ns: int = 0) -> dict[str, JointParams]:
-    """Per-joint parameters of an identification.
+def split_identification(result: IdentifyResult, stamp_ns: int = 0, limits: dict[str, Limit] | None = None
+                         ) -> dict[str, JointParams]:
+    """Per-joint parameters of an identification (``limits``: {owner: Limit} of its data, kept
+    with each joint's parameters).
 
     With several joints, names ``<joint>/<name>`` go to their joint; unprefixed (shared, e.g.
     rigid-body) parameters stay only in the top-level ``params``. With one joint every
@@ -84,7 +100,7 @@ def split_identification(result: IdentifyResult, stamp_ns: int = 0) -> dict[str,
             s = {k[len(pre):]: v for k, v in std.items() if k.startswith(pre)}
         out[j] = JointParams(j, system, friction, asym, solver, {k: float(v) for k, v in p.items()},
                              {k: float(v) for k, v in s.items()}, dict(metrics), total // max(len(joints), 1),
-                             int(stamp_ns))
+                             int(stamp_ns), (limits or {}).get(j))
     return out
 
 
@@ -135,7 +151,7 @@ def check_replaceable(path: Path) -> None:
         try:
             data = json.loads(path.read_text())
             fmt = data.get("format") if isinstance(data, dict) else None
-        except (OSError, UnicodeDecodeError, ValueError):
+        except (OSError, UnicodeDecodeError, ValueError, RecursionError):
             pass
     if fmt != FORMAT:
         raise FrictionIdError(f"{path}: refused: the file exists and is not a parameters file written by this node "
@@ -180,6 +196,8 @@ def read_results(path: Path) -> Results:
             data = json.loads(path.read_text())
     except FileNotFoundError:
         raise FrictionIdError(f"{path}: no such parameters file") from None
+    except RecursionError:  # the readers recurse once per nesting level
+        raise FrictionIdError(f"{path}: cannot read parameters (its values are nested too deeply)") from None
     except (OSError, ValueError) as exc:
         raise FrictionIdError(f"{path}: cannot read parameters ({exc})") from None
     if not isinstance(data, dict):
@@ -193,7 +211,8 @@ def read_results(path: Path) -> Results:
                     {k: float(v) for k, v in d["params"].items()},
                     {k: float(v) for k, v in (d.get("std") or {}).items()},
                     {k: float(v) for k, v in (d.get("metrics") or {}).items()},
-                    int(d.get("samples", 0)), int(d.get("stamp_ns", 0)))
+                    int(d.get("samples", 0)), int(d.get("stamp_ns", 0)),
+                    Limit.from_dict(d["limit"], f"{path}: per_joint '{j}' limit") if d.get("limit") else None)
         rest = {k: v for k, v in data.items() if k not in _FILE_KEYS}
         last = IdentifyResult.from_dict(rest, str(path)) if rest or "per_joint" not in data else None
         if "per_joint" not in data:
@@ -211,19 +230,95 @@ def read_results(path: Path) -> Results:
                    int(data.get("window_samples", 0)), int(data.get("stamp_ns", 0)))
 
 
+class Screen:
+    """The node's safety screen and the feed-forward's clamp.
+
+    Every parameter set that would become active passes :func:`frictionid_core.safety.screen_parameters`
+    with ``max_abs`` (gate_max_abs) against a limit per joint: the robot model's (``system``, a robot
+    system: :func:`frictionid_core.safety.robot_limits`), else the one recorded with the parameters (the
+    data they were identified on), else ``feedforward_max``. The feed-forward of a joint is clamped
+    to ±min(feedforward_max, that limit) (:meth:`clamp`).
+    """
+
+    def __init__(self, system=None, feedforward_max: float = PARAMETERS["feedforward_max"].default,
+                 max_abs: float = PARAMETERS["gate_max_abs"].default):
+        self.system = system
+        self.feedforward_max = float(feedforward_max)
+        self.max_abs = float(max_abs)
+        self.default = Limit(self.feedforward_max, math.nan, "the node's feedforward_max")
+
+    @classmethod
+    def of(cls, cfg) -> Screen:
+        """The screen of a node's :class:`~frictionid_ros.config.Config`: its system (with its drive),
+        ``feedforward_max`` and ``gate_max_abs``."""
+        from frictionid_core.systems import get_system
+
+        try:
+            system = get_system(cfg.system, drive=cfg.drive)
+        except FrictionIdError:  # a drive that does not fit the system: identifications say so
+            system = get_system(cfg.system)
+        return cls(system, cfg.feedforward_max, cfg.gate_max_abs)
+
+    def limits(self, per_joint: dict[str, JointParams]) -> dict[str, Limit]:
+        """{joint (or motor): its Limit} of ``per_joint``'s owners."""
+        robot = robot_limits(self.system, list(per_joint)) if self.system is not None else {}
+        return {j: robot.get(j) or p.limit or self.default for j, p in per_joint.items()}
+
+    def refusals(self, results: Results) -> list[str]:
+        """The screen's refusals of ``results`` (its joints' parameters and the shared ones of its
+        identification), one line each; empty: accepted."""
+        last = results.last
+        single = last is not None and len(last.friction_rows()) == 1
+        bounds = explicit_bounds(last)
+        params, allowed, std = {}, {}, {}
+        for j, p in results.per_joint.items():
+            std.update((f"{j}/{k}", v) for k, v in p.std.items())
+            for k, v in p.params.items():
+                params[f"{j}/{k}"] = v
+                own = bounds.get(f"{j}/{k}") or (bounds.get(k) if single else None)
+                if own is not None:
+                    allowed[f"{j}/{k}"] = own
+        for k, v, sigma in zip(*shared_parameters(last)):
+            params[k], std[k] = v, sigma
+            if k in bounds:
+                allowed[k] = bounds[k]
+        return screen_parameters(params, self.limits(results.per_joint), bounds=allowed, max_abs=self.max_abs,
+                                 default=self.default, std=std)
+
+    def check(self, results: Results) -> None:
+        """FrictionIdError naming the parameters at fault and their limits when ``results`` is refused."""
+        refusals = self.refusals(results)
+        if refusals:
+            more = f" (and {len(refusals) - 3} more)" if len(refusals) > 3 else ""
+            raise FrictionIdError("refused by the safety screen: " + "; ".join(refusals[:3]) + more)
+
+    def clamp(self, joints: list[str], per_joint: dict[str, JointParams], drive=None) -> np.ndarray:
+        """The feed-forward's clamp of each of ``joints`` [N·m | N]: feedforward_max, lowered to the
+        joint's own effort limit (not under a ``drive``: the feed-forward is then in recorded units)."""
+        out = np.full(len(joints), self.feedforward_max)
+        if drive is None:
+            limits = self.limits({j: per_joint[j] for j in joints if j in per_joint})
+            for k, j in enumerate(joints):
+                if j in limits:
+                    out[k] = min(out[k], limits[j].effort)
+        return out
+
+
 class ActiveParameters:
     """The node's active parameters, merged per joint over identifications and loads.
 
-    Every change goes to ``on_change(results)`` (feed-forward, publication) under :attr:`lock`
-    and is saved to ``path`` (the ``results_file``); ``log`` reports a failed save (``.error``).
-    Requests name files in ``folder`` (default: the folder of ``path``).
+    Every set is screened first (``screen``, :class:`Screen`: refused → FrictionIdError, nothing
+    changed); every change goes to ``on_change(results)`` (feed-forward, publication) under
+    :attr:`lock` and is saved to ``path`` (the ``results_file``); ``log`` reports a failed save
+    (``.error``). Requests name files in ``folder`` (default: the folder of ``path``).
     """
 
-    def __init__(self, path: Path, on_change, log, folder: Path | None = None):
+    def __init__(self, path: Path, on_change, log, folder: Path | None = None, screen: Screen | None = None):
         self.path = Path(path)
         self.folder = Path(folder) if folder is not None else self.path.parent
         self._on_change = on_change
         self._log = log
+        self.screen = screen or Screen()
         self.lock = threading.Lock()
         self.results = Results()
 
@@ -232,15 +327,20 @@ class ActiveParameters:
         return request_path(self.folder, name) if name else self.path
 
     def restore(self) -> None:
-        """Read ``path`` if it exists (at start; ``on_change`` is not called)."""
+        """Read ``path`` if it exists and the screen accepts it (at start; ``on_change`` is not called)."""
         if self.path.exists():
             try:
-                self.results = read_results(self.path)
+                results = read_results(self.path)
+                self.screen.check(results)
             except FrictionIdError as exc:
-                self._log.error(f"parameters not restored: {exc}")
+                self._log.error(f"parameters not restored: {self.path}: {exc}")
+                return
+            self.results = results
 
     def activate(self, results: Results, save: bool = True) -> str:
-        """Merge ``results`` into the active parameters and save them; returns a note for the reply."""
+        """Merge ``results`` into the active parameters and save them; returns a note for the reply.
+        FrictionIdError (nothing changed) when the screen refuses them."""
+        self.screen.check(results)
         with self.lock:
             self.results = replace(results, per_joint={**self.results.per_joint, **results.per_joint})
             self._on_change(self.results)
@@ -272,5 +372,9 @@ class ActiveParameters:
             return False, str(exc)
         if not loaded.per_joint:
             return False, f"{path}: no parameters in the file"
-        note = self.activate(replace(loaded, stamp_ns=loaded.stamp_ns or time.time_ns()), save=Path(path) != self.path)
+        try:
+            note = self.activate(replace(loaded, stamp_ns=loaded.stamp_ns or time.time_ns()),
+                                 save=Path(path) != self.path)
+        except FrictionIdError as exc:
+            return False, f"{path}: not loaded: {exc}; active parameters unchanged"
         return True, f"loaded parameters of {sorted(loaded.per_joint)} from {path}{note}"

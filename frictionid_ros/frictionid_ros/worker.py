@@ -16,8 +16,14 @@ Node → child: ``("job", id, series, request, gate)`` (an IdentifyRequest; a :c
 reply: ``("ok", (IdentifyResult, the gate's Decision or None))``, ``("error", message)`` for a
 FrictionIdError, ``("cancelled", message)`` or ``("crash", message)`` for anything else.
 A cancelled job stops at the optimiser's next generation or cost call; a child that has not
-answered CANCEL_GRACE_S after a cancel is killed and replaced. The child exits when its stdin
-closes, and at once if the node dies (PR_SET_PDEATHSIG).
+answered CANCEL_GRACE_S after a cancel is killed and replaced (the watchdog: the wall-time limit
+``max_wall_s`` cancels a job, :meth:`JobControl.check_wall`, so a child that overruns it or stops
+responding — even stopped by SIGSTOP — is killed and replaced, and the job answered saying so; a
+job that overruns while the child starts is answered, and the child killed only if it is stuck
+starting: stopped, or not ready READY_TIMEOUT_S after its start).
+No caller ever waits on the child's pipe: one writer thread writes to it, the owner thread reads
+from it, and the lock guards state only. The child exits when its stdin closes, and at once if the
+node dies (PR_SET_PDEATHSIG).
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ import math
 import os
 import pickle
 import queue
+import select
 import signal
 import struct
 import subprocess
@@ -45,6 +52,9 @@ _LENGTH = struct.Struct("<Q")  # an out-of-band buffer's length
 _FRAME = struct.Struct("<QQ")  # a message's pickle length and number of out-of-band buffers
 PROGRESS_PERIOD_S = 0.1  # shortest interval between two progress messages of the child [s]
 CANCEL_GRACE_S = 0.25  # a cancelled child still running after this long is killed [s]
+# A child that has not said "ready" this long after its start (imports, warm-up: seconds) is stuck [s].
+READY_TIMEOUT_S = 60.0
+KILLED_NOTE = "the identification worker did not stop: killed and restarted"
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
 
@@ -68,16 +78,21 @@ class JobControl:
     """Cancellation and progress of one identification, shared by the threads that run and watch it.
 
     :meth:`cancel` records the first reason and interrupts the running identification (the worker
-    registers how, :meth:`on_cancel`). :attr:`progress` is the optimiser's last report
-    (generation, evaluations, best cost); :attr:`stopped_at` is set when the identification ended
-    [s, ``time.monotonic``].
+    registers how, :meth:`on_cancel`); :meth:`check_wall` cancels it once it has run longer than
+    ``wall_s`` [s]. :attr:`progress` is the optimiser's last report (generation, evaluations, best
+    cost); :attr:`stopped_at` is set when the identification ended [s, ``time.monotonic``];
+    :attr:`overrun`: cancelled by the wall-time limit; :attr:`killed`: its worker child did not
+    stop after the cancel (or, overrun, never became ready) and was killed.
     """
 
-    def __init__(self):
+    def __init__(self, wall_s: float = math.inf):
         self.t_start = time.monotonic()
+        self.wall_s = float(wall_s)
         self.reason = ""
         self.cancelled_at = 0.0
         self.stopped_at = 0.0
+        self.overrun = False
+        self.killed = False
         self.progress: tuple[int, int, float] = (0, 0, math.inf)
         self._interrupt = None
         self._lock = threading.Lock()
@@ -97,6 +112,11 @@ class JobControl:
             interrupt()
         return True
 
+    def check_wall(self) -> None:
+        """Cancel the identification once it has run longer than :attr:`wall_s`."""
+        if not self.reason and time.monotonic() - self.t_start > self.wall_s:
+            self.overrun = self.cancel(f"stopped: over the wall-time limit max_wall_s = {self.wall_s:g} s")
+
     def on_cancel(self, interrupt) -> None:
         """Call ``interrupt()`` on :meth:`cancel` (at once if already cancelled)."""
         with self._lock:
@@ -108,6 +128,7 @@ class JobControl:
     def report(self, generation: int, evaluations: int, best_cost: float) -> None:
         """The optimiser's progress hook in this process: record, and stop if cancelled."""
         self.progress = (int(generation), int(evaluations), float(best_cost))
+        self.check_wall()
         if self.reason:
             raise Cancelled(self.reason)
 
@@ -169,7 +190,7 @@ def run_identification(series, request: IdentifyRequest, progress=None, gate: Ga
         return ("error", str(exc))
     except ImportError as exc:
         return ("error", f"solver '{request.solver.method}' is unavailable ({type(exc).__name__}: {exc})")
-    except Exception as exc:  # noqa: BLE001 - reported to the caller, never kills the worker
+    except Exception as exc:  # reported to the caller, never kills the worker
         return ("crash", f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}")
 
 
@@ -255,7 +276,7 @@ class _Child:
             job_id, series, request, gate = job
             last = [0.0]
 
-            def progress(generation, evaluations, best_cost):
+            def progress(generation, evaluations, best_cost, job_id=job_id, last=last):
                 if job_id in self.cancelled:
                     raise Cancelled("cancelled")
                 now = time.monotonic()
@@ -295,13 +316,27 @@ def main() -> int:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is for the node; it closes our stdin
     try:
         _warm_up()
-    except Exception:  # noqa: BLE001 - a warm-up problem shows again on the first request
+    except Exception:  # a warm-up problem shows again on the first request
         pass
-    _send(out, ("ready", os.getpid()))
+    try:
+        _send(out, ("ready", os.getpid()))
+    except BrokenPipeError:  # the node stopped (or replaced) us while we started: it reads no more
+        return 0
     return _Child(inp, out).serve()
 
 
 # ----------------------------------------------------------------------------- node side
+
+
+def _stopped(pid: int) -> bool:
+    """Whether process ``pid`` is stopped (SIGSTOP, a debugger: state T or t in ``/proc/<pid>/stat``;
+    False where there is no /proc)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            stat = f.read()
+    except OSError:
+        return False
+    return stat[stat.rfind(b")") + 2:][:1] in (b"T", b"t")
 
 
 class _Job:
@@ -309,25 +344,32 @@ class _Job:
         self.id, self.series, self.request, self.gate, self.control = job_id, series, request, gate, control
         self.reply: tuple | None = None
         self.done = threading.Event()
-        self.sent = False  # written to the child (under WorkerProcess._lock)
+        self.sent = False  # handed to the writer for the child (under WorkerProcess._lock)
 
 
 class WorkerProcess:
     """Parent side: one child, one identification at a time, replaced if it dies or is killed.
 
     ``nice``: niceness added to the child's [0..19]; the child runs one BLAS/numba thread. A
-    long-lived owner thread starts the child and reads from it: Linux's PR_SET_PDEATHSIG is tied to the thread that created the child, so that
-    thread must live as long as the node.
+    long-lived owner thread starts the child and reads from it (Linux's PR_SET_PDEATHSIG is tied
+    to the thread that created the child, so that thread must live as long as the node); a writer
+    thread alone writes to the child's stdin (jobs and cancels, queued: a child that no longer
+    reads blocks only that thread, until the child is killed). :attr:`_lock` guards the state only
+    and is never held during I/O: a cancel, a kill and :meth:`stop` never wait on the child.
     """
 
     def __init__(self, nice: int = 0):
         self._nice = int(nice)
         self._proc: subprocess.Popen | None = None
+        self._started_at = 0.0  # when the child was started [s, time.monotonic]
         self._jobs: queue.Queue = queue.Queue()
-        self._lock = threading.Lock()  # stdin writes, job.sent, the running job
-        self._running: _Job | None = None
+        self._outbox: queue.Queue = queue.Queue()  # (child, message or None: close its stdin) | None: end
+        self._lock = threading.Lock()  # the child, the job in hand and job.sent
+        self._current: _Job | None = None  # the job the owner thread handles (waiting for the child, or sent)
         self._ids = 0
         self._closed = False
+        self._writer = threading.Thread(target=self._write, name="frictionid-worker-writer", daemon=True)
+        self._writer.start()
         self._thread = threading.Thread(target=self._serve, name="frictionid-worker-io", daemon=True)
         self._thread.start()
 
@@ -343,10 +385,44 @@ class WorkerProcess:
         paths = [str(Path(m.__file__).resolve().parents[1]) for m in (frictionid_ros, frictionid_core)]
         env = dict(os.environ, FRICTIONID_WORKER_NICE=str(self._nice))
         env["PYTHONPATH"] = os.pathsep.join(paths + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
-        env.update({name: "1" for name in THREAD_VARIABLES})
-        self._proc = subprocess.Popen([sys.executable, "-m", "frictionid_ros.worker"], stdin=subprocess.PIPE,
-                                      stdout=subprocess.PIPE, env=env, close_fds=True)
-        return self._proc
+        env.update(dict.fromkeys(THREAD_VARIABLES, "1"))
+        proc = subprocess.Popen([sys.executable, "-m", "frictionid_ros.worker"], stdin=subprocess.PIPE,
+                                stdout=subprocess.PIPE, env=env, close_fds=True)
+        with self._lock:
+            self._proc, self._started_at = proc, time.monotonic()
+        return proc
+
+    def _retire(self, proc: subprocess.Popen | None) -> None:
+        """Close the pipes of a child that is gone (its stdin by the writer, after what it has queued)."""
+        if proc is not None:
+            self._outbox.put((proc, None))
+            try:
+                proc.stdout.close()
+            except OSError:
+                pass
+
+    def _write(self) -> None:
+        """The writer thread: the queued messages to their child, in order."""
+        while True:
+            item = self._outbox.get()
+            if item is None:
+                return
+            proc, msg = item
+            try:
+                if msg is None:
+                    proc.stdin.close()
+                else:
+                    _send(proc.stdin, msg)
+            except (OSError, ValueError):  # the child died or was killed (broken pipe), or its stdin closed
+                pass
+
+    def _ready(self, proc: subprocess.Popen, job: _Job) -> bool:
+        """Wait for the child's ("ready", pid); False (not ready yet) as soon as ``job`` is cancelled."""
+        while not select.select([proc.stdout], [], [], 0.1)[0]:
+            if job.control.cancelled:
+                return False
+        _recv(proc.stdout)
+        return True
 
     def _serve(self) -> None:
         proc = self._start()
@@ -354,75 +430,86 @@ class WorkerProcess:
         while True:
             job = self._jobs.get()
             if job is None:
+                self._retire(proc)
                 return
+            with self._lock:
+                self._current = job
             try:
                 if proc is None or proc.poll() is not None:
+                    self._retire(proc)
                     proc, ready = self._start(), False
-                if not ready:
-                    _recv(proc.stdout)  # ("ready", pid)
-                    ready = True
+                ready = ready or self._ready(proc, job)
                 with self._lock:
                     if job.control.cancelled:
                         job.reply = ("cancelled", job.control.reason)
                         continue
-                    _send(proc.stdin, ("job", job.id, job.series, job.request, job.gate))
-                    job.sent, self._running = True, job
+                    job.sent = True
+                self._outbox.put((proc, ("job", job.id, job.series, job.request, job.gate)))
                 while True:
                     msg = _recv(proc.stdout)
                     if msg[0] != "progress":
                         break
                     job.control.progress = tuple(msg[1:])
                 job.reply = msg
-            except (EOFError, OSError, pickle.UnpicklingError) as exc:
+            except (EOFError, OSError, ValueError, pickle.UnpicklingError) as exc:
                 rc = proc.poll() if proc is not None else None
                 if rc is None and proc is not None:
                     proc.kill()
                     rc = proc.wait()
                 job.reply = (("cancelled", job.control.reason) if job.control.cancelled else
                              ("crash", f"identification worker died ({f'exit code {rc}' if rc is not None else exc})"))
+                self._retire(proc)
                 proc, ready = (None, False) if self._closed else (self._start(), False)  # the next job finds it warm
             finally:
                 with self._lock:
-                    self._running = None
+                    self._current = None
                 job.control.stopped_at = time.monotonic()
                 job.done.set()
 
     def _interrupt(self, job: _Job) -> None:
-        """Ask the child to stop ``job`` (it stops at the optimiser's next report)."""
+        """Ask the child to stop ``job`` (it stops at the optimiser's next report); queued, never waits."""
         with self._lock:
-            if job.sent and self._running is job and self._proc is not None:
-                try:
-                    _send(self._proc.stdin, ("cancel", job.id))
-                except OSError:
-                    pass
+            proc = self._proc if job.sent and self._current is job else None
+        if proc is not None:
+            self._outbox.put((proc, ("cancel", job.id)))
 
     def _kill(self, job: _Job) -> None:
-        """Kill the child if it still runs ``job`` (the owner thread then starts a new one)."""
+        """Kill the child if it still runs ``job``, or if ``job`` overran its wall-time limit waiting
+        for a child that is stuck starting — stopped (SIGSTOP), or not ready READY_TIMEOUT_S after
+        its start; a child that is only slow to start is left to start (the owner thread starts a
+        new one after a kill)."""
         with self._lock:
-            proc = self._proc if self._running is job else None
-        if proc is not None and proc.poll() is None:
-            proc.kill()
+            proc = self._proc if self._current is job else None
+            stuck = job.sent or (job.control.overrun and proc is not None and (
+                _stopped(proc.pid) or time.monotonic() - self._started_at > READY_TIMEOUT_S))
+        if proc is not None and stuck and proc.poll() is None:
+            job.control.killed = True
+            proc.kill()  # SIGKILL: a stopped child too; its pipes then break, freeing the owner and the writer
 
     def run(self, series, request: IdentifyRequest, control: JobControl | None = None, gate: Gate | None = None
             ) -> tuple:
         """Identify ``request`` on ``series`` in the child (with ``gate``: also judge the result by the
         safety gate, see :func:`run_identification`); returns its reply (see the module docstring).
 
-        ``control``: receives the progress; its :meth:`~JobControl.cancel` stops the job, killing
-        the child if it has not stopped within CANCEL_GRACE_S.
+        ``control``: receives the progress and enforces its wall-time limit; its
+        :meth:`~JobControl.cancel` stops the job, killing the child if it has not stopped within
+        CANCEL_GRACE_S. A job still waiting for the child is answered at once when cancelled.
         """
         control = control or JobControl()
         if self._closed:
             return ("error", "node shutting down")
-        self._ids += 1
-        job = _Job(self._ids, series, request, gate, control)
+        with self._lock:
+            self._ids += 1
+            job = _Job(self._ids, series, request, gate, control)
         self._jobs.put(job)
         control.on_cancel(lambda: self._interrupt(job))
         while not job.done.wait(0.05):
+            control.check_wall()
             if control.cancelled:
                 with self._lock:
                     sent = job.sent
-                if not sent:  # still waiting for the child (starting): the owner thread will skip it
+                if not sent:  # still waiting for the child: the owner thread will skip it
+                    self._kill(job)  # only a child that did not start within the wall-time limit
                     control.stopped_at = time.monotonic()
                     return ("cancelled", control.reason)
                 if time.monotonic() - control.cancelled_at > CANCEL_GRACE_S:
@@ -432,21 +519,20 @@ class WorkerProcess:
         return job.reply
 
     def stop(self, timeout: float = 2.0) -> None:
-        """End the child (stdin closed, killed after ``timeout`` s) and the owner thread."""
+        """End the child (stdin closed, killed after ``timeout`` s) and the threads; never waits on
+        the child's pipe."""
         self._closed = True
         self._jobs.put(None)
-        proc = self._proc
-        if proc is None:
-            return
-        try:
-            proc.stdin.close()
-        except OSError:
-            pass
-        try:
-            proc.wait(timeout)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout)
+        with self._lock:
+            proc = self._proc
+        if proc is not None:
+            self._outbox.put((proc, None))  # after what is queued: the child ends on EOF
+            try:
+                proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(timeout)
+        self._outbox.put(None)
 
 
 if __name__ == "__main__":

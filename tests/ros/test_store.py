@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 import warnings
 
 import pytest
@@ -13,6 +16,7 @@ with warnings.catch_warnings():
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.identification import IdentifyResult
+from frictionid_core.jsonfile import temporary_name
 from frictionid_ros.service import IdentifyService
 from frictionid_ros.store import (
     ActiveParameters,
@@ -106,3 +110,17 @@ def test_results_file_round_trip_and_plain_identify_json(tmp_path):
     with pytest.raises(FrictionIdError, match=r"\['Fc'\] missing"):
         read_results(bad)
     assert not list((tmp_path / "sub").glob("*.tmp"))  # atomic write leaves no temporary file
+
+
+def test_a_save_removes_the_temporary_file_of_a_node_killed_while_saving(tmp_path):
+    """A node killed during ``~/save`` leaves ``.parameters.json.<pid>.tmp``; the next save into that folder
+    removes it (its process is gone), and keeps one of a process that still runs."""
+    _, active = service_with_parameters(tmp_path)
+    done = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True,
+                          check=True)
+    orphan = active.path.with_name(temporary_name(active.path.name, int(done.stdout)))  # its process has exited
+    running = active.path.with_name(temporary_name(active.path.name, os.getppid()))
+    for path in (orphan, running):
+        path.write_text('{"per_joint": ')
+    assert active.save(active.file(""))[0]
+    assert not orphan.exists() and running.exists()

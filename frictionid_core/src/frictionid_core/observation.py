@@ -157,7 +157,7 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
         return fit, np.column_stack([small[metric_rows, :2], rigid[metric_rigid], small[metric_rows, 2:]])
 
     # the joints in the threads the machine has free (the filters release the GIL)
-    per_joint: list = [None] * nj
+    per_joint = [None] * nj
 
     def joints_from(lo: int, hi: int) -> None:
         for j in range(lo, hi):
@@ -170,7 +170,7 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
             out["velocity"].append(rows[:, 1])
             out["rigid"].append(rows[:, 2 : 2 + r])
             out["columns"].append(dict(zip(VELOCITY_COLUMNS, rows[:, 2 + r :].T)))
-    del per_joint
+    per_joint.clear()  # the per-joint rows are in parts and raw now: free them
 
     def observation(p: dict, t: np.ndarray) -> Observation:
         return Observation(list(joints), np.concatenate(p["y"]), np.vstack(p["rigid"]), list(rigid_names),

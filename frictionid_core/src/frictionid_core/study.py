@@ -3,16 +3,17 @@
 Each run identifies the IDM parameters with one population algorithm at the thesis budget
 (50 × 100) on the estimation data, then reports the OSA torque relative error and the
 closed-loop simulated position relative error on the estimation and validation data (true
-and benchmark clocks). Runs are appended to ``DIR/runs.jsonl`` as they finish (a rerun skips
-finished runs); :func:`analyse` turns them into the rank table, Friedman tests, pairwise
-p-values and convergence curves.
+and benchmark clocks). Runs are appended to ``DIR/runs.jsonl`` as they finish, each record with its
+checksum (:mod:`frictionid_core.fleet.store`): a rerun skips finished runs, and sets aside and redoes a
+damaged record (a changed or deleted field, a line that is not JSON, bad bytes), saying so. A run
+that fails is recorded and retried once, never stopping the others. :func:`analyse` turns the
+finished runs into the rank table, Friedman tests, pairwise p-values and convergence curves.
 """
 
 from __future__ import annotations
 
-import json
-import os
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from functools import lru_cache
@@ -20,6 +21,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from frictionid_core.errors import FrictionIdError
+from frictionid_core.fleet.store import RecordStore, latest_by_key
 from frictionid_core.jsonfile import write_json
 
 if TYPE_CHECKING:  # numpy and the optimisers are imported by the functions that use them
@@ -28,8 +30,11 @@ if TYPE_CHECKING:  # numpy and the optimisers are imported by the functions that
 ALGORITHMS = ("de", "pso", "ga", "aco", "bbo")
 RUNS_FILE = "runs.jsonl"
 
-# progress(finished, total, elapsed_s): called after each finished run.
+# progress(finished, total, elapsed_s): called after each finished run (or failed twice).
 Progress = Callable[[int, int, float], None]
+# Numbers every finished run holds (analyse and format_summary read them).
+RUN_NUMBERS = ("cost", "osa_est_pct", "osa_val_pct", "sim_est_true_pct", "sim_val_true_pct", "sim_est_benchmark_pct",
+               "sim_val_benchmark_pct")
 
 
 @dataclass(frozen=True)
@@ -100,21 +105,36 @@ def run_one(spec: RunSpec) -> dict:
     return record
 
 
-def _init_worker() -> None:
-    os.environ.setdefault("FRICTIONID_THREADS", "1")  # one process per CPU: no kernel threads (parallel.py)
+def valid_run(record: dict) -> str | None:
+    """None when a ``runs.jsonl`` record has what the study reads, else what is wrong with it."""
+    if record.get("status") == "failed":
+        return None if isinstance(record.get("error"), str) else "a failed run without its error line"
+    if record.get("status") != "ok":
+        return f"unknown status {record.get('status')!r}"
+    for name in ("algorithm", "friction", "key"):
+        if not isinstance(record.get(name), str):
+            return f"field '{name}' missing or not text"
+    for name in (*RUN_NUMBERS, "seed"):
+        if not isinstance(record.get(name), (int, float)) or isinstance(record.get(name), bool):
+            return f"field '{name}' missing or not a number"
+    for name in ("history_fmin", "history_dist_mean"):
+        if not isinstance(record.get(name), list):
+            return f"field '{name}' missing or not a list"
+    return None
+
+
+def _store(out_dir: Path) -> RecordStore:
+    return RecordStore(Path(out_dir) / RUNS_FILE, validate=valid_run)
+
+
+def _finished(record: dict | None) -> bool:
+    """A run needs no new attempt: it finished, or failed twice."""
+    return record is not None and (record["status"] == "ok" or record.get("attempt", 1) >= 2)
 
 
 def finished_keys(out_dir: Path) -> set[str]:
-    """Keys of the runs already in ``out_dir/runs.jsonl`` (a torn last line is ignored)."""
-    path = Path(out_dir) / RUNS_FILE
-    keys = set()
-    if path.exists():
-        for line in path.read_text().splitlines():
-            try:
-                keys.add(json.loads(line)["key"])
-            except (json.JSONDecodeError, KeyError):
-                continue
-    return keys
+    """Keys of the runs finished (or failed twice) in ``out_dir/runs.jsonl``; damaged lines are left out."""
+    return {key for key, r in latest_by_key(_store(out_dir).read().records).items() if _finished(r)}
 
 
 def run_study(specs: list[RunSpec], out_dir: Path, *, workers: int | None = None, scheduler: str | None = None,
@@ -122,87 +142,53 @@ def run_study(specs: list[RunSpec], out_dir: Path, *, workers: int | None = None
     """Run the ``specs`` not finished yet in ``out_dir``; returns how many ran now.
 
     Local processes by default (all cores), or a Dask cluster at ``scheduler`` (tcp://host:port).
-    Each finished run is appended and flushed at once: an interruption loses only the runs in flight.
-    ``progress(finished, total, elapsed_s)`` is called after each run.
+    Each run's record is appended and flushed at once: an interruption loses only the runs in flight.
+    Damaged records are set aside and their runs redone (a UserWarning says which); a failed run is
+    recorded and retried once. ``progress(finished, total, elapsed_s)`` is called after each run.
     """
+    from frictionid_core.fleet.backends import open_backend
+
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    done = finished_keys(out_dir)
-    todo = [s for s in specs if s.key not in done]
-    total, t0 = len(todo), time.perf_counter()
-    if not todo:
-        return 0
-    path = out_dir / RUNS_FILE
-    with open(path, "a", encoding="utf-8") as sink:
-        if path.stat().st_size and not path.read_bytes().endswith(b"\n"):
-            sink.write("\n")  # close a line torn by an interruption
+    with _store(out_dir) as store:
+        found = store.check()
+        for message in found.set_aside:
+            warnings.warn(message, UserWarning, stacklevel=2)
+        latest = latest_by_key(found.records)
+        todo = [s for s in specs if not _finished(latest.get(s.key))]
+        total, t0 = len(todo), time.perf_counter()
+        if not todo:
+            return 0
+        finished = 0
 
-        def write(record: dict, n: int) -> None:
-            sink.write(json.dumps(record) + "\n")
-            sink.flush()
-            os.fsync(sink.fileno())
-            if progress is not None:
-                progress(n, total, time.perf_counter() - t0)
+        def write(record: dict) -> None:
+            nonlocal finished
+            store.append(record)
+            finished += _finished(record)
+            if progress is not None and _finished(record):
+                progress(finished, total, time.perf_counter() - t0)
 
-        if scheduler:
-            _run_dask(todo, scheduler, write)
-        else:
-            _run_local(todo, workers or os.cpu_count() or 1, write)
+        with open_backend(workers, scheduler) as backend:
+            backend.run(run_one, [(spec.key, spec) for spec in todo], write)
     return total
-
-
-def _run_local(todo: list[RunSpec], workers: int, write) -> None:
-    if workers == 1:
-        for n, spec in enumerate(todo, 1):
-            write(run_one(spec), n)
-        return
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-
-    with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker) as pool:
-        pending = set()
-        queue = iter(todo)
-        n = 0
-        for spec in queue:  # keep the pool busy but only ~2 runs per worker in flight
-            pending.add(pool.submit(run_one, spec))
-            if len(pending) >= 2 * workers:
-                break
-        while pending:
-            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in finished:
-                n += 1
-                write(fut.result(), n)
-                nxt = next(queue, None)
-                if nxt is not None:
-                    pending.add(pool.submit(run_one, nxt))
-
-
-def _run_dask(todo: list[RunSpec], scheduler: str, write) -> None:
-    try:
-        from distributed import Client, as_completed
-    except ImportError:
-        raise FrictionIdError("--scheduler needs dask.distributed (pip install distributed)") from None
-    try:
-        client = Client(scheduler, timeout="10s")
-    except (OSError, TimeoutError) as exc:
-        raise FrictionIdError(f"cannot reach the Dask scheduler at {scheduler} ({exc})") from None
-    with client:
-        futures = client.map(run_one, todo, pure=False)
-        for n, fut in enumerate(as_completed(futures), 1):
-            write(fut.result(), n)
 
 
 # ------------------------------------------------------------------------------------ analysis
 def load_runs(out_dir: Path) -> list[dict]:
+    """The finished runs of ``out_dir/runs.jsonl`` (damaged records left out, with a UserWarning each)."""
     path = Path(out_dir) / RUNS_FILE
     if not path.exists():
         raise FrictionIdError(f"{path}: no runs yet (run 'frictionid study' first)")
-    runs = []
-    for line in path.read_text().splitlines():
-        try:
-            runs.append(json.loads(line))
-        except json.JSONDecodeError:
-            continue
-    return runs
+    found = _store(out_dir).read()
+    for message in found.set_aside:
+        warnings.warn(message, UserWarning, stacklevel=2)
+    return [r for r in latest_by_key(found.records).values() if r["status"] == "ok"]
+
+
+def failed_runs(out_dir: Path) -> list[dict]:
+    """{key, error, attempts} of the runs whose last attempt failed."""
+    found = _store(out_dir).read()
+    return [{"key": key, "error": r["error"], "attempts": r.get("attempt", 1)}
+            for key, r in latest_by_key(found.records).items() if r["status"] == "failed"]
 
 
 def _label(run: dict) -> str:
@@ -216,6 +202,8 @@ def analyse(out_dir: Path, metric: str = "sim_val_true_pct") -> dict:
     from scipy import stats
 
     runs = load_runs(out_dir)
+    if not runs:
+        raise FrictionIdError(f"{Path(out_dir) / RUNS_FILE}: no finished run to analyse")
     algos = sorted({r["algorithm"] for r in runs})
     models = sorted({_label(r) for r in runs})
     seeds = sorted({r["seed"] for r in runs})
@@ -244,11 +232,15 @@ def analyse(out_dir: Path, metric: str = "sim_val_true_pct") -> dict:
     if len(models) >= 3 and blocks_m:
         bm = np.array([[value[(a, m, s)] for m in models] for a, s in blocks_m])
         f = stats.friedmanchisquare(*bm.T)
-        summary["friedman_models"] = {"statistic": float(f.statistic), "pvalue": float(f.pvalue), "blocks": len(blocks_m)}
+        summary["friedman_models"] = {"statistic": float(f.statistic), "pvalue": float(f.pvalue),
+                                      "blocks": len(blocks_m)}
         summary["model_mean_rank"] = dict(zip(models, map(float, stats.rankdata(bm, axis=1).mean(axis=0))))
     best = min(runs, key=lambda r: r[metric])
     summary["best_run"] = {k: best[k] for k in ("algorithm", "friction", "asymmetric", "seed", metric,
                                                 "sim_val_benchmark_pct", "osa_est_pct")}
+    failed = failed_runs(out_dir)
+    if failed:
+        summary["failed_runs"] = failed
     write_json(Path(out_dir) / "summary.json", summary)
     return summary
 
@@ -280,9 +272,13 @@ def format_summary(summary: dict) -> str:
             f = summary[key]
             lines.append(f"{key}: chi2 = {f['statistic']:.4g}, p = {f['pvalue']:.3g} ({f['blocks']} blocks)")
     if "pairwise_wilcoxon" in summary:
-        lines.append("pairwise Wilcoxon p: " + ", ".join(f"{k} {v:.3g}" for k, v in summary["pairwise_wilcoxon"].items()))
+        lines.append("pairwise Wilcoxon p: "
+                     + ", ".join(f"{k} {v:.3g}" for k, v in summary["pairwise_wilcoxon"].items()))
+    for f in summary.get("failed_runs", []):
+        lines.append(f"failed run {f['key']} ({f['attempts']} attempts): {f['error']}")
     b = summary["best_run"]
     lines.append(f"best run: {b['algorithm']} {b['friction']}{'-asym' if b['asymmetric'] else ''} seed {b['seed']}: "
-                 f"{summary['metric']} {b[summary['metric']]:.6g} %, benchmark clock {b['sim_val_benchmark_pct']:.6g} %")
+                 f"{summary['metric']} {b[summary['metric']]:.6g} %, "
+                 f"benchmark clock {b['sim_val_benchmark_pct']:.6g} %")
     return "\n".join(lines)
 

@@ -30,6 +30,14 @@ def _open_writer(fifo, process) -> int:
         time.sleep(0.01)
 
 
+def _as_from_a_terminal() -> None:
+    """The child's SIGINT as a shell leaves it: default action and not blocked (a signal mask is
+    inherited across fork and exec: one a library left on the test process's thread would keep
+    the Ctrl-C pending for ever)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
 def test_ctrl_c_exits_130_in_one_line(tmp_path):
     params = tmp_path / "params.json"
     os.mkfifo(params)  # the command blocks reading it: Ctrl-C arrives while it works
@@ -37,7 +45,7 @@ def test_ctrl_c_exits_130_in_one_line(tmp_path):
     process = subprocess.Popen(
         [sys.executable, "-m", "frictionid_core.cli", "validate", str(tmp_path / "log.csv"), "--params", str(params),
          "--json", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # as from a terminal
+        preexec_fn=_as_from_a_terminal)
     try:
         fd = _open_writer(params, process)
         process.send_signal(signal.SIGINT)

@@ -2,6 +2,8 @@
 
 import json
 
+import pytest
+
 from frictionid_core.study import RUNS_FILE, analyse, finished_keys, plan, run_study
 from support.data import EMPS_ESTIMATION, EMPS_VALIDATION
 
@@ -48,3 +50,33 @@ def test_dask_cluster_gives_the_same_runs(tmp_path):
     assert local.keys() == dask.keys()
     for key in local:  # same seed → same optimiser path → same parameters
         assert local[key]["params"] == dask[key]["params"]
+
+
+@pytest.mark.slow
+def test_a_study_with_damaged_records_resumes_and_says_what_it_set_aside(tmp_path):
+    import warnings
+
+    specs = _specs(seeds=1)[:3]
+    assert run_study(specs, tmp_path, workers=1, progress=None) == 3
+    path = tmp_path / RUNS_FILE
+    lines = path.read_bytes().split(b"\n")
+    forged = json.loads(lines[0])
+    original = forged["sim_val_true_pct"]
+    forged["sim_val_true_pct"] = 1e-9  # would be reported as the best run
+    lines[0] = json.dumps(forged).encode()
+    lines[1] = lines[1][:40] + b"\xff" + lines[1][41:]
+    path.write_bytes(b"\n".join(lines))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        summary = analyse(tmp_path)  # reading leaves damaged lines out, saying so
+    assert len([w for w in caught if "left out" in str(w.message)]) == 2
+    assert summary["best_run"]["sim_val_true_pct"] > 1e-6
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert run_study(specs, tmp_path, workers=1, progress=None) == 2  # the two damaged runs redone
+    messages = [str(w.message) for w in caught]
+    assert any("line 1: checksum mismatch" in m and "set aside" in m for m in messages), messages
+    assert any("line 2: not UTF-8" in m for m in messages), messages
+    assert finished_keys(tmp_path) == {s.key for s in specs}
+    redone = {json.loads(x)["key"]: json.loads(x) for x in path.read_text().splitlines()}
+    assert redone[forged["key"]]["sim_val_true_pct"] == original  # recomputed: same seed, same number

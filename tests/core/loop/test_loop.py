@@ -53,7 +53,8 @@ def test_gate_accepts_a_better_set_and_rejects_a_worse_one(fitted):
     assert review(None, good, held).accepted  # nothing active yet
 
 
-@pytest.mark.parametrize("value, word", [(math.nan, "non-finite"), (math.inf, "non-finite"), (-2e3, "gate_max_abs")])
+@pytest.mark.parametrize("value, word", [(math.nan, "not finite"), (math.inf, "not finite"), (-2.0, "negative"),
+                                         (2e3, "|value| <= 1000")])
 def test_gate_rejects_non_finite_and_huge_parameters(fitted, value, word):
     good, held = fitted
     d = review(None, _with(good, Fv=value), held, max_abs=1e3)

@@ -36,6 +36,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "consistency": ("consistency", "physical consistency of identified robot base parameters"),
     "export": ("export", "write a robot result as a URDF, a MuJoCo model and a parameters file (YAML)"),
     "compare": ("compare", "compare fits side by side, or a fit with the ground truth of synthetic data"),
+    "fleet": ("fleet", "identify every log of a fleet of robots, track each parameter and alarm when one drifts"),
 }
 PLUGIN_GROUP = "frictionid.commands"
 

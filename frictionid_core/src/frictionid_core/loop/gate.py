@@ -3,8 +3,9 @@
 A candidate parameter set (an :class:`~frictionid_core.identification.IdentifyResult`) replaces the
 current one only if it predicts a held-back slice of recent data — samples it was not fitted on —
 better: a lower effort RMSE under :func:`frictionid_core.identification.validate` than the current set. A
-candidate with a non-finite parameter or one larger than ``max_abs`` in magnitude is refused
-before any prediction.
+candidate the safety screen refuses (:func:`frictionid_core.safety.result_refusals`: a non-finite
+parameter, a negative friction or inertia, one over its robot's limits or larger than ``max_abs`` in
+magnitude) is rejected before any prediction.
 """
 
 from __future__ import annotations
@@ -40,15 +41,13 @@ def _rmse(result: IdentifyResult, holdout) -> float:
 
 
 def screen(candidate: IdentifyResult, max_abs: float = 1e3) -> Decision | None:
-    """The rejection of a candidate with a non-finite parameter or one over ``max_abs`` in
-    magnitude (no prediction needed), else None."""
-    params = candidate.params
-    bad = sorted(k for k, v in params.items() if not math.isfinite(float(v)))
-    if bad:
-        return Decision(False, f"rejected: non-finite parameter(s) {bad}")
-    huge = sorted(k for k, v in params.items() if abs(float(v)) > max_abs)
-    if huge:
-        return Decision(False, f"rejected: parameter(s) {huge} over gate_max_abs = {max_abs:g}")
+    """The rejection of a candidate the safety screen refuses (:func:`frictionid_core.safety.result_refusals`
+    with ``max_abs``; no prediction needed), else None."""
+    from frictionid_core.safety import result_refusals
+
+    refusals = result_refusals(candidate, max_abs=max_abs)
+    if refusals:
+        return Decision(False, "rejected: " + "; ".join(refusals))
     return None
 
 

@@ -298,7 +298,15 @@ def _exact_values(xml: str, data: ExportData) -> str:
 
 # ------------------------------------------------------------------------------------------- YAML
 def yaml_text(data: ExportData) -> str:
-    """The result as YAML (readable by ``frictionid validate`` and the node) with an ``export`` note."""
+    """The result as YAML (readable by ``frictionid validate`` and the node) with an ``export`` note;
+    FrictionIdError naming the parameter and the limit when the safety screen refuses its
+    parameters (:func:`frictionid_core.safety.result_refusals`: the robot's effort and velocity limits)."""
+    from frictionid_core.safety import result_refusals
+
+    refusals = result_refusals(data.result)
+    if refusals:
+        raise FrictionIdError("refused to export the parameters: the safety screen refuses them: "
+                              + "; ".join(refusals))
     import json
 
     import yaml

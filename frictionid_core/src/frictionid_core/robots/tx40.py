@@ -56,6 +56,9 @@ LOWER = tuple(x * _DEG for x in (-180.0, -125.0, -138.0, -270.0, -120.0, -270.0)
 UPPER = tuple(x * _DEG for x in (180.0, 125.0, 138.0, 270.0, 133.5, 270.0))
 VELOCITY_LIMIT = tuple(x * _DEG for x in (287.0, 287.0, 430.0, 410.0, 320.0, 700.0))
 ACCELERATION_LIMIT = (10.0, 10.0, 15.0, 20.0, 20.0, 30.0)  # assumed (not published), rad/s²
+# Joint torque limits, N·m: the <limit effort> of FIGAROH's TX40 URDF (tx40_mdh_modified.urdf of its
+# Stäubli TX40 example, whose velocity limits are the ones above); not in docs/reference.md#tx40.
+EFFORT_LIMIT = (131.84, 131.84, 103.49, 46.08, 43.19, 30.72)
 
 # Friction (docs/reference.md#tx40), symmetric Stribeck: Fv·v + [Fc + (Fs−Fc)·exp(−(|v|/vs)^δ)]·sign(v)
 FRICTION = {
@@ -110,7 +113,7 @@ def build_tx40():
     for k, (alpha, a, d, theta) in enumerate(DH):
         placement = _placement(alpha, a, d, theta, BASE_HEIGHT if k == 0 else 0.0)
         parent = model.addJoint(parent, pin.JointModelRZ(), placement, JOINTS[k],
-                                np.array([1e3]), np.array([VELOCITY_LIMIT[k]]),
+                                np.array([EFFORT_LIMIT[k]]), np.array([VELOCITY_LIMIT[k]]),
                                 np.array([LOWER[k]]), np.array([UPPER[k]]))
         model.appendBodyToJoint(parent, pin.Inertia.FromDynamicParameters(body_parameters(k)), pin.SE3.Identity())
     model.armature[:] = np.array(ROTOR_INERTIA)
