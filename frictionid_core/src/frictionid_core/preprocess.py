@@ -29,7 +29,11 @@ Settings left unset (None) are chosen from the data by :func:`choose_preprocessi
      5 kHz motor encoder's vibrations: a cut-off at the position's bound predicted the TX40's
      validation torque with 49 % error, 17 % at 10·B), and stick/slip transitions show in both;
 
-  a joint that does not move takes the lowest cut-off of the moving ones;
+  a moving joint without a credible bandwidth (B at or above that bound: a ramp, whose q̇ holds no
+  motion above the noise) takes the lowest cut-off of the joints that have one (given or chosen
+  on a credible bandwidth), at most its own bound (its bound where no joint has one) — its
+  bound would otherwise set the decimation to keep content no motion explains; a joint that does
+  not move takes the lowest cut-off of the moving ones;
 * decimation n = max(1, ⌊min(fs / (10·min fc), 0.4·fs / (1.5·max fc))⌋): the analysis rate ≥ 10 ×
   the lowest cut-off (the anti-alias band 0.4·fs/n ≥ 4 × it), as one cut-off for every joint would
   have it, and the band ≥ 1.5 × the highest cut-off (where the forward–backward Butterworth keeps
@@ -497,9 +501,13 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
         interval = {j: [float(floor[k]), float(ceiling[k])] for k, j in enumerate(joints) if moving[k]}
         chosen = moving & np.array([j not in cutoff for j in joints])
         predicted = prediction_cutoffs(series, floor, ceiling, chosen, req.order)
+        credible = chosen & (floor > 0)  # a joint whose motion bandwidth lies below its noise bound
+        others = [*cutoff.values(), *predicted[credible]]
         for j, joint in enumerate(joints):
             if chosen[j]:
                 cutoff[joint] = float(predicted[j])
+                if not credible[j] and others:  # no credible bandwidth (a ramp): the others' lowest
+                    cutoff[joint] = float(min(min(others), ceiling[j]))
                 if bound[j]:
                     at_bound.append(joint)
         lowest = min(cutoff.values()) if cutoff else float(ceiling.min())
