@@ -6,7 +6,8 @@
     metrics = validate(other_series, result)
 
 One module per job: ``request`` (the request, its YAML file; ``settings``: its solver and
-pre-processing parts; ``checks``: its field checks), ``result`` (the result and its JSON),
+pre-processing parts; ``checks``: its field checks), ``result`` (the result and its JSON;
+``result_fields``: the key-by-key checks of a result file),
 ``orchestration`` (:func:`identify`), ``plan`` (what each source gives a fit),
 ``identifiability`` (what the data resolve), ``model_building`` (data → identification model,
 metrics), ``solve`` (solver glue, bounds from the data, the linear special case), ``dip_refit`` (the

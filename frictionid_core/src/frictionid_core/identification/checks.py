@@ -68,3 +68,27 @@ def known_keys(path: str, data: Mapping, cls) -> None:
     unknown = [str(k) for k in data if k not in known]
     if unknown:
         raise FieldError(f"{path}.{unknown[0]}" if path else unknown[0], f": unknown; known: {', '.join(known)}")
+
+
+def window_value(window) -> tuple[float | None, float | None] | None:
+    """A time window (start_s, end_s) [s] from a pair or {start_s, end_s} (None: open); None: no window."""
+    if window is None:
+        return None
+    if isinstance(window, Mapping):
+        unknown = [str(k) for k in window if k not in ("start_s", "end_s")]
+        if unknown:
+            raise FieldError(f"window.{unknown[0]}", ": unknown; known: start_s, end_s")
+        window = (window.get("start_s"), window.get("end_s"))
+    if isinstance(window, str) or not hasattr(window, "__len__") or len(window) != 2:
+        raise FieldError("window", f" must be (start_s, end_s) or {{start_s, end_s}}, got {window!r}")
+    start, end = (number(f"window.{k}", v, optional=True) for k, v in zip(("start_s", "end_s"), window))
+    if start is not None and end is not None and end <= start:
+        raise FieldError("window", f": end_s {end} is not after start_s {start}")
+    return start, end
+
+
+def bound_value(path: str, value) -> tuple[float, float]:
+    """A bound [lo, hi] as two numbers (FieldError at ``path`` otherwise)."""
+    if isinstance(value, str) or not hasattr(value, "__len__") or len(value) != 2:
+        raise FieldError(path, f" must be [lo, hi], got {value!r}")
+    return number(path, value[0]), number(path, value[1])

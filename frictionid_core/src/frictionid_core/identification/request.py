@@ -19,7 +19,16 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.identification.checks import FieldError, choice, flag, known_keys, mapping, number
+from frictionid_core.identification.checks import (
+    FieldError,
+    bound_value,
+    choice,
+    flag,
+    known_keys,
+    mapping,
+    number,
+    window_value,
+)
 from frictionid_core.identification.settings import PreprocessingOverrides, SolverOptions
 
 ROBOT_SYSTEMS = "tx40, urdf:PATH"  # the systems with body parameters, for messages
@@ -101,9 +110,9 @@ class IdentifyRequest:
         set_(self, "asymmetric", flag("asymmetric", self.asymmetric))
         set_(self, "solver", _nested("solver", self.solver, SolverOptions, "method"))
         set_(self, "preprocessing", _nested("preprocessing", self.preprocessing, PreprocessingOverrides))
-        set_(self, "window", _window(self.window))
+        set_(self, "window", window_value(self.window))
         set_(self, "fixed", {k: number(f"fixed.{k}", v) for k, v in mapping("fixed", self.fixed).items()})
-        set_(self, "bounds", {k: _bound(f"bounds.{k}", v) for k, v in mapping("bounds", self.bounds).items()})
+        set_(self, "bounds", {k: bound_value(f"bounds.{k}", v) for k, v in mapping("bounds", self.bounds).items()})
         self._check_consistency()
 
     def _check_consistency(self) -> None:
@@ -219,28 +228,6 @@ def _drive(drive) -> str | dict | None:
             raise FieldError("drive", f": {exc}") from None
         return copy.deepcopy(dict(drive))
     raise FieldError("drive", f" must be a drive file, a bundled drive name or the drive's keys, got {drive!r}")
-
-
-def _window(window) -> tuple[float | None, float | None] | None:
-    if window is None:
-        return None
-    if isinstance(window, Mapping):
-        unknown = [str(k) for k in window if k not in ("start_s", "end_s")]
-        if unknown:
-            raise FieldError(f"window.{unknown[0]}", ": unknown; known: start_s, end_s")
-        window = (window.get("start_s"), window.get("end_s"))
-    if isinstance(window, str) or not hasattr(window, "__len__") or len(window) != 2:
-        raise FieldError("window", f" must be (start_s, end_s) or {{start_s, end_s}}, got {window!r}")
-    start, end = (number(f"window.{k}", v, optional=True) for k, v in zip(("start_s", "end_s"), window))
-    if start is not None and end is not None and end <= start:
-        raise FieldError("window", f": end_s {end} is not after start_s {start}")
-    return start, end
-
-
-def _bound(path: str, value) -> tuple[float, float]:
-    if isinstance(value, str) or not hasattr(value, "__len__") or len(value) != 2:
-        raise FieldError(path, f" must be [lo, hi], got {value!r}")
-    return number(path, value[0]), number(path, value[1])
 
 
 def read_request(path: str | Path) -> IdentifyRequest:
