@@ -90,23 +90,26 @@ def parameter_warnings(names: list[str], values: np.ndarray, std: dict[str, floa
     return out
 
 
-def acceleration_warnings(report: dict, cutoff_hz: float, chosen: bool) -> list[str]:
-    """Moving joints whose filtered q̈ is noise-dominated (``report``: of
-    :func:`frictionid_core.preprocess.preprocess`; ``chosen``: the cut-off came from the data)."""
+def acceleration_warnings(report: dict, cutoff_hz: float | dict[str, float], chosen: bool) -> list[str]:
+    """Moving joints whose filtered q̈ is noise-dominated, each with the cut-off that keeps its
+    position noise within QDD_NOISE_SHARE_LIMIT of its q̈ (``report``: of
+    :func:`frictionid_core.preprocess.preprocess`; ``cutoff_hz``: one value or {joint: Hz};
+    ``chosen``: the cut-off came from the data)."""
     out = []
     share = report.get("qdd_noise_share", {})
+    clean = report.get("qdd_clean_cutoff_hz", {})
     for joint in report.get("moving_joints", []):
         s = share.get(joint)
         if s is None or s <= QDD_NOISE_SHARE_LIMIT:
             continue
+        fc = cutoff_hz[joint] if isinstance(cutoff_hz, dict) else cutoff_hz
         head = (f"{joint}: the acceleration is noise-dominated ({100 * s:.3g} % of the filtered q̈ variance is "
-                f"position noise at the {cutoff_hz:.4g} Hz cut-off): inertia comes out low")
-        bandwidth = report.get("bandwidth_hz")
-        if chosen or bandwidth is None:
-            out.append(head + "; the motion is too small for the position noise: record larger or longer motion")
+                f"position noise at its {fc:.4g} Hz cut-off): inertia comes out low")
+        if clean.get(joint):
+            why = "the data chose too high a cut-off for this noise" if chosen else "lower the cut-off"
+            out.append(head + f"; {why}: use --cutoff {joint}={clean[joint]:.3g}")
         else:
-            out.append(head + f"; lower the cut-off (the motion's bandwidth {bandwidth:.3g} Hz suggests "
-                              f"--cutoff {10 * bandwidth:.3g})")
+            out.append(head + "; no cut-off keeps the noise below the motion: record larger or longer motion")
     return out
 
 

@@ -137,9 +137,12 @@ class IdentificationModel:
             for tag, suffix, off in branches:
                 cols = obs.columns[j]
                 vcol, scol = cols["V" + suffix], cols["S" + suffix]
-                mask = np.sign(v) * {"pos": v > 0, "neg": v < 0, "": np.ones_like(v, bool)}[tag]
-                if obs.weight is not None:  # thinned rows: the dip column weighted like the others
-                    mask = mask * obs.weight
+                if tag:  # a branch: selector × sign(v) at the decimated velocity, weighted like the others
+                    mask = np.sign(v) * (v > 0 if tag == "pos" else v < 0)
+                    if obs.weight is not None:
+                        mask = mask * obs.weight
+                else:  # the decimated sign column (weighted like the others): the dip's sign step
+                    mask = scol  # anti-aliased as the effort's is
                 dip_id = None
                 nl = [base + off + k for k, n in enumerate(self.friction.branch_names) if n in law.nonlinear]
                 if nl:

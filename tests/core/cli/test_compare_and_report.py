@@ -172,7 +172,8 @@ def test_compare_two_tx40_fits_with_truth(tx40_validation, tx40_fit, tmp_path, c
     assert code == 0
     saved = json.loads((tmp_path / "c.json").read_text())
     assert list(saved["parameters"]) == list(tx40_fit["params"]) and saved["only_in"] == {}
-    assert saved["settings"] == {"preprocessing.cutoff_hz": {"A": chosen.cutoff_hz, "B": 25.0}}
+    per_joint = {f"preprocessing.cutoff_hz.{j}": {"A": fc, "B": 25.0} for j, fc in chosen.cutoff_hz.items()}
+    assert saved["settings"] == per_joint
     assert text.count(" vs truth (") == 2 and "preprocessing.cutoff_hz" in text
     truth = saved["truth"]
     for name, row in saved["parameters"].items():

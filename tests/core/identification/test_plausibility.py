@@ -15,7 +15,7 @@ from frictionid_core.cli import main
 from frictionid_core.diagnostics import parameter_warnings
 from frictionid_core.friction import FrictionModel
 from frictionid_core.identification import IdentifyRequest, SolverOptions, build_model, identify, validate
-from frictionid_core.identification.solve import FS_FACTOR, data_bounds, linear_special_case
+from frictionid_core.identification.solve import FS_FACTOR, HOLDOUT_MARGIN, data_bounds, linear_special_case
 from frictionid_core.identification.uncertainty import hac_covariance
 from frictionid_core.io.csv import save_csv
 from frictionid_core.timeseries import JointSeries
@@ -97,7 +97,7 @@ def test_a_law_that_does_not_beat_coulomb_on_held_back_rows_returns_the_coulomb_
     request = IdentifyRequest(system="friction-only", friction="stribeck", solver=SolverOptions("lm", varpro=True))
     r = identify(coulomb_data, request)
     assert r.holdout["beats_linear"] is False and r.holdout["returned"] == "linear special case"
-    assert r.holdout["law_relerr_pct"] >= r.holdout["linear_relerr_pct"]
+    assert r.holdout["law_relerr_pct"] >= (1 - HOLDOUT_MARGIN) * r.holdout["linear_relerr_pct"]
     assert r.params["Fs"] == r.params["Fc"] and np.isnan(r.std["vs"])
     assert any(w.startswith("stribeck does not beat its linear special case (Coulomb)") for w in r.warnings)
     ls = identify(coulomb_data, IdentifyRequest(system="friction-only"))

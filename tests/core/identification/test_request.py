@@ -3,9 +3,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import pickle
 
+import numpy as np
 import pytest
 import yaml
 
@@ -123,7 +125,29 @@ def test_result_json_keeps_its_keys_and_round_trips(synthetic):
     for result in (ls, de):
         text = json.dumps(result.to_dict())
         back = IdentifyResult.from_dict(json.loads(text))
-        assert back == result and json.dumps(back.to_dict()) == text
+        assert same_result(back, result) and json.dumps(back.to_dict()) == text
+
+
+def same_value(a, b) -> bool:
+    """Equal, a NaN equal to a NaN (an undetermined σ), through dicts, lists, tuples and arrays."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return list(a) == list(b) and all(same_value(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(map(same_value, a, b))
+    if isinstance(a, (float, np.ndarray)) or isinstance(b, (float, np.ndarray)):
+        return np.array_equal(a, b, equal_nan=True)
+    return a == b
+
+
+def same_result(a: IdentifyResult, b: IdentifyResult) -> bool:
+    """Field by field :func:`same_value`: results holding NaN σ compare equal when they agree."""
+    return all(same_value(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(IdentifyResult))
+
+
+def test_same_result_tells_nan_apart_only_from_numbers():
+    assert same_value({"vs": float("nan"), "Fc": 1.0}, {"vs": float("nan"), "Fc": 1.0})
+    assert not same_value({"vs": float("nan")}, {"vs": 1.0}) and not same_value({"Fc": 1.0}, {"Fc": 1.5})
+    assert not same_value({"a": 1.0, "b": 2.0}, {"b": 2.0, "a": 1.0}) and not same_value([1.0], (1.0,))
 
 
 def test_result_from_a_hand_written_file():

@@ -395,7 +395,7 @@ def test_validate_reuses_the_preprocessing_and_window(synthetic, tmp_path):
     windowed = validate(s, r, window=(0.5, 2.5))
     assert windowed["samples"] < 0.7 * r["metrics"]["samples"]
     resolved = Preprocessing.from_dict(r["preprocessing"])
-    assert (resolved.cutoff_hz, resolved.decimate, resolved.trim_start_s) == (40.0, 5, 0.010)
+    assert (resolved.cutoff_hz, resolved.decimate, resolved.trim_start_s) == ({"emps": 40.0}, 5, 0.010)
 
 
 # ----------------------------------------------------------------------------------- layout

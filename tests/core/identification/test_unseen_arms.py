@@ -188,25 +188,29 @@ def test_unresolved_directions_are_dropped_and_named(lifter):
     path, log = lifter
     r = identify(log, IdentifyRequest(system=f"urdf:{path}"))
     ident = r.identifiability
-    assert ident["action"] == "dropped" and ident["rank"] + 3 == ident["columns"]
-    mass = next(n for n in ident["unresolved"] if not n.startswith("lift/"))
-    assert sorted(ident["unresolved"]) == sorted([mass, "lift/Fc", "lift/offset"])
+    # a lift rising at constant speed resolves neither its gravity load apart from its friction
+    # nor its rotor inertia (q̈ = 0: its column holds only the filter's residue)
+    assert ident["action"] == "dropped" and ident["rank"] + 4 == ident["columns"]
+    mass = next(n for n in ident["unresolved"] if not n.startswith("lift/") and n != "lift.Ia")
+    assert sorted(ident["unresolved"]) == sorted([mass, "lift.Ia", "lift/Fc", "lift/offset"])
     # ties keep friction: each folds into the lift's viscous term (column q̇ = LIFT_SPEED)
     assert ident["folded_into"]["lift/Fc"] == {"lift/Fv": pytest.approx(1 / LIFT_SPEED, rel=1e-6)}
     assert ident["folded_into"]["lift/offset"] == {"lift/Fv": pytest.approx(1 / LIFT_SPEED, rel=1e-6)}
     for name in ident["unresolved"]:
         assert r.params[name] == 0.0 and np.isnan(r.std[name])
-    assert any("do not resolve 3 direction(s)" in w and "lift/Fc" in w and "--prior urdf" in w for w in r.warnings)
+    assert any("do not resolve 4 direction(s)" in w and "lift/Fc" in w and "--prior urdf" in w for w in r.warnings)
     assert any("lift moves in one direction only" in w for w in r.warnings)
     # as good as an independent least-squares fit of the same columns that drops what it cannot solve
     model, x = model_from_result(log, r)
     X, y = model.design(), model.obs.y
-    theta = np.linalg.lstsq(X, y, rcond=1e-10)[0]
-    independent = 100 * np.linalg.norm(y - X @ theta) / np.linalg.norm(y)
+    norms = np.linalg.norm(X, axis=0)
+    used = norms > 1e-6 * norms.max()  # a column of filter residue (the lift's q̈) solves nothing
+    theta = np.linalg.lstsq(X[:, used], y, rcond=1e-10)[0]
+    independent = 100 * np.linalg.norm(y - X[:, used] @ theta) / np.linalg.norm(y)
     # (the sign constraints of the one constraint policy may hold a parameter the free fit puts just
-    # below 0: never better than the free fit, and within 0.1 % of it)
+    # below 0: never better than the free fit, and within 1 % of its error, itself 0.008 %: the noise)
     relerr = 100 * np.linalg.norm(y - model.predict(x)) / np.linalg.norm(y)
-    assert independent * (1 - 1e-9) <= relerr <= independent * 1.001
+    assert independent * (1 - 1e-9) <= relerr <= independent * 1.01
     for j in ("elbow", "wrist"):
         assert r.params[f"{j}/Fc"] == pytest.approx(LIFTER_FRICTION[j][1], rel=0.05), j
 
@@ -221,16 +225,18 @@ def test_unresolved_directions_held_at_the_urdf_or_fixed(lifter):
     prior = identify(log, IdentifyRequest(system=system, prior="urdf"))
     ident = prior.identifiability
     nominal = nominal_parameters(get_system(system))
-    mass = [n for n in ident["unresolved"] if not n.startswith("lift/")]
+    mass = [n for n in ident["unresolved"] if not n.startswith("lift/") and n != "lift.Ia"]
     assert ident["action"] == "prior" and len(mass) == 1 and nominal[mass[0]] > 1.0
-    assert ident["held"] == {mass[0]: nominal[mass[0]], "lift/Fc": 0.0, "lift/offset": 0.0}
+    assert ident["held"] == {mass[0]: nominal[mass[0]], "lift.Ia": nominal["lift.Ia"], "lift/Fc": 0.0,
+                             "lift/offset": 0.0}
     assert prior.params[mass[0]] == nominal[mass[0]] and np.isnan(prior.std[mass[0]])
     # the lift's friction now carries only what the mass does not: Fv·v = Fv_true·v + Fc_true + offset_true
     fv, fc, offset = LIFTER_FRICTION["lift"]
     assert prior.params["lift/Fv"] * LIFT_SPEED == pytest.approx(fv * LIFT_SPEED + fc + offset, rel=1e-3)
-    # the prediction is the same: the held directions fold into the others either way
-    assert prior.metrics["relerr_pct"] == pytest.approx(dropped.metrics["relerr_pct"], rel=1e-6)
-    fixes = {"lift/Fc": fc, "lift/offset": offset, "lift/Fv": fv}
+    # the prediction is the same: the held directions fold into the others either way (but for the
+    # held rotor inertia's column, the filter's residue on the lift, ≈ 1e-8 of the others)
+    assert prior.metrics["relerr_pct"] == pytest.approx(dropped.metrics["relerr_pct"], rel=1e-4)
+    fixes = {"lift/Fc": fc, "lift/offset": offset, "lift/Fv": fv, "lift.Ia": nominal["lift.Ia"]}
     fixed = identify(log, IdentifyRequest(system=system, fixed=fixes))
     assert fixed.identifiability["action"] == "fixed"
     assert fixed.fixed == fixes and not any("do not resolve" in w for w in fixed.warnings)

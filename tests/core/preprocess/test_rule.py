@@ -48,16 +48,23 @@ def joint_log(rate: float, duration: float = 20.0, *, seed: int = 0, sigma_q: fl
 # ------------------------------------------------------------------------- the rule
 @pytest.mark.parametrize("rate", [94.0, 500.0, 5000.0])
 def test_rule_picks_cutoff_decimation_and_trims_in_seconds_at_any_rate(rate):
-    """The same motion at three rates: cut-off 10 × the 1 Hz bandwidth (± the 0.05 Hz periodogram
-    bin), below 0.2 × the rate; decimation down to ≥ 10 × the cut-off; 5/fc s at both ends."""
+    """The same motion at three rates: each joint's cut-off 10 × its own bandwidth (a: 1 Hz, b:
+    0.8 Hz, ± the 0.05 Hz periodogram bin; smooth motion: the effort is predicted no better above),
+    below 0.2 × the rate; decimation down to ≥ 10 × the lowest cut-off with an anti-alias band
+    (0.4 × the analysis rate) ≥ 1.5 × the highest; 5/lowest fc s at both ends."""
     settings, report = choose_preprocessing(joint_log(rate))
     assert report["bandwidth_hz"] == pytest.approx(1.0, abs=0.06)
-    assert settings.cutoff_hz == pytest.approx(10 * report["bandwidth_hz"]) and settings.cutoff_hz < 0.2 * rate
-    assert settings.decimate == max(1, int(rate // (10 * settings.cutoff_hz)))
+    bands = report["bandwidth_per_joint_hz"]
+    assert bands["b"] == pytest.approx(0.8, abs=0.06)
+    assert settings.cutoff_hz == {j: pytest.approx(10 * bands[j]) for j in ("a", "b")}
+    high, low = max(settings.cutoff_hz.values()), min(settings.cutoff_hz.values())
+    assert high < 0.2 * rate and report["cutoff_from_data"] == ["a", "b"] and report["cutoff_at_bound"] == []
+    assert settings.decimate == max(1, int(min(rate / (10 * low), 0.4 * rate / (1.5 * high))))
     assert report["analysis_rate_hz"] == pytest.approx(rate / settings.decimate)
-    # ≥ 10 × the cut-off, and no faster than needed (below 20 ×) unless the log itself is slower.
-    assert 10 * settings.cutoff_hz <= report["analysis_rate_hz"] < 20 * settings.cutoff_hz or settings.decimate == 1
-    assert settings.trim_start_s == settings.trim_end_s == pytest.approx(5 / settings.cutoff_hz)
+    # ≥ 10 × the lowest cut-off, and no faster than needed (below 20 ×) unless the log itself is slower.
+    assert 10 * low <= report["analysis_rate_hz"] < 20 * low or settings.decimate == 1
+    assert 0.4 * report["analysis_rate_hz"] >= 1.5 * high
+    assert settings.trim_start_s == settings.trim_end_s == pytest.approx(5 / low)
     assert sorted(report["from_data"]) == ["cutoff_hz", "decimate", "min_speed", "trim_end_s", "trim_start_s"]
     assert report["moving_joints"] == ["a", "b"]
     # 10 σ of the velocity noise a 1e-6 rad position noise leaves (≤ 1e-4 rad/s here) is below the
@@ -72,12 +79,12 @@ def test_rule_caps_the_cutoff_below_nyquist_at_a_low_rate():
     fast = {"a": ((0.2, 0.5, 0.0), (0.05, 3.0, 0.0)), "b": ((0.2, 0.4, 0.0),)}
     settings, report = choose_preprocessing(joint_log(94.0, motion=fast))
     assert report["bandwidth_hz"] == pytest.approx(3.0, abs=0.06)
-    assert settings.cutoff_hz == pytest.approx(0.2 * 94.0) and settings.decimate == 1
+    assert settings.cutoff_hz["a"] == pytest.approx(0.2 * 94.0) and settings.decimate == 1
 
 
 def test_given_settings_are_kept_and_the_rest_follows_the_cutoff():
     settings, report = choose_preprocessing(joint_log(500.0), Preprocessing(cutoff_hz=20.0, min_speed=0.0))
-    assert (settings.cutoff_hz, settings.decimate) == (20.0, 2)
+    assert (settings.cutoff_hz, settings.decimate) == ({"a": 20.0, "b": 20.0}, 2)
     assert settings.trim_start_s == pytest.approx(0.25) and settings.min_speed == {"a": 0.0, "b": 0.0}
     assert sorted(report["from_data"]) == ["decimate", "trim_end_s", "trim_start_s"]
 
@@ -87,7 +94,7 @@ def test_no_motion_needs_a_cutoff():
     with pytest.raises(InputError, match=r"no joint moves .*--cutoff"):
         choose_preprocessing(log)
     settings, _ = choose_preprocessing(log, Preprocessing(cutoff_hz=5.0))
-    assert settings.cutoff_hz == 5.0
+    assert settings.cutoff_hz == {"a": 5.0, "b": 5.0}
 
 
 # ------------------------------------------------------------------ the joint system
@@ -173,7 +180,7 @@ def test_slow_joint2_defaults_give_zz_within_2_percent_without_a_flag(slow_joint
     series, zz = slow_joint2
     r = identify(series, IdentifyRequest(system="tx40-j2")).to_dict()
     p = r["preprocessing"]
-    assert p["cutoff_hz"] == pytest.approx(4.0, abs=0.1) and p["decimate"] == 12
+    assert p["cutoff_hz"]["joint_2"] == pytest.approx(4.0, abs=0.1) and p["decimate"] == 12
     assert r["params"]["ZZ"] == pytest.approx(zz, rel=0.02)
     assert p["qdd_noise_share"]["joint_2"] < 1e-4
     assert not [w for w in r["warnings"] if "noise-dominated" in w]
@@ -182,7 +189,14 @@ def test_slow_joint2_defaults_give_zz_within_2_percent_without_a_flag(slow_joint
     assert old["params"]["ZZ"] < 0.7 * zz
     assert old["preprocessing"]["qdd_noise_share"]["joint_2"] == pytest.approx(0.27, abs=0.03)
     noisy = [w for w in old["warnings"] if "noise-dominated" in w]
-    assert len(noisy) == 1 and noisy[0].startswith("joint_2: ") and "--cutoff 4" in noisy[0]
+    assert len(noisy) == 1 and noisy[0].startswith("joint_2: ")
+    assert "lower the cut-off: use --cutoff joint_2=" in noisy[0]
+    # the cut-off it names keeps the q̈ noise within 2 % (and is no lower than the rule's)
+    named = float(noisy[0].rsplit("joint_2=", 1)[1])
+    fixed = identify(series, IdentifyRequest(system="tx40-j2", preprocessing=PreprocessingOverrides(cutoff_hz=named))
+                     ).to_dict()
+    assert 4.0 <= named < 50.0 and fixed["preprocessing"]["qdd_noise_share"]["joint_2"] <= 0.02
+    assert not [w for w in fixed["warnings"] if "noise-dominated" in w]
 
 
 # --------------------------------------------------------------------------- warnings

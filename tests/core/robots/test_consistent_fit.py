@@ -90,12 +90,13 @@ def test_short_data_unconstrained_infeasible_consistent_near_the_prior(short_fit
     with pytest.raises(FrictionIdError, match=refused):
         export_data(free, sys_)  # the consistency check finds no witness
     assert cons["consistency"]["feasible"] and report_for_result(cons, sys_)["feasible"]
-    # identify itself names the links the 2 s fit cannot be (reconstructed from its base parameters:
-    # a negative mass on joint 6, joint 3 at 2.8 × the model's), and none of the prior's
+    # identify itself names the links the 2 s fit cannot be (reconstructed from its base parameters),
+    # and none of the prior's; 2 s do not resolve joint 6's mass (−0.01, 0.25, 0.45 kg at cut-offs of
+    # 10 Hz, per joint 10–32 Hz, 32 Hz; 0.2 true): which of its properties is off is not asserted
     implausible = [w for w in free["warnings"] if "is implausible against the robot model" in w]
     assert [w.split("'")[1] for w in implausible] == free["plausibility"]["implausible"]
     assert {"joint_3", "joint_6"} <= set(free["plausibility"]["implausible"])
-    assert "mass -0.0" in free["plausibility"]["links"]["joint_6"]["problems"][0]
+    assert all("the model's" in p for p in free["plausibility"]["links"]["joint_6"]["problems"])
     assert not cons["plausibility"]["implausible"] and cons["plausibility"]["source"] == "the consistent fit's"
     masses = [link["mass"] for link in cons["standard_parameters"].values()]
     assert np.allclose(masses, MASS, rtol=0.30)

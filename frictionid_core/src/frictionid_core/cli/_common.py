@@ -171,7 +171,8 @@ def preprocessing_line(p: dict) -> str:
         parts.append("no position filter")
     else:
         band = f", motion bandwidth {fmt(p['bandwidth_hz'], 3)} Hz" if p.get("bandwidth_hz") is not None else ""
-        parts.append(f"Butterworth order {p.get('order')} at {fmt(p.get('cutoff_hz'), 4)} Hz{mark('cutoff_hz')}{band}")
+        parts.append(f"Butterworth order {p.get('order')} at {cutoff_text(p.get('cutoff_hz'))} Hz{mark('cutoff_hz')}"
+                     f"{band}")
     rate = f" → {fmt(p['analysis_rate_hz'], 4)} Hz" if p.get("analysis_rate_hz") else ""
     thin = p.get("thin") or 1
     thinned = (f" ({p.get('fit_rows')} rows: at the rate each dip crossing needs, 1 in {thin} elsewhere)"
@@ -180,9 +181,25 @@ def preprocessing_line(p: dict) -> str:
               f"trims {fmt(p.get('trim_start_s'), 3)} + {fmt(p.get('trim_end_s'), 3)} s"
               f"{mark('trim_start_s', 'trim_end_s')}",
               f"min speed {speed}{mark('min_speed')}", f"velocity from {p.get('velocity', 'position')}"]
+    stuck = {j: n for j, n in (p.get("stick_rows") or {}).items() if n}
+    if stuck:
+        parts.append(f"stick rows left out: {', '.join(f'{j} {n}' for j, n in stuck.items())}")
     if p.get("overridden"):
         parts.append(f"set: {', '.join(p['overridden'])}")
+    why = p.get("kept_why") or {}
+    for key, what in (("rechosen", "chosen from these data"), ("kept", "kept from the result"), ("set", "set")):
+        if p.get(key):
+            names = [f"{n} ({why[n]})" if key == "kept" and n in why else n for n in p[key]]
+            parts.append(f"{what}: {', '.join(names)}")
     return "preprocessing: " + ", ".join(parts)
+
+
+def cutoff_text(cutoff) -> str:
+    """A cut-off setting (one value, or {joint: Hz}: one value when all agree, else the range)."""
+    if not isinstance(cutoff, dict):
+        return fmt(cutoff, 4)
+    values = sorted(set(cutoff.values()))
+    return fmt(values[0], 4) if len(values) == 1 else f"{fmt(values[0], 4)}…{fmt(values[-1], 4)} (per joint)"
 
 
 def print_table(result: dict, out=None) -> None:

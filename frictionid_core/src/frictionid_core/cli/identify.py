@@ -71,16 +71,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "repeatable")
     p.add_argument("--fix", action="append", metavar="NAME=VALUE",
                    help="hold a parameter or family at a value (e.g. offset=0, joint_1/vs=0.01); repeatable")
-    p.add_argument("--cutoff", type=float, metavar="HZ",
-                   help="Butterworth cut-off on position, Hz (default: 10 × the motion's bandwidth, ≤ 0.2 × the "
-                        "sample rate; emps: 100)")
-    p.add_argument("--decimate", type=int, metavar="N",
-                   help="decimation factor (default: down to ≥ 10 × the cut-off; emps: 10)")
-    p.add_argument("--trim", metavar="SECONDS[:SECONDS]",
-                   help="seconds dropped at both ends, or START:END (default: 5 / cut-off each; emps: 0.049:0)")
-    p.add_argument("--min-speed", type=float, metavar="SPEED",
-                   help="rows with |q̇| below this (rad/s or m/s) are left out (default: 10 σ of the velocity "
-                        "noise per joint; emps: 0, every row kept)")
+    add_preprocessing_arguments(p)
     p.add_argument("--velocity", choices=VELOCITY_SOURCES,
                    help="q̇ from the filtered 'position' (default) or the 'recorded' velocity of the log")
     p.add_argument("--output-error", action="store_true",
@@ -118,6 +109,46 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "first; --no-warm-start: purely random initial population, the thesis protocol (default on)")
 
 
+def add_preprocessing_arguments(p: argparse.ArgumentParser) -> None:
+    """The pre-processing overrides of ``identify`` and ``validate`` (see :func:`preprocessing_fields`)."""
+    p.add_argument("--cutoff", metavar="HZ|JOINT=HZ,…",
+                   help="Butterworth cut-off on position, Hz: one for every joint, or per joint (the joints not "
+                        "named: from the data) (default per joint: the one that minimises the acceleration's "
+                        "mean-square error, ≤ 0.2 × the sample rate; emps: 100)")
+    p.add_argument("--decimate", type=int, metavar="N",
+                   help="decimation factor (default: down to ≥ 10 × the highest cut-off; emps: 10)")
+    p.add_argument("--trim", metavar="SECONDS[:SECONDS]",
+                   help="seconds dropped at both ends, or START:END (default: 5 / the lowest cut-off each; "
+                        "emps: 0.049:0)")
+    p.add_argument("--min-speed", type=float, metavar="SPEED",
+                   help="rows with |q̇| below this (rad/s or m/s) are left out (default: 10 σ of the velocity "
+                        "noise per joint, and its stick phases; emps: 0, every row kept)")
+
+
+def preprocessing_fields(args) -> dict:
+    """The ``preprocessing`` request fields of the flags of :func:`add_preprocessing_arguments` given."""
+    pre = {"cutoff_hz": parse_cutoff(args.cutoff), "decimate": args.decimate, "min_speed": args.min_speed}
+    if args.trim is not None:
+        start, sep, end = args.trim.partition(":")
+        try:
+            pre["trim_start_s"], pre["trim_end_s"] = float(start), float(end) if sep else float(start)
+        except ValueError:
+            raise FrictionIdError(f"--trim '{args.trim}': expected SECONDS or START:END in seconds") from None
+    return {k: v for k, v in pre.items() if v is not None}
+
+
+def parse_cutoff(text: str | None) -> float | dict[str, float] | None:
+    """``--cutoff``: ``HZ`` → HZ; ``JOINT=HZ,…`` → {joint: HZ}; None stays None."""
+    if text is None:
+        return None
+    if "=" in text:
+        return parse_joint_values(text, "--cutoff", "HZ")
+    try:
+        return float(text)
+    except ValueError:
+        raise FrictionIdError(f"--cutoff '{text}': expected HZ or JOINT=HZ[,JOINT=HZ…]") from None
+
+
 def given_fields(args) -> dict:
     """The request fields the command line sets (nested as in ``IdentifyRequest.to_dict``), only
     those of the flags given."""
@@ -133,13 +164,7 @@ def given_fields(args) -> dict:
            "bounds": None if args.bounds is None else parse_bounds(args.bounds)}
     solver = {"method": args.solver, "seed": args.seed, "pop": args.pop, "varpro": args.varpro,
               "warm_start": args.warm_start}
-    pre = {"cutoff_hz": args.cutoff, "decimate": args.decimate, "min_speed": args.min_speed, "velocity": args.velocity}
-    if args.trim is not None:
-        start, sep, end = args.trim.partition(":")
-        try:
-            pre["trim_start_s"], pre["trim_end_s"] = float(start), float(end) if sep else float(start)
-        except ValueError:
-            raise FrictionIdError(f"--trim '{args.trim}': expected SECONDS or START:END in seconds") from None
+    pre = {**preprocessing_fields(args), "velocity": args.velocity}
     window = {"start_s": args.start, "end_s": args.end}
     out = {k: v for k, v in top.items() if v is not None}
     for key, part in (("solver", solver), ("preprocessing", pre), ("window", window)):

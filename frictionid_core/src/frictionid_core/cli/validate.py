@@ -1,8 +1,11 @@
-"""``frictionid validate SOURCE [SOURCE ...] --params OUT.json [--start S] [--end S] [--json V.json]``:
-cross-test identified parameters.
+"""``frictionid validate SOURCE [SOURCE ...] --params OUT.json [--start S] [--end S] [--cutoff HZ|JOINT=HZ,…]
+[--decimate N] [--trim S[:S]] [--min-speed V] [--json V.json]``: cross-test identified parameters.
 
 System, joint map, joints, friction, drive and pre-processing come from the parameter file;
-``--system``/``--joint-map``/``--joints`` override them.
+``--system``/``--joint-map``/``--joints`` override them. The pre-processing settings the
+identification chose from its data are chosen again from these data (its fixed ones are kept);
+the pre-processing flags, the same as ``identify``'s, fix them. The line ``preprocessing: …`` and the
+JSON's ``preprocessing`` block say which were re-chosen, kept and set.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from frictionid_core.cli._common import (
     add_source_arguments,
     drive_option,
     load_sources,
+    preprocessing_line,
     print_metrics,
     refuse_overwriting,
     save_json,
@@ -23,6 +27,7 @@ from frictionid_core.cli._common import (
     system_file,
     window_of,
 )
+from frictionid_core.cli.identify import add_preprocessing_arguments, preprocessing_fields
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -31,12 +36,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_drive_argument(p, "default: the result's")
     p.add_argument("--system", help="inverse dynamic model (default: the parameter file's)")
     p.add_argument("--joint-map", help="bag joint → model joint names (default: the parameter file's): a=b,c=d")
+    add_preprocessing_arguments(p)
 
 
 def run(args) -> int:
     from dataclasses import replace
 
-    from frictionid_core.identification import read_result, validate, window_record
+    from frictionid_core.identification import (
+        PreprocessingOverrides,
+        model_from_result,
+        read_result,
+        validation_metrics,
+        validation_record,
+        window_record,
+    )
     from frictionid_core.identification.plausibility import check_metrics
     from frictionid_core.systems import parse_joint_map
 
@@ -46,18 +59,22 @@ def run(args) -> int:
     drive = drive_option(args)
     if drive is not None:
         result = replace(result, drive=drive.to_dict())
+    overrides = PreprocessingOverrides(**preprocessing_fields(args))
     sources = load_sources(args)
     joint_map = None if args.joint_map is None else parse_joint_map(args.joint_map)
     names = [s.source for s in sources]
-    metrics = validate(sources, result, system=args.system, joint_map=joint_map, joints=split_list(args.joints),
-                       window=window_of(args))
+    model, x = model_from_result(sources, result, system=args.system, joint_map=joint_map,
+                                 joints=split_list(args.joints), preprocessing=overrides, window=window_of(args))
+    metrics = validation_metrics(model, x, names)
     check_metrics(metrics, f"the cross-test of {args.params} on {', '.join(names)}")
+    record = validation_record(model)
     out = {"source": names[0] if len(names) == 1 else names, "params_file": str(args.params),
            "system": args.system or result.system, "friction": result.friction,
            "asymmetric": result.asymmetric, "drive": result.drive,
            "layout": None if args.layout is None else str(args.layout), "window": window_record(window_of(args)),
-           "metrics": metrics}
+           "preprocessing": record, "metrics": metrics}
     print(f"cross-test of {args.params} on {', '.join(names)}")
+    print(preprocessing_line(record))
     print_metrics(metrics)
     save_json(args.json, out)
     return 0

@@ -30,13 +30,14 @@ _LAZY = {
     "Sources": "model_building", "build_model": "model_building", "observe_sources": "model_building",
     "as_sources": "model_building", "model_metrics": "model_building", "metric_model": "model_building",
     "solve_model": "solve",
-    "model_from_result": "reload", "validate": "reload",
+    "model_from_result": "reload", "validate": "reload", "validation_settings": "reload",
+    "validation_metrics": "reload", "validation_record": "reload",
 }
 
 __all__ = ["FieldError", "IdentifyRequest", "IdentifyResult", "PreprocessingOverrides", "SolverOptions", "Sources",
            "as_sources", "budget_field", "build_model", "identify", "metric_model", "model_from_result",
            "model_metrics", "observe_sources", "read_request", "read_result", "solve_model", "validate",
-           "window_record", "write_request"]
+           "validation_metrics", "validation_record", "validation_settings", "window_record", "write_request"]
 
 
 def __getattr__(name: str):

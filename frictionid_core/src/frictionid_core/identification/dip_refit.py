@@ -11,7 +11,7 @@ import numpy as np
 
 from frictionid_core.identification.solve import Fit
 from frictionid_core.identification_model import IdentificationModel
-from frictionid_core.preprocess import Preprocessing, dip_needs, rule_decimation
+from frictionid_core.preprocess import Preprocessing, cutoff_range, dip_needs, rule_decimation
 
 # At most this many refits when a friction dip needs finer rates than those chosen.
 DIP_ROUNDS = 4
@@ -37,15 +37,16 @@ def fit_at_dip_rates(model: IdentificationModel, settings: Preprocessing,
     return model, result
 
 
-def model_dip_needs(model: IdentificationModel, x: np.ndarray) -> tuple[int, float, str, dict[str, float]]:
-    """(largest decimation, smallest cut-off, why, {row joint: speed scale}) the friction dip of
-    the fit ``x`` needs: see :func:`frictionid_core.preprocess.dip_needs`, for its speed scale
-    (vs or v0) of each joint and branch at the joint's reversal acceleration (the smaller of a
-    joint's two branches); a scale at its lower bound (a dip that vanished) is skipped."""
+def model_dip_needs(model: IdentificationModel, x: np.ndarray
+                    ) -> tuple[int, dict[str, float], str, dict[str, float]]:
+    """(largest decimation, {row joint: smallest cut-off}, why, {row joint: speed scale}) the
+    friction dip of the fit ``x`` needs: see :func:`frictionid_core.preprocess.dip_needs`, for its
+    speed scale (vs or v0) of each joint and branch at the joint's reversal acceleration (the
+    smaller of a joint's two branches); a scale at its lower bound (a dip that vanished) is skipped."""
     obs = model.obs
-    n_max, fc_min, why, scales = np.iinfo(np.int32).max, 0.0, "", {}
+    n_max, needs, why, scales = np.iinfo(np.int32).max, {}, "", {}
     if model.is_linear:
-        return n_max, fc_min, why, scales
+        return n_max, needs, why, scales
     lo, _ = model.bounds()
     fs = obs.report["sample_rate_hz"]
     scale = model.friction.law.nonlinear[0]
@@ -58,11 +59,29 @@ def model_dip_needs(model: IdentificationModel, x: np.ndarray) -> tuple[int, flo
         a = obs.report.get("reversal_acceleration", {}).get(joint) or 0.0
         n, fc = dip_needs(fs, a, x[i])
         scales[joint] = min(float(x[i]), scales.get(joint, np.inf))
-        if n < n_max or fc > fc_min:
+        if n < n_max or fc > max(needs.values(), default=0.0):
             why = (f"{joint}: its friction dip ({name} {x[i]:.3g}) is crossed at reversals at up to {a:.3g}/s²; "
                    f"it needs an analysis rate ≥ {fs / n:.4g} Hz and a cut-off ≥ {fc:.3g} Hz")
-        n_max, fc_min = min(n, n_max), max(fc, fc_min)
-    return n_max, fc_min, why, scales
+        n_max, needs[joint] = min(n, n_max), max(fc, needs.get(joint, 0.0))
+    return n_max, needs, why, scales
+
+
+def raised_cutoffs(cutoff_hz: float | dict[str, float], needs: dict[str, float]) -> dict[str, float]:
+    """The cut-offs (one value or {data joint: Hz}) raised to what the dips of ``needs`` ({row
+    joint: Hz}) need; a row joint that is no data joint (a motor) raises every joint below its need."""
+    cutoffs = dict(cutoff_hz) if isinstance(cutoff_hz, dict) else {}
+    for joint, fc in needs.items():
+        for name in ([joint] if joint in cutoffs else list(cutoffs)):
+            cutoffs[name] = max(cutoffs[name], fc)
+    return cutoffs
+
+
+def cutoff_shortfall(cutoff_hz: float | dict[str, float], needs: dict[str, float]) -> bool:
+    """True when a cut-off of ``cutoff_hz`` is below what the dips of ``needs`` need."""
+    if not isinstance(cutoff_hz, dict):
+        return any(fc > cutoff_hz * (1 + 1e-9) for fc in needs.values())
+    raised = raised_cutoffs(cutoff_hz, needs)
+    return any(raised[j] > cutoff_hz[j] * (1 + 1e-9) for j in raised)
 
 
 def dip_changes(model: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:
@@ -73,12 +92,12 @@ def dip_changes(model: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:
     (``thin``, ``dip_scale``: see :func:`frictionid_core.preprocess.thinned_rows`) back to the
     rule's rate for the cut-off wherever the dip is not crossed fast: the fine rate there only
     adds rows (and seconds and GBs on long logs)."""
-    n, fc, why, scales = model_dip_needs(model, x)
+    n, needs, why, scales = model_dip_needs(model, x)
     pre, chosen = model.obs.preprocessing, model.obs.report["from_data"]
     changes = {}
     cutoff = pre.cutoff_hz
-    if fc > cutoff * (1 + 1e-9) and "cutoff_hz" in chosen:
-        cutoff = changes["cutoff_hz"] = fc
+    if cutoff_shortfall(cutoff, needs) and "cutoff_hz" in chosen:
+        cutoff = changes["cutoff_hz"] = raised_cutoffs(cutoff, needs)
     if "decimate" in chosen:
         rule = rule_decimation(model.obs.report["sample_rate_hz"], cutoff)
         n = min(n, rule)
@@ -91,9 +110,12 @@ def dip_changes(model: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:
 
 def dip_warnings(model: IdentificationModel, x: np.ndarray) -> list[str]:
     """A warning when the settings the user gave are too coarse for the dip of ``x``."""
-    n, fc, why, _ = model_dip_needs(model, x)
+    n, needs, why, _ = model_dip_needs(model, x)
     pre = model.obs.preprocessing
-    if n >= pre.decimate and fc <= pre.cutoff_hz * (1 + 1e-9):
+    if n >= pre.decimate and not cutoff_shortfall(pre.cutoff_hz, needs):
         return []
-    return [f"{why} (here {model.obs.report['analysis_rate_hz']:.4g} Hz and {pre.cutoff_hz:.3g} Hz): vs and δ come out "
-            f"biased; use --decimate {min(n, pre.decimate)} --cutoff {max(fc, pre.cutoff_hz):.3g}"]
+    low, high = cutoff_range(pre.cutoff_hz)
+    here = f"{low:.3g} Hz" if low == high else f"{low:.3g}…{high:.3g} Hz"
+    need = max([*needs.values(), high])
+    return [f"{why} (here {model.obs.report['analysis_rate_hz']:.4g} Hz and {here}): vs and δ come out "
+            f"biased; use --decimate {min(n, pre.decimate)} --cutoff {need:.3g}"]

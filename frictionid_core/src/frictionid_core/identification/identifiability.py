@@ -35,10 +35,11 @@ from frictionid_core.identification_model import IdentificationModel
 # and decimation) sits far below.
 RANK_TOL = 1e-6
 # A column whose norm is below this share of the largest one is zero: round-off of a column that
-# vanishes in this configuration (≈ 1e-16 of the largest, relative), which scaling to unit norm
-# would turn into a spurious direction; a column this small would need its parameter 1e10 times
-# the others' to matter.
-ZERO_TOL = 1e-10
+# vanishes in this configuration (≈ 1e-16 of the largest, relative) or the filter's residue on a
+# joint that does not accelerate (a ramp's q̈ after the trims: ≈ 1e-8), which scaling to unit norm
+# would turn into a spurious direction; the smallest motion a log resolves stays far above it (a
+# q̈ of 1e-3 rad/s² against a gravity column of 9.81 N·m per unit is 1e-4 of it).
+ZERO_TOL = 1e-6
 # A parameter named among a direction's dominant ones carries at least this share of its largest term.
 DOMINANT_SHARE = 0.1
 # Tie-break between equal columns: the k-th of C columns (in the tie order) is scaled by 1 − TIE_BREAK·k/C.

@@ -13,7 +13,7 @@ from frictionid_core.identification.plan import FitPlan, SourcePlan, plan_fit
 from frictionid_core.identification_model import IdentificationModel
 from frictionid_core.metrics import observation_metrics
 from frictionid_core.observation import VELOCITY_COLUMNS, Observation, concat_observations
-from frictionid_core.preprocess import Preprocessing, choose_preprocessing, resample_uniform
+from frictionid_core.preprocess import Preprocessing, choose_preprocessing, cutoff_range, resample_uniform
 from frictionid_core.systems import System, as_system, observe
 from frictionid_core.timeseries import JointSeries
 
@@ -51,14 +51,15 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None) -> Observ
     fit has no rows there).
 
     One pre-processing describes the fit: the first source resolves the settings left to the
-    data, its cut-off the largest that any source's motion asks for; a joint the first source
-    lacks takes its min speed from the first source that has it."""
+    data, its cut-off (one for every joint) the largest that any source's motion asks for; a joint
+    the first source lacks takes its min speed from the first source that has it and the highest of
+    its cut-offs."""
     system = plan.system
     requested = settings or system.preprocessing
     first, rest = plan.sources[0], plan.sources[1:]
     if rest and requested.cutoff_hz is None:
-        fastest = max(choose_preprocessing(resample_uniform(_preprocessed(sp, system)), requested)[0].cutoff_hz
-                      for sp in plan.sources)
+        fastest = max(cutoff_range(choose_preprocessing(resample_uniform(_preprocessed(sp, system)), requested)[0]
+                                   .cutoff_hz)[1] for sp in plan.sources)  # one for every joint of every source
         requested = replace(requested, cutoff_hz=fastest)
     observations = [observe(first.series, system, requested, held=first.held, rows=first.rows)]
     resolved = observations[0].preprocessing
@@ -67,12 +68,14 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None) -> Observ
     speeds = dict(resolved.min_speed)
     for sp in rest:
         series = _preprocessed(sp, system)
+        cutoffs = {j: resolved.cutoff_hz.get(j, max(resolved.cutoff_hz.values())) for j in sp.series.joints}
         missing = [j for j in series.joints if j not in speeds]
         if missing:
-            own = choose_preprocessing(resample_uniform(series), replace(resolved, min_speed=None))[0].min_speed
+            own = choose_preprocessing(resample_uniform(series), replace(resolved, min_speed=None, cutoff_hz={
+                j: cutoffs.get(j, max(cutoffs.values())) for j in series.joints}))[0].min_speed
             speeds.update((j, own[j]) for j in missing)
-        observations.append(observe(sp.series, system, replace(resolved, min_speed=dict(speeds)), held=sp.held,
-                                    rows=sp.rows))
+        observations.append(observe(sp.series, system, replace(resolved, min_speed=dict(speeds), cutoff_hz=cutoffs),
+                                    held=sp.held, rows=sp.rows))
     if not rest:
         return observations[0]
     merged = replace(resolved, min_speed=speeds)

@@ -31,6 +31,7 @@ from frictionid_core.identification.plausibility import (
 from frictionid_core.identification.request import IdentifyRequest
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.solve import fit_model, holdout_comparison, linear_fallback, with_data_bounds
+from frictionid_core.identification.stick import exclude_stick_phases
 from frictionid_core.identification.uncertainty import jacobian_std, robust_std, uncertainty_record, white_covariance
 from frictionid_core.identification_model import IdentificationModel
 from frictionid_core.parallel import single_threaded_libraries
@@ -95,7 +96,7 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
         return with_data_bounds(build_model(fit_plan, fit_plan.system, request.friction, request.asymmetric, pre,
                                             request.bounds, fixed={**fixed_request, **held}))
 
-    model = rebuild(settings)
+    model, fit_settings = exclude_stick_phases(rebuild(settings), settings)
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
     if errors:
         raise InputError(f"{where}: " + "; ".join(errors))
@@ -106,7 +107,7 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
         model = replace(model, fixed={**fixed_request, **held})
     at_rule_rates = model
     model, (x, std, cond, res) = fit_at_dip_rates(
-        model, settings, rebuild, lambda m, previous=None: fit_model(m, solver, progress, previous))
+        model, fit_settings, rebuild, lambda m, previous=None: fit_model(m, solver, progress, previous))
     inertia_warnings = list(sys_.robot.model.inertia_warnings) if sys_.robot is not None else []
     warnings = inertia_warnings + plan.warnings() + resolved.warning() + warnings + dip_warnings(model, x)
     if res is not None:

@@ -194,13 +194,13 @@ def _preprocessing(key: str, value) -> dict:
     from frictionid_core.preprocess import Preprocessing
 
     block = mapping(key, value)
-    for name in ("cutoff_hz", "trim_start_s", "trim_end_s", "trim_start", "trim_end"):
+    for name in ("trim_start_s", "trim_end_s", "trim_start", "trim_end"):
         if block.get(name) is not None:
             _finite(f"{key}.{name}", block[name])
     for name in ("order", "decimate", "thin"):
         if name in block:
             integer(f"{key}.{name}", block[name], low=1, optional=name == "decimate")
-    for name in ("min_speed", "dip_scale"):
+    for name in ("cutoff_hz", "min_speed", "stick_speed", "dip_scale"):  # a number or {joint: number}
         speeds = block.get(name)
         if isinstance(speeds, Mapping):
             _parameters(f"{key}.{name}", speeds)

@@ -131,6 +131,9 @@ FS_FLOOR_SHARE = 0.01
 # contiguous blocks, every HOLDOUT_EVERY-th held back (a quarter of the log, spread over it).
 HOLDOUT_BLOCKS = 20
 HOLDOUT_EVERY = 4
+# The law beats its linear case only when its held-back error is more than this share of the linear
+# case's lower: on Coulomb data the two differ by ~1e-4 of it either way (a tie, no evidence).
+HOLDOUT_MARGIN = 0.005
 
 
 def linear_special_case(model: IdentificationModel) -> tuple[IdentificationModel, np.ndarray]:
@@ -210,7 +213,8 @@ def with_data_bounds(model: IdentificationModel) -> IdentificationModel:
 def holdout_comparison(model: IdentificationModel, x: np.ndarray, solver: SolverOptions) -> dict:
     """The law of ``model`` against its linear special case on held-back rows: both fitted again
     on the other rows (the law by an lm polish from ``x``, or in closed form when nothing is
-    searched; the Coulomb case in closed form), their relative errors [%] on the held-back rows.
+    searched; the Coulomb case in closed form), their relative errors [%] on the held-back rows;
+    the law beats it when its error is more than HOLDOUT_MARGIN (0.5 %) of the linear case's lower.
 
     Returns {held_back_rows, law_relerr_pct, linear_relerr_pct, beats_linear}, or {skipped: why}
     when the training rows cannot be fitted (e.g. a joint that no longer moves both ways)."""
@@ -234,7 +238,7 @@ def holdout_comparison(model: IdentificationModel, x: np.ndarray, solver: Solver
     law = float(np.linalg.norm(model.residuals(x_law)[rows]))
     linear = float(np.linalg.norm(special.residuals(x_lin)[rows]))
     return {"held_back_rows": int(rows.sum()), "law_relerr_pct": 100.0 * law / scale,
-            "linear_relerr_pct": 100.0 * linear / scale, "beats_linear": bool(law < linear)}
+            "linear_relerr_pct": 100.0 * linear / scale, "beats_linear": bool(law < (1.0 - HOLDOUT_MARGIN) * linear)}
 
 
 def linear_fallback(model: IdentificationModel, x: np.ndarray) -> tuple[np.ndarray, dict[str, float], float]:

@@ -22,6 +22,7 @@ from frictionid_core.preprocess import (
     TooFewSamples,
     choose_preprocessing,
     column_stride,
+    cutoff_range,
     preprocess,
     resample_uniform,
     subsample,
@@ -219,7 +220,7 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
     (noted). What the data resolve is judged on the segments together (by the identification)."""
     longest = max(range(len(segments)), key=lambda k: len(segments[k]))
     resolved, chosen = choose_preprocessing(resample_uniform(segments[longest]), settings or system.preprocessing)
-    seam = TRIM_PERIODS / resolved.cutoff_hz
+    seam = TRIM_PERIODS / cutoff_range(resolved.cutoff_hz)[0]
     observed, dropped = {}, []
     for k, segment in enumerate(segments):
         trims = {"trim_start_s": seam if k > 0 else resolved.trim_start_s,  # the log's ends: its own trims
@@ -241,6 +242,7 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
     report.update(chosen_from_data=chosen["chosen_from_data"], from_data=chosen["from_data"], fit_rows=int(obs.y.size),
                   slow_rows_excluded={j: sum(r["slow_rows_excluded"][j] for r in over)
                                       for j in report["slow_rows_excluded"]},
+                  stick_rows={j: sum(r["stick_rows"][j] for r in over) for j in report["stick_rows"]},
                   reversal_acceleration={j: max(r["reversal_acceleration"][j] or 0.0 for r in over)
                                          for j in report["reversal_acceleration"]},
                   segments={"used": len(observed), "left_out": len(dropped), "trim_at_gaps_s": seam})
@@ -302,6 +304,9 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
     obs = build_observation(prepared, row_names, rigid, system.parameter_names(rows), resolved, stride)
     obs.report, obs.notes = report, notes
     slow = np.abs(obs.velocity) < min_speed
+    stick_speed = np.array([(resolved.stick_speed or {}).get(j, 0.0) for j in row_names])
+    stick = ~slow & (np.abs(obs.velocity) < stick_speed)
+    slow |= stick
     for o in (obs, obs.sampled):
         if o is None:
             continue
@@ -311,7 +316,8 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
         # the sampled rows are instants of the fit's (all of them, or one in ``thin``)
         exclude_rows(o, slow if o is obs else slow[np.searchsorted(obs.t, o.t)])
     report["min_speed_rows"] = dict(zip(row_names, map(float, min_speed)))
-    report["slow_rows_excluded"] = dict(zip(row_names, map(int, slow.sum(axis=0))))
+    report["slow_rows_excluded"] = dict(zip(row_names, map(int, slow.sum(axis=0))))  # stick rows included
+    report["stick_rows"] = dict(zip(row_names, map(int, stick.sum(axis=0))))
     report["fit_rows"] = int(obs.y.size)  # every joint's rows (thinned: see Preprocessing.thin)
     return obs
 
