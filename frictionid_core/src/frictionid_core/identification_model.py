@@ -100,7 +100,7 @@ class IdentificationModel:
             searched nor solved for, wherever they enter (a fixed linear parameter's column moves
             to the right-hand side, dip included).
         data_bounds: {full name: (lo, hi)} bounds grounded in the data (see
-            :func:`frictionid_core.identification.solve.data_bounds`), over the defaults and
+            :func:`frictionid_core.identification.linear_case.data_bounds`), over the defaults and
             under the user's bounds (they replace the defaults); held by every solver path, like
             the user's.
         physical: hold the parameters that cannot be negative at ≥ 0 in every solver path (the

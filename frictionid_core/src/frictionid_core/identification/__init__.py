@@ -10,7 +10,8 @@ pre-processing parts; ``checks``: its field checks), ``result`` (the result and 
 ``result_fields``: the key-by-key checks of a result file),
 ``orchestration`` (:func:`identify`), ``plan`` (what each source gives a fit),
 ``identifiability`` (what the data resolve), ``model_building`` (data → identification model,
-metrics), ``solve`` (solver glue, bounds from the data, the linear special case), ``dip_refit`` (the
+metrics), ``solve`` (solver glue), ``linear_case`` (a law's Coulomb case: the bounds it grounds, the
+held-back comparison, the fallback), ``dip_refit`` (the
 friction-dip refit policy), ``uncertainty`` (σ, white and robust), ``plausibility`` (absurd fits,
 links against the model, the known rigid body's report), ``reload`` (a result on other data:
 :func:`model_from_result`, :func:`validate`). Other packages import the names of :data:`__all__`

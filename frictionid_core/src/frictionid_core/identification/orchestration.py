@@ -14,6 +14,7 @@ from frictionid_core.drive import drive_from_dict, load_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_rates
 from frictionid_core.identification.identifiability import identifiability
+from frictionid_core.identification.linear_case import holdout_comparison, linear_fallback, with_data_bounds
 from frictionid_core.identification.model_building import (
     Sources,
     as_sources,
@@ -30,14 +31,14 @@ from frictionid_core.identification.plausibility import (
 )
 from frictionid_core.identification.request import IdentifyRequest
 from frictionid_core.identification.result import IdentifyResult
-from frictionid_core.identification.solve import fit_model, holdout_comparison, linear_fallback, with_data_bounds
+from frictionid_core.identification.solve import fit_model
 from frictionid_core.identification.stick import exclude_stick_phases
 from frictionid_core.identification.uncertainty import jacobian_std, robust_std, uncertainty_record, white_covariance
 from frictionid_core.identification_model import IdentificationModel
 from frictionid_core.parallel import single_threaded_libraries
 from frictionid_core.robots.consistency_check import plausibility_warnings
 from frictionid_core.systems import System, as_system, nominal_parameters
-from frictionid_core.systems.robot import LINK_TORQUE, known_rigid_body
+from frictionid_core.systems.robot import LINK_TORQUE, KnownRigidBody, known_rigid_body
 from frictionid_core.timeseries import JointSeries
 
 
@@ -62,27 +63,21 @@ def request_sources(series: Sources, request: IdentifyRequest) -> list[JointSeri
 # a large log at load ~4 took 43.6 s instead of 24.7 s, every parameter bit for bit the same.
 @single_threaded_libraries()
 def identify(series: Sources, request: IdentifyRequest | None = None, *, progress=None) -> IdentifyResult:
-    """Identify the parameters ``request`` asks for (default ``IdentifyRequest()``: EMPS, Coulomb,
-    ls) from ``series``: one source, or several (each pre-processed alone, the observations
-    stacked; each may hold its own joints: see :func:`~frictionid_core.identification.plan.plan_fit`).
-
-    ``progress(generation, evaluations, best_cost)`` is called during an optimiser run (see
-    :class:`frictionid_core.optim.Problem`; an exception it raises stops the run); not by ``ls``.
-    With a drive whose friction acts on the motors, friction, offsets and rotor inertias are per
-    motor (``motor_<k>/…``, fit in the referred motor torques) and the metrics on the joint
-    torques Cᵀ·u. The directions the data do not resolve are held (at 0, or at the robot model's
-    values with ``prior``: :mod:`~frictionid_core.identification.identifiability`), σ NaN. With
-    ``consistent``, σ stay those of the unconstrained fit.
-    """
+    """Identify what ``request`` asks for (default: EMPS, Coulomb, ls) from ``series``: one source or
+    several, each pre-processed alone, each with its own joints (:mod:`.plan`). ``progress(generation,
+    evaluations, best_cost)``: called by an optimiser (:class:`frictionid_core.optim.Problem`; raising
+    stops the run). A motor-side drive's friction, offsets and rotor inertias are per motor
+    (``motor_<k>/…``), its metrics on the joint torques. Unresolved directions are held (at 0, or at
+    the model's values with ``prior``: :mod:`.identifiability`), σ NaN; ``consistent`` keeps the
+    unconstrained fit's σ."""
     t0 = time.perf_counter()
     request = IdentifyRequest() if request is None else request
     if not isinstance(request, IdentifyRequest):
         raise FrictionIdError(f"identify takes an IdentifyRequest, got {type(request).__name__}")
     sys_ = request_system(request)
     settings = request.preprocessing.apply(sys_.preprocessing)
-    solver = request.solver
-    if solver.varpro is None:
-        solver = replace(solver, varpro=sys_.robot is not None)
+    solver = request.solver if request.solver.varpro is not None else replace(request.solver,
+                                                                               varpro=sys_.robot is not None)
     sources = request_sources(series, request)
     where = sources[0].source if len(sources) == 1 else ", ".join(s.source for s in sources)
     plan = plan_fit(sources, sys_, request.joints, Holds(dict(request.hold), request.hold_missing))
@@ -130,17 +125,8 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     check_fit(model, x, metrics, where)
     notes = [*(note for s in sources for note in s.notes), *model.obs.notes, *plan.notes()]
     warnings = result_warnings(model, x, std, notes, warnings)
-    params = dict(zip(model.names, map(float, x)))
-    fixed = {model.names[i]: v for i, v in model.fixed_values.items() if model.names[i] not in held}
-    plausibility = None
-    if rigid is not None:
-        white_names = [n for n in (model.names[i] for i in model.free_index) if n not in undetermined]
-        params, std, std_robust, fixed = known_rigid_body_report(
-            rigid, model, x, std, std_robust, (white_names, white_covariance(model, x, white_names)),
-            (robust_names, robust_cov))
-    elif sys_.robot is not None:
-        plausibility = robot_plausibility(params, sys_, standard)
-        warnings += plausibility_warnings(plausibility)
+    params, std, std_robust, fixed, plausibility = reported_parameters(
+        model, x, (std, std_robust, robust_names, robust_cov), held, rigid, sys_, standard, warnings)
     return IdentifyResult(
         system=sys_.name, joint_map=dict(sys_.joint_map), friction=request.friction, asymmetric=request.asymmetric,
         solver=solver.method, source=sources[0].source if len(sources) == 1 else [s.source for s in sources],
@@ -155,6 +141,29 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
         no_effort_joints=list(plan.no_effort), request=request,
         std_robust=std_robust, uncertainty=uncertainty_record(bandwidth, model), velocity_range=velocity_range(model),
         holdout=holdout, plausibility=plausibility)
+
+
+def reported_parameters(model: IdentificationModel, x: np.ndarray, sigmas: tuple, held: dict[str, float],
+                        rigid: KnownRigidBody | None, sys_: System, standard: dict | None, warnings: list[str]
+                        ) -> tuple[dict, dict, dict, dict, dict | None]:
+    """(params, std, std_robust, fixed, plausibility) of a fit as its result reports them: by name,
+    ``fixed`` without the directions held because the data do not resolve them; a known rigid
+    body's in the robot's base parameters (:func:`known_rigid_body_report`); a robot fit's links
+    judged against the model (their warnings appended to ``warnings``). ``sigmas``: (std,
+    std_robust, the robust covariance's names, that covariance)."""
+    std, std_robust, robust_names, robust_cov = sigmas
+    params = dict(zip(model.names, map(float, x)))
+    fixed = {model.names[i]: v for i, v in model.fixed_values.items() if model.names[i] not in held}
+    plausibility = None
+    if rigid is not None:
+        white_names = [n for n in (model.names[i] for i in model.free_index) if np.isfinite(std.get(n, 0.0))]
+        params, std, std_robust, fixed = known_rigid_body_report(
+            rigid, model, x, std, std_robust, (white_names, white_covariance(model, x, white_names)),
+            (robust_names, robust_cov))
+    elif sys_.robot is not None:
+        plausibility = robot_plausibility(params, sys_, standard)
+        warnings += plausibility_warnings(plausibility)
+    return params, std, std_robust, fixed, plausibility
 
 
 def against_linear_case(model: IdentificationModel, linear_rates: IdentificationModel, x: np.ndarray,
