@@ -32,9 +32,8 @@ def _open_writer(fifo, process) -> int:
 
 
 def _as_from_a_terminal() -> None:
-    """The child's SIGINT as a shell leaves it: default action and not blocked (a signal mask is
-    inherited across fork and exec: one a library left on the test process's thread would keep
-    the Ctrl-C pending for ever)."""
+    """The child's SIGINT as a shell leaves it: default action, not blocked (dispositions and the
+    signal mask are inherited across fork and exec)."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
