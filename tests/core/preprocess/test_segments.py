@@ -113,7 +113,10 @@ def test_bursts_of_lost_messages_are_interpolated_not_cut():
     fit = identify(s.take(keep), IdentifyRequest(system="joint"))
     assert "segments" not in fit.preprocessing
     for name, value in clean.params.items():  # within 1 %: the interpolated 4 % of the data bias a little
-        assert fit.params[name] == pytest.approx(value, rel=1e-2), name
+        if name == "offset":  # a force level about 0: within 0.5 % of the Coulomb level it is told from
+            assert fit.params[name] == pytest.approx(value, abs=5e-3 * clean.params["Fc"]), name
+        else:
+            assert fit.params[name] == pytest.approx(value, rel=1e-2), name
 
 
 @pytest.mark.slow

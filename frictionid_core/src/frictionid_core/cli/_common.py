@@ -181,9 +181,10 @@ def preprocessing_line(p: dict) -> str:
               f"trims {fmt(p.get('trim_start_s'), 3)} + {fmt(p.get('trim_end_s'), 3)} s"
               f"{mark('trim_start_s', 'trim_end_s')}",
               f"min speed {speed}{mark('min_speed')}", f"velocity from {p.get('velocity', 'position')}"]
-    stuck = {j: n for j, n in (p.get("stick_rows") or {}).items() if n}
-    if stuck:
-        parts.append(f"stick rows left out: {', '.join(f'{j} {n}' for j, n in stuck.items())}")
+    for key, what in (("stick_rows", "stick rows left out"), ("reversal_rows", "rows near reversals left out")):
+        counts = {j: n for j, n in (p.get(key) or {}).items() if n}
+        if counts:
+            parts.append(f"{what}: {', '.join(f'{j} {n}' for j, n in counts.items())}")
     if p.get("overridden"):
         parts.append(f"set: {', '.join(p['overridden'])}")
     why = p.get("kept_why") or {}

@@ -26,6 +26,7 @@ DATA_SETTINGS = ("cutoff_hz", "decimate", "trim_start_s", "trim_end_s", "min_spe
 FOUND_SETTINGS = ("stick_speed",)
 FIXED_WHY = "fixed in the identification"
 FOUND_WHY = "found by the identification (the robot's stick phases)"
+REVERSAL_WHY = "the identification's (rows near reversals left out)"
 
 
 def validation_settings(record: Mapping, series: JointSeries, overrides: PreprocessingOverrides | None = None
@@ -49,10 +50,15 @@ def validation_settings(record: Mapping, series: JointSeries, overrides: Preproc
     values: dict = dict.fromkeys(chosen)
     why = {name: FIXED_WHY for name in DATA_SETTINGS
            if name not in from_data and name not in given and getattr(settings, name) is not None}
-    if "min_speed" in given:
+    if "min_speed" in given:  # the user's slow rows replace those the identification left out
         values["stick_speed"] = None
-    elif settings.stick_speed:
-        why["stick_speed"] = FOUND_WHY
+        if "reversal_periods" not in given:
+            values["reversal_periods"] = 0.0
+    else:
+        if settings.stick_speed:
+            why["stick_speed"] = FOUND_WHY
+        if settings.reversal_periods and "reversal_periods" not in given:
+            why["reversal_periods"] = REVERSAL_WHY
     if "cutoff_hz" in chosen:
         kept, reason = kept_cutoffs(record, settings.cutoff_hz, series, settings.order)
         values["cutoff_hz"] = kept or None

@@ -78,7 +78,7 @@ class SolverOptions:
 
 # Pre-processing settings a request may override (see frictionid_core.preprocess.Preprocessing).
 OVERRIDABLE = ("cutoff_hz", "order", "decimate", "trim_start_s", "trim_end_s", "min_speed", "velocity", "filter",
-               "metric")
+               "metric", "reversal_periods")
 
 
 @dataclass(frozen=True)
@@ -96,6 +96,7 @@ class PreprocessingOverrides:
     velocity: str | None = None
     filter: str | None = None
     metric: str | None = None
+    reversal_periods: float | None = None
 
     def __post_init__(self) -> None:
         from frictionid_core.preprocess import Preprocessing

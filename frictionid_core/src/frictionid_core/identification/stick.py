@@ -35,7 +35,7 @@ from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import get_model
 from frictionid_core.identification_model import IdentificationModel
 from frictionid_core.observation import Observation
-from frictionid_core.preprocess import Preprocessing
+from frictionid_core.preprocess import REVERSAL_PERIODS, Preprocessing
 
 STICK_BIN_SHARE = 0.01  # rows per speed bin, as a share of the joint's rows …
 STICK_BIN_ROWS = 50  # … and at least this many
@@ -49,6 +49,9 @@ STICK_SETTLED = 0.05  # … settled when no speed moves by more than this share
 # Friction parameters of other laws than Coulomb (their user bounds and fixed values do not apply to it).
 _NOT_COULOMB = ("Fs", "vs", "delta", "v0")
 
+REVERSAL_REASON = ("rows within reversal_periods periods of the joint's cut-off of one of its reversals (or a stop or "
+                   "a start): the filter spreads the stick or slip there over that time, so the filtered acceleration "
+                   "and sign of motion misstate those rows for a law without a dip")
 STICK_REASON = ("rows slower than the joint's stick speed, where the friction the fit leaves unexplained stays below "
                 "its Coulomb level and is back at it just above (the joint sticks or creeps at reversals; no "
                 "friction law of the fit models that)")
@@ -57,17 +60,48 @@ STICK_REASON = ("rows slower than the joint's stick speed, where the friction th
 def exclude_stick_phases(model: IdentificationModel, settings: Preprocessing
                          ) -> tuple[IdentificationModel, Preprocessing]:
     """``model`` and ``settings`` with the stick phases of ``model.obs`` left out (``stick_speed``
-    set in both, the rows left out of the observation in place and the model rebuilt on it), or both
-    unchanged when the law has a dip, the min speed is not chosen from the data or no joint sticks.
-    The observation's report gets ``stick_rows`` and ``stick_reason``."""
+    set in both, the rows left out of the observation in place and the model rebuilt on it), then
+    the rows within :data:`~frictionid_core.preprocess.REVERSAL_PERIODS` periods of each joint's
+    cut-off of its reversals (``reversal_periods``, unless given); neither when the law has a dip or
+    the min speed is not chosen from the data (``reversal_periods`` 0 then, unless given). The
+    observation's report gets ``stick_rows``, ``stick_reason``, ``reversal_rows`` and
+    ``reversal_reason``."""
+    chosen = settings.reversal_periods is None  # else given: the observation has applied it
     if model.friction.law.nonlinear or "min_speed" not in model.obs.report.get("from_data", []):
-        return model, settings
+        if not chosen:
+            return model, settings
+        leave_out_reversal_rows(model.obs, 0.0)
+        return replace(model), replace(settings, reversal_periods=0.0)
     speeds = stick_speeds(model)
-    if not speeds:
-        return model, settings
-    leave_out_stick_rows(model.obs, speeds)
-    model.obs.report["stick_reason"] = STICK_REASON
-    return replace(model), replace(settings, stick_speed=speeds)
+    if speeds:
+        leave_out_stick_rows(model.obs, speeds)
+        model.obs.report["stick_reason"] = STICK_REASON
+        settings = replace(settings, stick_speed=speeds)
+    if chosen:
+        leave_out_reversal_rows(model.obs, REVERSAL_PERIODS)
+        settings = replace(settings, reversal_periods=REVERSAL_PERIODS)
+    return replace(model), settings
+
+
+def leave_out_reversal_rows(obs: Observation, periods: float) -> None:
+    """Leave the rows of ``obs`` (and of its sampled observation) within ``periods`` periods of
+    their joint's cut-off of its reversals out (:func:`frictionid_core.systems.system.reversal_rows`:
+    the rows a rebuild with ``reversal_periods`` leaves out), count them in the report
+    (``reversal_rows``, and in ``slow_rows_excluded``) and set ``reversal_periods``."""
+    from frictionid_core.systems.system import exclude_rows, reversal_rows
+
+    used = obs.used.reshape(len(obs.joints), obs.n_samples).T
+    near = used & reversal_rows(obs, ~used, replace(obs.preprocessing, reversal_periods=periods))
+    for o in (obs, obs.sampled):
+        if o is not None:
+            exclude_rows(o, near if o is obs else near[np.searchsorted(obs.t, o.t)])
+            o.preprocessing = replace(o.preprocessing, reversal_periods=periods)
+    report = obs.report
+    counts = dict(zip(obs.joints, map(int, near.sum(axis=0))))
+    report["reversal_rows"] = {j: report.get("reversal_rows", {}).get(j, 0) + n for j, n in counts.items()}
+    report["slow_rows_excluded"] = {j: report["slow_rows_excluded"].get(j, 0) + n for j, n in counts.items()}
+    if periods:
+        report["reversal_reason"] = REVERSAL_REASON
 
 
 def leave_out_stick_rows(obs: Observation, speeds: dict[str, float]) -> None:

@@ -15,6 +15,7 @@ from frictionid_core.preprocess.filters import (
     decimation_indices,
     filtfilt,
     lowpass_position,
+    near_reversals,
 )
 from frictionid_core.preprocess.prepare import (
     column_stride,
@@ -63,6 +64,7 @@ from frictionid_core.preprocess.settings import (
     NOISE_BAND,
     PREDICTION_ROWS,
     PREDICTION_TOLERANCE,
+    REVERSAL_PERIODS,
     SMOOTH_RATE_PER_CUTOFF,
     THIN_MARGIN,
     TRIM_PERIODS,
@@ -78,10 +80,11 @@ __all__ = [
     "CUTOFF_GRID", "CUTOFF_PER_BANDWIDTH", "DIP_CUTOFF_FACTOR", "DIP_FACTOR", "DIP_WINDOW", "FILTERS",
     "JITTER_TOLERANCE", "MAX_CUTOFF_SHARE", "MAX_TRIM_SHARE", "METRIC_EFFORTS", "MIN_CUTOFF_BINS",
     "MIN_SPEED_SHARE", "MIN_SPEED_SIGMAS", "MOVING_FACTOR", "NOISE_BAND", "PREDICTION_ROWS", "PREDICTION_TOLERANCE",
+    "REVERSAL_PERIODS",
     "Prepared", "Preprocessing", "SMOOTH_RATE_PER_CUTOFF", "THIN_MARGIN", "TRIM_PERIODS", "TooFewSamples",
     "central_difference", "choose_preprocessing", "clean_acceleration_cutoff", "column_stride", "cutoff_grid",
     "cutoff_interval", "cutoff_range", "decimate", "decimation_indices", "differentiated_noise_var", "dip_needs",
-    "filtfilt", "joint_cutoffs", "lowpass_position", "motion_bandwidth", "noise_density", "prediction_cutoffs",
-    "prepare", "preprocess", "recorded_velocity", "resample_uniform", "reversal_acceleration", "risk_cutoffs",
-    "rule_decimation", "rule_interval", "subsample", "thinned_rows",
+    "filtfilt", "joint_cutoffs", "lowpass_position", "motion_bandwidth", "near_reversals", "noise_density",
+    "prediction_cutoffs", "prepare", "preprocess", "recorded_velocity", "resample_uniform", "reversal_acceleration",
+    "risk_cutoffs", "rule_decimation", "rule_interval", "subsample", "thinned_rows",
 ]

@@ -79,3 +79,22 @@ def decimation_indices(length: int, n: int) -> np.ndarray:
     """Indices kept by decimating ``length`` samples by n: every n-th, aligned to the last."""
     start = n - (n * int(np.ceil(length / n)) - length)  # 1-based, as MATLAB's decimate
     return np.arange(start - 1, length, n)
+
+
+def near_reversals(velocity: np.ndarray, fs: float, cutoff_hz: np.ndarray, periods: float) -> np.ndarray:
+    """(N, J) True where a row of ``velocity`` (N, J), sampled at ``fs``, lies within ``periods`` /
+    ``cutoff_hz`` (J,) seconds of a change of its joint's sign of motion (−, 0 for a row left
+    out or at rest, +): a reversal, a stop or a start."""
+    n, joints = velocity.shape
+    out = np.zeros((n, joints), dtype=bool)
+    if periods <= 0.0 or n < 2:
+        return out
+    rows = np.arange(n)
+    for j in range(joints):
+        sign = np.sign(velocity[:, j])
+        at = np.flatnonzero(sign[1:] != sign[:-1]) + 0.5  # between the two rows
+        if at.size:
+            k = np.searchsorted(at, rows)
+            gap = np.minimum(np.abs(rows - at[np.maximum(k - 1, 0)]), np.abs(at[np.minimum(k, at.size - 1)] - rows))
+            out[:, j] = gap <= periods * fs / cutoff_hz[j]
+    return out

@@ -49,7 +49,9 @@ Settings left unset (None) are chosen from the data by :func:`choose_preprocessi
   top speed (99th percentile of |q̇|): the few rows that close to a reversal otherwise let a
   Stribeck dip degenerate into a spike (vs at its lower bound) fitted to them;
 * stick phases (``stick_speed``, set by the identification: see
-  :mod:`frictionid_core.identification.stick`) are left out as the slow rows are, and counted apart.
+  :mod:`frictionid_core.identification.stick`) are left out as the slow rows are, and counted apart;
+  so are the rows within ``reversal_periods`` / fc of a joint's reversal (set by the identification
+  of a law without a dip: the filter spreads a stick or slip there).
 
 Both filters run as second-order sections, which stay exact at the small cut-off ratios and
 large decimation factors the rule picks (the b/a form is off by 1e-3 at fc/Nyquist 4e-4 and
@@ -329,7 +331,8 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
     else:
         min_speed = {j: float(min_speed) for j in joints}
     settings = Preprocessing(cutoff, req.order, dec, trims["trim_start_s"], trims["trim_end_s"], min_speed,
-                             req.velocity, req.filter, req.metric, req.thin, req.dip_scale, req.stick_speed)
+                             req.velocity, req.filter, req.metric, req.thin, req.dip_scale, req.stick_speed,
+                             req.reversal_periods)
     finite = bandwidth[np.isfinite(bandwidth)]
     report = {
         "sample_rate_hz": fs,

@@ -243,6 +243,7 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
                   slow_rows_excluded={j: sum(r["slow_rows_excluded"][j] for r in over)
                                       for j in report["slow_rows_excluded"]},
                   stick_rows={j: sum(r["stick_rows"][j] for r in over) for j in report["stick_rows"]},
+                  reversal_rows={j: sum(r["reversal_rows"][j] for r in over) for j in report["reversal_rows"]},
                   reversal_acceleration={j: max(r["reversal_acceleration"][j] or 0.0 for r in over)
                                          for j in report["reversal_acceleration"]},
                   segments={"used": len(observed), "left_out": len(dropped), "trim_at_gaps_s": seam})
@@ -307,6 +308,10 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
     stick_speed = np.array([(resolved.stick_speed or {}).get(j, 0.0) for j in row_names])
     stick = ~slow & (np.abs(obs.velocity) < stick_speed)
     slow |= stick
+    if system.motor_rows:
+        obs.coupling, obs.data_joints = drive.C, joints
+    reversal = ~slow & reversal_rows(obs, slow, resolved)
+    slow |= reversal
     for o in (obs, obs.sampled):
         if o is None:
             continue
@@ -318,8 +323,32 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
     report["min_speed_rows"] = dict(zip(row_names, map(float, min_speed)))
     report["slow_rows_excluded"] = dict(zip(row_names, map(int, slow.sum(axis=0))))  # stick rows included
     report["stick_rows"] = dict(zip(row_names, map(int, stick.sum(axis=0))))
+    report["reversal_rows"] = dict(zip(row_names, map(int, reversal.sum(axis=0))))
     report["fit_rows"] = int(obs.y.size)  # every joint's rows (thinned: see Preprocessing.thin)
     return obs
+
+
+def reversal_rows(obs: Observation, left_out: np.ndarray, settings: Preprocessing) -> np.ndarray:
+    """(Nd, J) the rows of ``obs`` within ``settings.reversal_periods`` periods of their joint's
+    cut-off of a change of its sign of motion (rows ``left_out`` count as at rest), in each stretch
+    of ``obs`` alone (a source or a segment: its stamps step back or jump); a motor's rows take the
+    lowest cut-off of the joints it turns with, a joint without a cut-off of its own the highest."""
+    if not settings.reversal_periods:
+        return np.zeros_like(left_out)
+    from frictionid_core.preprocess import near_reversals
+
+    given = settings.cutoff_hz
+    joints = list(obs.data_joints or obs.joints)
+    cutoffs = (np.array([given.get(j, max(given.values())) for j in joints]) if isinstance(given, dict)
+               else np.full(len(joints), float(given)))
+    if obs.coupling is not None:
+        cutoffs = np.array([cutoffs[obs.coupling[m] != 0.0].min() for m in range(len(obs.joints))])
+    velocity = np.where(left_out, 0.0, obs.velocity)
+    step = np.diff(obs.t)
+    period = float(np.median(step)) if step.size else 1.0
+    cuts = np.concatenate([[0], np.flatnonzero((step <= 0.0) | (step > 1.5 * period)) + 1, [len(obs.t)]])
+    return np.vstack([near_reversals(velocity[a:b], 1.0 / period, cutoffs, settings.reversal_periods)
+                      for a, b in zip(cuts[:-1], cuts[1:])])
 
 
 def exclude_rows(obs: Observation, rows: np.ndarray) -> None:
