@@ -59,7 +59,13 @@ def excitation(robot, seed: int, duration: float = 10.0, scale: float = 1.0):
 
 
 def coulomb_friction(robot, factor: float = 1.0) -> dict[str, dict[str, float]]:
-    """Known Coulomb friction per joint (``factor`` × the levels)."""
+    """Known Coulomb friction per joint (``factor`` × the levels): the TX40's published levels, a
+    UR5's of the same order (within the safety screen's limits of both)."""
+    if robot.name == "tx40":
+        from frictionid_core.robots.synth import tx40_friction
+
+        levels = tx40_friction("coulomb", False)
+        return {j: {n: factor * v for n, v in levels[j].items()} for j in robot.joints}
     return {j: {"Fv": factor * (2.0 + k), "Fc": factor * (3.0 + 0.5 * k)} for k, j in enumerate(robot.joints)}
 
 

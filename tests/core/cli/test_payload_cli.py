@@ -44,7 +44,7 @@ def test_payload_command_writes_the_contract(files, tmp_path, capsys):
     assert set(p["sigma"]) == {"mass", "com", "inertia"} and p["sigma"]["mass"] > 0
     assert set(data["metrics"]["per_joint"]) == set(logs.robot.joints)
     assert data["metrics"]["relerr_pct"] < data["metrics_base"]["relerr_pct"]
-    assert data["base"] == str(paths["BASE"]) and data["friction"] is None
+    assert data["base"] == str(paths["BASE"]) and data["friction_refit"] is None
     assert data["preprocessing"]["rechosen"]  # the base's data-chosen settings, chosen again here
 
 

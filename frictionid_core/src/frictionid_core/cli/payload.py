@@ -81,8 +81,8 @@ def print_payload(out: dict) -> None:
         print(f"{name:<14}{fmt(value):>14}{fmt(sigma, 3):>12}  {state}")
     print(f"units: kg, m (centre of mass in {p['link']}'s frame), kg·m² (inertia about the centre of mass); "
           f"physically consistent: {'yes' if p['feasible'] else 'NO'}")
-    if out.get("friction"):
-        f = out["friction"]
+    if out.get("friction_refit"):
+        f = out["friction_refit"]
         print(f"{'friction level':<22}{'base':>12}{'re-fitted':>12}{'σ':>10}")
         for name, value in f["params"].items():
             print(f"{name:<22}{fmt(f['base'][name]):>12}{fmt(value):>12}{fmt(f['std'][name], 3):>10}")

@@ -89,8 +89,8 @@ class PayloadResult:
 
     def to_dict(self) -> dict:
         return {"payload": self.payload.to_dict(), "system": self.system, "source": self.source,
-                "joints": list(self.joints), "base": self.base, "friction": self.friction, "metrics": self.metrics,
-                "metrics_base": self.metrics_base, "held": dict(self.held), "fit": self.fit,
+                "joints": list(self.joints), "base": self.base, "friction_refit": self.friction,
+                "metrics": self.metrics, "metrics_base": self.metrics_base, "held": dict(self.held), "fit": self.fit,
                 "preprocessing": self.preprocessing, "warnings": list(self.warnings), "wall_s": self.wall_s}
 
     def friction_params(self) -> dict[str, float]:
@@ -104,13 +104,13 @@ class PayloadResult:
         if not isinstance(data, Mapping) or "payload" not in data:
             raise InputError(f"{where}: no 'payload' block; expected the JSON written by 'frictionid payload'")
         payload = Payload.from_dict(data["payload"], f"{where}: key 'payload'")
-        friction = data.get("friction")
+        friction = data.get("friction_refit")
         if friction is not None:
             params = friction.get("params") if isinstance(friction, Mapping) else None
             if not isinstance(params, Mapping) or not all(
                     isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v)
                     for v in params.values()):
-                raise InputError(f"{where}: key 'friction.params' must map friction parameter names to finite "
+                raise InputError(f"{where}: key 'friction_refit.params' must map friction parameter names to finite "
                                  f"numbers, got {params!r:.200}")
             friction = dict(friction)
         return cls(payload, str(data.get("system") or ""), data.get("source") or "", list(data.get("joints") or []),
@@ -138,6 +138,23 @@ def loaded_result(base: IdentifyResult | Mapping, payload: PayloadResult) -> dic
         raise FrictionIdError(f"the payload's re-fitted friction levels {unknown} are not parameters of the base "
                               "result: a payload identified with another base")
     return {**base, "params": {**base["params"], **levels}}
+
+
+def payload_of(base: IdentifyResult, params_file: str | Path, payload_file: str | Path | None = None
+               ) -> tuple[dict, Payload | None]:
+    """(the base result's JSON with the payload's re-fitted friction levels, the payload) of
+    ``payload_file`` or, without it, of the payload the parameters file ``params_file`` carries
+    (``export --yaml --payload``); (the result's JSON, None) without either."""
+    from frictionid_core.jsonfile import read_json
+
+    if payload_file is not None:
+        loaded = read_payload(payload_file)
+    else:
+        data = read_json(params_file, "an identification result")
+        if not isinstance(data, Mapping) or "payload" not in data:
+            return base.to_dict(), None
+        loaded = PayloadResult.from_dict({"payload": data["payload"]}, where=str(params_file))
+    return loaded_result(base, loaded), loaded.payload
 
 
 def _with_holds(base: dict, request: PayloadRequest) -> dict:

@@ -36,8 +36,9 @@ INERTIA_ENTRIES = {"xx": (0, 0), "yy": (1, 1), "zz": (2, 2), "xy": (0, 1), "xz":
 POINT_RADIUS_M = 0.01
 
 
-def _link_name(joint: str) -> str:
-    """The name of the link a joint of a model without link frames moves (as ``export`` names it)."""
+def link_name(joint: str) -> str:
+    """The name of the link a joint of a model without link frames moves (``joint_6`` → ``link_6``;
+    the URDF ``export`` writes of such a model names its links so)."""
     return joint.replace("joint", "link") if "joint" in joint else f"{joint}_link"
 
 
@@ -55,7 +56,7 @@ def link_frames(robot) -> dict[str, tuple[int, object]]:
     having = {j for j, _ in out.values()}
     for i in range(1, m.njoints):
         if i not in having:
-            out[_link_name(m.names[i])] = (i, pin.SE3.Identity())
+            out[link_name(m.names[i])] = (i, pin.SE3.Identity())
     return out
 
 
@@ -234,6 +235,27 @@ def with_payload(system, link: str | None = None):
     bounds = dict(system.rigid_bounds, **dict.fromkeys(PAYLOAD_NAMES, (-1e3, 1e3)))
     return replace(system, columns=columns, rigid_names=tuple(system.rigid_names) + PAYLOAD_NAMES,
                    rigid_bounds=bounds)
+
+
+def payload_link(payload: Payload, parent: str, name: str = PAYLOAD):
+    """The URDF ``<link>`` of ``payload`` (named ``name``) and the fixed ``<joint>`` holding it to
+    the link ``parent`` (ElementTree elements): its inertial in the link frame."""
+    import xml.etree.ElementTree as ET
+
+    def text(values) -> str:
+        return " ".join(repr(float(v)) for v in np.atleast_1d(values))
+
+    link = ET.Element("link", name=name)
+    inertial = ET.SubElement(link, "inertial")
+    ET.SubElement(inertial, "origin", xyz=text(payload.com), rpy="0 0 0")
+    ET.SubElement(inertial, "mass", value=text(payload.mass))
+    ET.SubElement(inertial, "inertia", **{f"i{key}": text(payload.inertia[a][b])
+                                          for key, (a, b) in INERTIA_ENTRIES.items()})
+    joint = ET.Element("joint", name=f"{name}_fixed_joint", type="fixed")
+    ET.SubElement(joint, "origin", xyz="0 0 0", rpy="0 0 0")
+    ET.SubElement(joint, "parent", link=parent)
+    ET.SubElement(joint, "child", link=name)
+    return link, joint
 
 
 def robot_with_payload(robot, payload: Payload):
