@@ -80,7 +80,8 @@ def run_case(name: str, base_src: list[str], loaded_src: list[str], val_src: lis
     return {"mass": p["mass"], "mass_err_pct": 100 * (p["mass"] / truth["payload"].mass - 1),
             "com_err_mm": 1e3 * float(np.max(np.abs(np.subtract(p["com"], truth["payload"].com)))),
             "max_z_resolved": float(np.nanmax(z)), "resolved": p["resolved"], "feasible": p["feasible"],
-            "loaded_relerr_pct": {"base": out["metrics_base"]["relerr_pct"], "base+payload": out["metrics"]["relerr_pct"]},
+            "loaded_relerr_pct": {"base": out["metrics_base"]["relerr_pct"],
+                                  "base+payload": out["metrics"]["relerr_pct"]},
             "validation_relerr_pct": {"base": val["val_base"], "base+payload": val["val_p"], "full": val["val_full"]},
             "validation_ratio": val["val_p"] / val["val_full"], "payload_wall_s": wall, "payload": p}
 
@@ -157,8 +158,8 @@ def real_loaded(data: Path, folder: Path, payload) -> Path:
     effort = np.loadtxt(data / "curr_data.csv", delimiter=",", skiprows=1)
     cols = [series.joints.index(j) for j in extra.joints]
     effort[:, cols] += extra.effort
-    np.savetxt(loaded / "curr_data.csv", effort, delimiter=",", header="Joint_1,Joint_2,Joint_3,Joint_4,Joint_5,Joint_6",
-               comments="", fmt="%.9g")
+    np.savetxt(loaded / "curr_data.csv", effort, delimiter=",", comments="", fmt="%.9g",
+               header=",".join(f"Joint_{k}" for k in range(1, 7)))
     return loaded
 
 

@@ -158,3 +158,25 @@ def test_payload_file_round_trip_and_bad_files(tmp_path):
     path.write_text(json.dumps({"params": {}}))
     with pytest.raises(FrictionIdError, match="no 'payload' block"):
         read_payload(path)
+
+
+@pytest.mark.parametrize("name", ["tx40", "ur5"])
+def test_safety_screen_of_a_payload(name):
+    """The test payload passes; 80 kg on the flange is over joint efforts (named with the limit);
+    an inertia no body has is refused as such."""
+    from frictionid_core.safety import payload_refusals
+    from frictionid_core.systems import get_system
+    from support.payload_logs import PAYLOAD
+
+    system_name, robot = robot_of(name)
+    system = get_system(system_name)
+    link = default_link(robot)
+    assert payload_refusals(Payload(link, **PAYLOAD), system) == []
+    heavy = payload_refusals(Payload(link, 80.0, (0, 0, 0.3), ((1, 0, 0), (0, 1, 0), (0, 0, 1))), system)
+    joint_2 = robot.joints[1]
+    assert any("its gravity torque" in r and f"on '{joint_2}' is over the effort limit" in r for r in heavy)
+    flat = Payload.from_dict({"link": link, "mass": 1.0, "com": [0, 0, 0], "inertia": [[1, 0, 0], [0, 1, 0],
+                                                                                         [0, 0, 3]]})
+    assert not flat.feasible
+    assert payload_refusals(flat, system) == [f"payload on '{link}': its pseudo-inertia is not positive definite "
+                                              "(no rigid body has this mass, centre of mass and inertia)"]

@@ -324,6 +324,11 @@ def yaml_text(data: ExportData) -> str:
     from frictionid_core.safety import result_refusals
 
     refusals = result_refusals(data.result)
+    if data.payload is not None:
+        from frictionid_core.safety import payload_refusals
+        from frictionid_core.systems import result_system
+
+        refusals += payload_refusals(data.payload, result_system(data.result))
     if refusals:
         raise FrictionIdError("refused to export the parameters: the safety screen refuses them: "
                               + "; ".join(refusals))
