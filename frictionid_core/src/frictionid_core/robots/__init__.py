@@ -20,7 +20,7 @@
 Pinocchio is imported only when a robot model is built.
 """
 
-from frictionid_core.robots.payload import Payload, robot_with_payload
+from frictionid_core.robots.payload import Payload, default_link, robot_with_payload
 from frictionid_core.robots.robot_model import RobotModel, example_robot_data_dir, load_urdf
 
-__all__ = ["Payload", "RobotModel", "example_robot_data_dir", "load_urdf", "robot_with_payload"]
+__all__ = ["Payload", "RobotModel", "default_link", "example_robot_data_dir", "load_urdf", "robot_with_payload"]
