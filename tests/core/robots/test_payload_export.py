@@ -105,3 +105,17 @@ def test_compare_shows_two_payloads_side_by_side(exported, tmp_path, capsys):
     assert [p["link"] for p in data["payloads"]] == [first["payload"]["link"]] * 2
     assert main(["compare", str(files["P"]), str(files["BASE"])]) == 2
     assert "not a payload file" in capsys.readouterr().err
+
+
+def test_export_refuses_a_payload_the_robot_cannot_hold(exported, tmp_path, capsys):
+    """An 80 kg payload file: the YAML is refused by the safety screen (the joint and its limit named)."""
+    _, files = exported
+    heavy = json.loads(files["P"].read_text())
+    heavy["payload"].update(mass=80.0, inertia=[[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]])
+    path = tmp_path / "heavy.json"
+    path.write_text(json.dumps(heavy))
+    capsys.readouterr()
+    assert main(["export", str(files["BASE"]), "--payload", str(path), "--yaml", str(tmp_path / "h.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert "the safety screen refuses them: payload on" in err and "is over the effort limit" in err
+    assert not (tmp_path / "h.yaml").exists()

@@ -320,18 +320,17 @@ def _set_inertial(body: ET.Element, com, mass: float, inertia) -> None:
 def yaml_text(data: ExportData) -> str:
     """The result as YAML (readable by ``frictionid validate`` and the node) with an ``export`` note;
     FrictionIdError naming the parameter and the limit when the safety screen refuses its
-    parameters (:func:`frictionid_core.safety.result_refusals`: the robot's effort and velocity limits)."""
-    from frictionid_core.safety import result_refusals
+    parameters (:func:`frictionid_core.safety.result_refusals`: the robot's effort and velocity limits)
+    or its payload (:func:`frictionid_core.safety.payload_refusals`)."""
+    from frictionid_core.safety import payload_refusals, result_refusals
+    from frictionid_core.systems import result_system
 
-    refusals = result_refusals(data.result)
-    if data.payload is not None:
-        from frictionid_core.safety import payload_refusals
-        from frictionid_core.systems import result_system
-
-        refusals += payload_refusals(data.payload, result_system(data.result))
-    if refusals:
+    refused = result_refusals(data.result)
+    if not refused and data.payload is not None:
+        refused = payload_refusals(data.payload, result_system(data.result))
+    if refused:
         raise FrictionIdError("refused to export the parameters: the safety screen refuses them: "
-                              + "; ".join(refusals))
+                              + "; ".join(refused))
     import json
 
     import yaml

@@ -158,13 +158,15 @@ class Payload:
         return dict(zip(PAYLOAD_NAMES, map(float, self.standard())))
 
     @classmethod
-    def from_standard(cls, link: str, p: np.ndarray, **kw) -> Payload:
-        """The payload of standard parameters ``p`` (10,) in ``link``'s frame (m > 0)."""
+    def from_standard(cls, link: str, p: np.ndarray, sigma: dict | None = None,
+                      resolved: tuple[str, ...] = QUANTITIES) -> Payload:
+        """The payload of standard parameters ``p`` (10,) in ``link``'s frame (m > 0), with its
+        ``sigma`` and ``resolved`` (as the attributes)."""
         q = body_quantities(np.asarray(p, dtype=float))
         inertia = _matrix(dict(zip(INERTIA_ENTRIES, map(float, q[4:]))))
         feasible = body_report(np.asarray(p, dtype=float))["consistent"]
-        return cls(link, float(q[0]), tuple(map(float, q[1:4])), tuple(map(tuple, inertia)),
-                   **{"feasible": feasible, **kw})
+        return cls(link, float(q[0]), tuple(map(float, q[1:4])), tuple(map(tuple, inertia)), sigma, feasible,
+                   tuple(resolved))
 
     def to_dict(self) -> dict:
         """The ``payload`` block of a payload file (the keys in their contract order)."""
