@@ -44,7 +44,7 @@ FLAGS = {"system": "--system", "joints": "--joints", "joint_map": "--joint-map",
          "preprocessing.velocity": "--velocity", "window": "--start/--end", "window.start_s": "--start",
          "window.end_s": "--end", "consistent": "--consistent", "prior": "--prior", "prior_weight": "--prior-weight",
          "stribeck_order": "--stribeck-order", "hold": "--hold", "hold_missing": "--hold-missing",
-         "gravity": "--gravity", "known_rigid_body": "--known-rigid-body"}
+         "gravity": "--gravity", "known_rigid_body": "--known-rigid-body", "effort_sign": "--effort-sign"}
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -101,6 +101,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--known-rigid-body", action="store_true", default=None,
                    help="tx40, urdf:PATH: hold the model's rigid body (its links) and identify each joint's rotor "
                         "inertia (armature, ≥ 0: its base parameters and <joint>.Ia), friction and offsets")
+    p.add_argument("--effort-sign", choices=("auto", "as-logged"),
+                   help="joints whose friction ends ≤ 0 are fitted again with their efforts negated; auto (default): "
+                        "the negated fit when it is clearly better (a driver's sign opposite to the model's joint "
+                        "axis; its drive in the result holds the signs), as-logged: the log's signs and a warning")
     p.add_argument("--warm-start", action=argparse.BooleanOptionalAction,
                    help="global solvers evaluate the closed-form start (never worse than the nested linear model) "
                         "first; --no-warm-start: purely random initial population, the thesis protocol (default on)")
@@ -156,6 +160,7 @@ def given_fields(args) -> dict:
            "prior_weight": args.prior_weight, "stribeck_order": args.stribeck_order,
            "hold": hold_option(args),
            "hold_missing": args.hold_missing, "gravity": args.gravity, "known_rigid_body": args.known_rigid_body,
+           "effort_sign": args.effort_sign,
            "joint_map": None if args.joint_map is None else parse_joint_map(args.joint_map),
            "fixed": None if args.fix is None else parse_fixed(args.fix),
            "bounds": None if args.bounds is None else parse_bounds(args.bounds)}
