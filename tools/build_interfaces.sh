@@ -24,7 +24,7 @@ PY="$VENV/bin/python"
 [ -x "$PY" ] || die "no Python at $PY (run 'make setup' / create the venv first)"
 [ -f "$PKG/CMakeLists.txt" ] || die "interface package not found at $PKG"
 command -v cmake >/dev/null || die "cmake not found on PATH"
-for dep in rosidl_default_generators ament_cmake builtin_interfaces std_msgs action_msgs; do
+for dep in rosidl_default_generators ament_cmake builtin_interfaces std_msgs geometry_msgs action_msgs; do
   [ -d "$VENV/share/$dep/cmake" ] \
     || die "'$dep' is not installed in $VENV (pip install the ROS build tools from requirements.txt)"
 done

@@ -1,9 +1,11 @@
-"""The ``~/identify`` action: the Identify request with progress feedback and cancel (rclpy.action).
+"""The ``~/identify`` and ``~/identify_payload`` actions: their service's request with progress
+feedback and cancel (rclpy.action).
 
 Every goal is accepted and answered in its result (``success``, ``message``) like the service:
 "busy", a refused request or a failure end the goal as aborted, a client's cancel as canceled
 (the active parameters stay untouched), the wall-time limit and ``~/reset`` as aborted with the
-reason in the message. The work is :class:`frictionid_ros.service.IdentifyService`'s.
+reason in the message. The work is :class:`frictionid_ros.service.IdentifyService`'s (and
+:class:`frictionid_ros.payload.PayloadService`'s).
 """
 
 from __future__ import annotations
@@ -25,17 +27,18 @@ FEEDBACK_PERIOD_S = 0.2  # [s]
 CANCELLED_BY_CLIENT = "cancelled by the client"
 
 
-class IdentifyActionServer:
-    """``~/identify`` as an action on ``node``, served by ``service``; ``joints()``: the node's
-    joint order for the result; ``log(ok, message)`` reports each answer."""
+class ServedAction:
+    """An action ``name`` of type ``action`` on ``node`` whose goals ``handle(goal, control,
+    on_wait)`` answers (an :class:`~frictionid_ros.service.Answer`); ``feedback(control, elapsed_s)``
+    builds its feedback, ``fill(result, answer)`` its result beyond success and message;
+    ``log(ok, message)`` reports each answer."""
 
-    def __init__(self, node, service: IdentifyService, joints, log, callback_group):
-        self._service = service
-        self._joints = joints
+    def __init__(self, node, action, name: str, handle, feedback, fill, log, callback_group):
+        self._action, self._handle, self._feedback, self._fill = action, handle, feedback, fill
         self._log = log
         self._controls: dict[bytes, JobControl] = {}
         self._lock = threading.Lock()
-        self.server = ActionServer(node, IdentifyAction, "~/identify", self._execute, callback_group=callback_group,
+        self.server = ActionServer(node, action, name, self._execute, callback_group=callback_group,
                                    cancel_callback=self._on_cancel)
 
     def destroy(self) -> None:
@@ -61,20 +64,16 @@ class IdentifyActionServer:
             now = time.monotonic()
             if now - last[0] >= FEEDBACK_PERIOD_S:
                 last[0] = now
-                generation, evaluations, best = c.progress
-                goal_handle.publish_feedback(IdentifyAction.Feedback(
-                    generation=generation, evaluations=evaluations, best_cost=best,
-                    elapsed_s=now - c.t_start))
+                goal_handle.publish_feedback(self._feedback(c, now - c.t_start))
 
         try:
-            answer = self._service.handle(goal_handle.request, control, on_wait)
+            answer = self._handle(goal_handle.request, control, on_wait)
         finally:
             with self._lock:
                 self._controls.pop(key, None)
         self._log(answer.ok, answer.message)
-        result = IdentifyAction.Result(success=answer.ok, message=answer.message)
-        if answer.identified is not None:
-            result.result = parameters_msg(answer.identified, self._joints())
+        result = self._action.Result(success=answer.ok, message=answer.message)
+        self._fill(result, answer)
         if answer.ok:
             goal_handle.succeed()
         elif answer.cancelled and goal_handle.is_cancel_requested:
@@ -82,3 +81,29 @@ class IdentifyActionServer:
         else:
             goal_handle.abort()
         return result
+
+
+def identify_action(node, service: IdentifyService, joints, log, callback_group) -> ServedAction:
+    """``~/identify``: served by ``service``; ``joints()``: the node's joint order for the result."""
+
+    def feedback(control: JobControl, elapsed_s: float):
+        generation, evaluations, best = control.progress
+        return IdentifyAction.Feedback(generation=generation, evaluations=evaluations, best_cost=best,
+                                       elapsed_s=elapsed_s)
+
+    def fill(result, answer) -> None:
+        if answer.identified is not None:
+            result.result = parameters_msg(answer.identified, joints())
+
+    return ServedAction(node, IdentifyAction, "~/identify", service.handle, feedback, fill, log, callback_group)
+
+
+def payload_action(node, service, log, callback_group) -> ServedAction:
+    """``~/identify_payload``: served by ``service`` (a :class:`~frictionid_ros.payload.PayloadService`)."""
+    from frictionid_interfaces.action import IdentifyPayload
+
+    from frictionid_ros.messages import fill_payload
+
+    return ServedAction(node, IdentifyPayload, "~/identify_payload", service.handle,
+                        lambda control, elapsed_s: IdentifyPayload.Feedback(elapsed_s=elapsed_s),
+                        lambda result, answer: fill_payload(result, answer.payload), log, callback_group)

@@ -9,7 +9,9 @@ the friction sign from this desired velocity) and the effort command
 τ = rnea(q_d, q̇_d, q̈_d) + Kp·(q_d − q) + Kd·(q̇_d − q̇) [+ τ_friction] on
 ``/effort_controller/commands`` (Float64MultiArray). τ_friction is the newest message of
 ``feedforward_topic`` (``/frictionid/friction_torque_state``: the friction torque with the stamp
-of the joint state it answers) while parameter ``feedforward_enabled`` is true.
+of the joint state it answers) while parameter ``feedforward_enabled`` is true. A payload on ``payload_topic``
+(``/frictionid/payload``: geometry_msgs/Inertia, transient local, on the link ``payload_link``,
+default the last) joins the controller's model: its rigid-body feed-forward takes it from then on.
 
 Recorded for ``frictionid loop`` and written to ``record_file`` (.npz) at exit: per joint state
 its stamp and its receipt − stamp [ns], q_d − q [rad | m], whether and what feed-forward went
@@ -26,11 +28,16 @@ import numpy as np
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)
+    from geometry_msgs.msg import Inertia
     from rcl_interfaces.msg import SetParametersResult
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
 from frictionid_ros.loop_node import SENSOR, LoopNode, run_node
+
+LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 NS = 1_000_000_000
 CAPACITY = 900_000  # recorded steps (15 min at 1 kHz)
@@ -46,8 +53,11 @@ class ControllerNode(LoopNode):
         p = {name: self.declare_parameter(name, default).value for name, default in (
             ("robot", "tx40"), ("feedforward_enabled", False), ("joint_states_topic", "joint_states"),
             ("reference_topic", "reference_joint_states"), ("command_topic", "/effort_controller/commands"),
-            ("feedforward_topic", "/frictionid/friction_torque_state"), ("record_file", ""))}
-        robot = load_robot(p["robot"])
+            ("feedforward_topic", "/frictionid/friction_torque_state"), ("record_file", ""),
+            ("payload_topic", "/frictionid/payload"), ("payload_link", ""))}
+        self.robot = robot = load_robot(p["robot"])
+        self.payload_link = p["payload_link"] or None
+        self.payload_taken_ns = 0  # when the controller took a payload [ns, wall clock]
         self.joints = list(robot.joints)
         self.ctl = Controller(robot, default_trajectory(robot))
         self.enabled = bool(p["feedforward_enabled"])
@@ -69,6 +79,7 @@ class ControllerNode(LoopNode):
         self._pub_cmd = self.input_node.create_publisher(Float64MultiArray, p["command_topic"], SENSOR)
         self.input_node.create_subscription(JointState, p["joint_states_topic"], self._on_state, SENSOR)
         self.input_node.create_subscription(JointState, p["feedforward_topic"], self._on_ff, SENSOR)
+        self.input_node.create_subscription(Inertia, p["payload_topic"], self._on_payload, LATCHED)
         self.add_on_set_parameters_callback(self._on_set)
         self._order = None  # index of each controller joint in the joint_states message
 
@@ -111,13 +122,26 @@ class ControllerNode(LoopNode):
         self.lat[self.n_lat % CAPACITY] = now - (msg.header.stamp.sec * NS + msg.header.stamp.nanosec)
         self.n_lat += 1
 
+    def _on_payload(self, msg: Inertia) -> None:
+        """The controller's model with the payload ``msg`` (replacing any earlier one), gains kept."""
+        from frictionid_core.loop import Controller
+        from frictionid_core.robots import Payload, default_link, robot_with_payload
+
+        inertia = ((msg.ixx, msg.ixy, msg.ixz), (msg.ixy, msg.iyy, msg.iyz), (msg.ixz, msg.iyz, msg.izz))
+        payload = Payload(self.payload_link or default_link(self.robot), float(msg.m),
+                          (msg.com.x, msg.com.y, msg.com.z), inertia)
+        ctl = self.ctl
+        self.ctl = Controller(robot_with_payload(self.robot, payload), ctl.trajectory, ctl.kp, ctl.kd)
+        self.payload_taken_ns = time.time_ns()
+        self.get_logger().info(f"rigid-body feed-forward with a {msg.m:.4g} kg payload on {payload.link}")
+
     def close(self) -> None:
         if not self.record_file:
             return
         n, m = min(self.n, CAPACITY), min(self.n_lat, CAPACITY)
         np.savez(self.record_file, joints=np.array(self.joints), stamp_ns=self.stamp[:n], error=self.err[:n],
                  feedforward=self.ff_used[:n], feedforward_on=self.ff_on[:n], latency_ns=self.lat[:m],
-                 state_latency_ns=self.state_lat[:n])
+                 state_latency_ns=self.state_lat[:n], payload_taken_ns=self.payload_taken_ns)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -32,8 +32,10 @@ frictionid node as separate ROS 2 processes on a low-speed tracking task with re
 phases: feed-forward off; identified feed-forward on (~/identify on the off phase); a Coulomb
 drift (+DRIFT_FRACTION over DRIFT_S) with online re-identification; the feed-forward off again
 under the drifted friction (the reference of the drift's gain); a deliberately bad parameter set
-offered to the safety gate (~/load). Writes the figures as JSON (--json) and one PNG of the
-tracking error per phase (--plots)."""
+offered to the safety gate (~/load). With --payload-kg M, instead of the drift: a payload of M kg
+fixed to the arm's last link after the on phase, identified by the node (~/identify_payload) and
+taken by the controller's rigid-body feed-forward (online re-identification off). Writes the
+figures as JSON (--json) and one PNG of the tracking error per phase (--plots)."""
 
 NS = 1_000_000_000
 
@@ -60,6 +62,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="the node's feed-forward velocity: the controller's desired velocity (default) or the "
                         "measured one (its sign chatters near zero speed)")
     p.add_argument("--no-drift", action="store_true", help="only the off and on phases (and the gate)")
+    p.add_argument("--payload-kg", type=float, default=0.0, metavar="M",
+                   help="attach a payload of M kg to the simulated arm's last link after the on phase; the node "
+                        "identifies it and the controller takes it (implies --no-drift, online re-identification off)")
+    p.add_argument("--payload-s", type=float, default=15.0,
+                   help="the payload's phase before its identification [s]")
     p.add_argument("--realtime", default="auto", metavar="PRIO|auto|off",
                    help="run the three processes SCHED_FIFO at priority PRIO (1..99), as ros2_control runs its "
                         "control loop (the identification worker goes back to normal scheduling); auto "
@@ -72,9 +79,13 @@ def handler(args) -> int:
     args.realtime = realtime_priority(args.realtime)
     print("scheduling: " + (f"SCHED_FIFO {args.realtime}" if args.realtime else
                             "normal (no real-time priority: expect latency tails of several ms on a busy machine)"))
-    for name in ("phase_s", "drift_s", "after_s", "online_period_s", "online_window_s"):
+    for name in ("phase_s", "drift_s", "after_s", "online_period_s", "online_window_s", "payload_s"):
         if not getattr(args, name) > 0:
             raise FrictionIdError(f"--{name.replace('_', '-')} must be > 0")
+    if args.payload_kg < 0 or args.payload_kg != args.payload_kg:
+        raise FrictionIdError(f"--payload-kg must be > 0 (0: no payload), got {args.payload_kg}")
+    if args.payload_kg > 0:
+        args.no_drift = True
     t0 = time.monotonic()
     result, record, phases = run(args)
     write_json(args.json, result)
@@ -89,6 +100,11 @@ def handler(args) -> int:
     if "drift" in result:
         print(f"drift: recovered fraction {result['drift']['recovered_fraction']:.3f}, "
               f"recovery {result['drift']['recovery_s']} s")
+    if "payload" in result:
+        p = result["payload"]
+        print(f"payload: true {p['true_kg']:g} kg, identified {p['identified_kg']:.4g} kg; tracking RMS [mrad] before "
+              f"{p['rms_before'] * 1e3:.3f}, attached {p['rms_attached'] * 1e3:.3f}, after the update "
+              f"{p['rms_after'] * 1e3:.3f} ({p['rms_after'] / p['rms_before']:.3f} × before)")
     print(f"bad parameters rejected: {result['gate']['bad_parameters_rejected']}")
     lat = result.get("feedforward_latency_ms", {})
     print("feed-forward latency [ms]: " + ", ".join(f"{k} {v:.3f}" for k, v in lat.items()))
@@ -117,7 +133,8 @@ def node_parameters(robot: str, joints: list[str], work: Path, args) -> Path:
     system = robot if robot.startswith("urdf:") else "tx40"
     values = {"system": system, "joints": joints, "friction_model": "coulomb", "solver": "ls",
               "velocity_source": args.velocity_source, "smoothing_eps": 0.02, "known_rigid_body": True,
-              "online_period_s": float(args.online_period_s), "online_window_s": float(args.online_window_s),
+              "online_period_s": 0.0 if args.payload_kg > 0 else float(args.online_period_s),
+              "online_window_s": float(args.online_window_s),
               "online_holdout": 0.25, "gate_max_abs": 1000.0, "feedforward_max": 100.0, "feedforward_ramp_s": 0.5,
               "results_file": str(work / "results" / "parameters.json"), "max_missing_pct": 20.0,
               "buffer_seconds": 30.0, "diagnostics_period_s": 0.5}
@@ -257,10 +274,11 @@ def _wait(seconds: float, procs: Processes) -> None:
         time.sleep(min(0.2, max(0.0, end - time.monotonic())))
 
 
-def offer_bad_parameters(client: Client, results_file: Path) -> bool:
+def offer_bad_parameters(client: Client, results_file: Path, refused_by: str = "safety gate") -> bool:
     """Offer the active set with every Coulomb level negated and tripled to the gate (~/load);
-    True if the node refused it and did not activate it (the online re-identification may replace
-    the active set meanwhile: that is no sign of the offer)."""
+    True if the node refused it (its message names ``refused_by``: the gate, or the safety screen
+    when online re-identification is off) and did not activate it (the online re-identification may
+    replace the active set meanwhile: that is no sign of the offer)."""
     from frictionid_interfaces.srv import ParametersFile
 
     data = json.loads(results_file.read_text())
@@ -276,7 +294,28 @@ def offer_bad_parameters(client: Client, results_file: Path) -> bool:
         time.sleep(0.2)
     params = lambda results: {joint: p["params"] for joint, p in results["per_joint"].items()}
     active = params(json.loads(results_file.read_text()))
-    return (not res.success) and "safety gate" in res.message and active != params(bad)
+    return (not res.success) and refused_by in res.message and active != params(bad)
+
+
+def payload_phases(client: Client, args, phase, phases: dict, procs: Processes) -> float:
+    """Attach the payload to the simulated arm (phase ``payload_attached``), identify it on that
+    phase (~/identify_payload, the first second left out), let the controller take it (phase
+    ``payload_updated``); returns the identified mass [kg]."""
+    from frictionid_interfaces.srv import IdentifyPayload
+
+    from frictionid_ros.messages import to_time
+
+    client.set_parameter("frictionid_sim", "payload_kg", float(args.payload_kg))
+    phase("payload_attached", args.payload_s)
+    start, end = phases["payload_attached"]
+    request = IdentifyPayload.Request(window_start=to_time(start + NS), window_end=to_time(end))
+    res = client.call(IdentifyPayload, "/frictionid/identify_payload", request, timeout=120.0)
+    if not res.success:
+        raise FrictionIdError(f"identification of the payload failed: {res.message}")
+    print(f"payload: {res.message}")
+    _wait(1.0, procs)  # the controller takes ~/payload (transient local) at once; its switch settles
+    phase("payload_updated", args.phase_s)
+    return float(res.inertia.m)
 
 
 def run(args) -> tuple[dict, dict, dict]:
@@ -337,7 +376,11 @@ def run(args) -> tuple[dict, dict, dict]:
             phase("after_drift", args.after_s)
             client.set_parameter("frictionid_loop_controller", "feedforward_enabled", False)
             phase("drift_off", args.phase_s)
-        rejected = offer_bad_parameters(client, work / "results" / "parameters.json")
+        identified_kg = None
+        if args.payload_kg > 0:
+            identified_kg = payload_phases(client, args, phase, phases, procs)
+        rejected = offer_bad_parameters(client, work / "results" / "parameters.json",
+                                        "refused by the safety screen" if args.payload_kg > 0 else "safety gate")
     finally:
         if client is not None:
             client.close()
@@ -350,6 +393,10 @@ def run(args) -> tuple[dict, dict, dict]:
     figures = summarize(record, phases, after_s=args.after_s)
     result = {k: figures[k] for k in ("rms_tracking_error", "drift") if k in figures}
     result["gate"] = {"bad_parameters_rejected": bool(rejected)}
+    if args.payload_kg > 0:
+        from frictionid_core.loop import payload_figures
+
+        result["payload"] = payload_figures(record, phases, args.payload_kg, identified_kg)
     result.update({k: v for k, v in figures.items() if k not in result})
     if not args.keep:
         import shutil

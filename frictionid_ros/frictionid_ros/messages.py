@@ -9,6 +9,7 @@ with warnings.catch_warnings():
     from builtin_interfaces.msg import Time
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
     from frictionid_interfaces.msg import IdentifiedParameters, JointFriction
+    from geometry_msgs.msg import Inertia, Vector3
 
 from frictionid_ros.buffer import NS
 from frictionid_ros.store import JointParams, Results, shared_parameters
@@ -57,3 +58,27 @@ def diagnostic_array(node_name: str, statuses: list[tuple[str, bool, str, dict]]
         for title, ok, message, values in statuses])
     arr.header.stamp = stamp
     return arr
+
+
+def inertia_msg(payload) -> Inertia:
+    """A :class:`~frictionid_core.robots.Payload` as a geometry_msgs/Inertia: m [kg], com [m] in its
+    link's frame, the inertia about the centre of mass [kg·m²] in the link's axes."""
+    inertia = payload.inertia
+    return Inertia(m=float(payload.mass), com=Vector3(x=float(payload.com[0]), y=float(payload.com[1]),
+                                                      z=float(payload.com[2])),
+                   ixx=float(inertia[0][0]), ixy=float(inertia[0][1]), ixz=float(inertia[0][2]),
+                   iyy=float(inertia[1][1]), iyz=float(inertia[1][2]), izz=float(inertia[2][2]))
+
+
+def fill_payload(response, result) -> None:
+    """The payload fields of an IdentifyPayload response (or action result) from a
+    :class:`~frictionid_core.identification.PayloadResult` (nothing when None)."""
+    if result is None:
+        return
+    import json
+
+    p = result.payload
+    response.link, response.inertia = p.link, inertia_msg(p)
+    response.mass_sigma = float((p.sigma or {}).get("mass") or NAN)
+    response.resolved, response.feasible = list(p.resolved), bool(p.feasible)
+    response.json = json.dumps(result.to_dict(), default=float)

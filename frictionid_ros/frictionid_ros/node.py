@@ -7,13 +7,16 @@ Topics (``~`` = ``/frictionid``):
 * in:  ``joint_states`` (sensor_msgs/JointState), optional ``effort_topic`` (JointState or
   std_msgs/Float64MultiArray), optional ``reference_topic`` (JointState, feed-forward velocity);
 * out: ``~/parameters`` (IdentifiedParameters, transient local: a late subscriber gets the
-  active parameters), ``~/friction_torque`` (Float64MultiArray ordered by ``joints``, [N·m | N]),
+  active parameters), ``~/payload`` (geometry_msgs/Inertia, transient local: the active payload,
+  in its link's frame), ``~/friction_torque`` (Float64MultiArray ordered by ``joints``, [N·m | N]),
   ``~/friction_torque_state`` (JointState: velocity used, effort = friction torque; header
   stamp = the stamp of the joint state that triggered it), ``/diagnostics`` (~1 Hz).
 
-Services: ``~/identify`` (Identify), ``~/reset`` (std_srvs/Trigger: clear the buffer, cancel a
+Services: ``~/identify`` (Identify), ``~/identify_payload`` (IdentifyPayload: a payload with the
+active robot parameters as the base, :mod:`.payload`), ``~/reset`` (std_srvs/Trigger: clear the buffer, cancel a
 running identification), ``~/save`` and ``~/load`` (ParametersFile: files of the results folder
-only). Action: ``~/identify`` (frictionid_interfaces/action/Identify: feedback, cancel).
+only). Actions: ``~/identify`` (frictionid_interfaces/action/Identify: feedback, cancel) and
+``~/identify_payload``.
 
 Lifecycle: a managed node (rclpy LifecycleNode): ``configure`` creates the subscriptions,
 publishers, services, action, worker and restores the parameters; ``activate``/``deactivate``
@@ -50,7 +53,8 @@ with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, pulled in by rosidl on some versions
     from diagnostic_msgs.msg import DiagnosticArray
     from frictionid_interfaces.msg import IdentifiedParameters
-    from frictionid_interfaces.srv import Identify, ParametersFile
+    from frictionid_interfaces.srv import Identify, IdentifyPayload, ParametersFile
+    from geometry_msgs.msg import Inertia
     from rcl_interfaces.msg import SetParametersResult
     from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
     from rclpy.executors import SingleThreadedExecutor
@@ -62,13 +66,14 @@ with warnings.catch_warnings():
     from std_srvs.srv import Trigger
 
 from frictionid_core import FrictionIdError
-from frictionid_ros.action import IdentifyActionServer
+from frictionid_ros.action import identify_action, payload_action
 from frictionid_ros.buffer import NS
 from frictionid_ros.config import NODE_NAME
 from frictionid_ros.inputs import Inputs
-from frictionid_ros.messages import diagnostic_array, parameters_msg
+from frictionid_ros.messages import diagnostic_array, fill_payload, inertia_msg, parameters_msg
 from frictionid_ros.online import Online
 from frictionid_ros.parameters import changed_config, declare_parameters
+from frictionid_ros.payload import PayloadService
 from frictionid_ros.realtime import schedule_this_thread
 from frictionid_ros.runner import check_unique_name, make_input_executor, run
 from frictionid_ros.service import IdentifyService
@@ -202,6 +207,7 @@ class FrictionIdNode(LifecycleNode):
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self._pub_params = self._keep(self.destroy_publisher,
                                       self.create_publisher(IdentifiedParameters, "~/parameters", latched))
+        self._pub_payload = self._keep(self.destroy_publisher, self.create_publisher(Inertia, "~/payload", latched))
         self._pub_ff, self._pub_ff_state, self._pub_diag = (
             self._keep(self.destroy_publisher, self.create_publisher(typ, topic, qos_out)) for typ, topic in (
                 (Float64MultiArray, "~/friction_torque"), (JointState, "~/friction_torque_state"),
@@ -213,6 +219,8 @@ class FrictionIdNode(LifecycleNode):
                                                 self._log)
         self.online = Online(lambda: self.cfg, self.identify_service, self.active, lambda: self.inputs.joints,
                              self._log)
+        self.payload_service = PayloadService(lambda: self.cfg, self.identify_service, self.active, self._worker,
+                                              lambda: self.inputs.joints, self._log)
         if cfg.online_period_s > 0.0:  # re-identification behind the safety gate (:mod:`.online`)
             self._keep(self.destroy_timer, self.create_timer(cfg.online_period_s, self._on_online,
                                                              callback_group=MutuallyExclusiveCallbackGroup()))
@@ -222,6 +230,8 @@ class FrictionIdNode(LifecycleNode):
                              reliability=ReliabilityPolicy.RELIABLE)
         identify = ReentrantCallbackGroup()
         for typ, name, callback, group in ((Identify, "~/identify", self._on_identify, identify),
+                                           (IdentifyPayload, "~/identify_payload", self._on_identify_payload,
+                                            identify),
                                            (Trigger, "~/reset", self._on_reset, MutuallyExclusiveCallbackGroup()),
                                            (ParametersFile, "~/save", self._on_save, MutuallyExclusiveCallbackGroup()),
                                            (ParametersFile, "~/load", self._on_load, MutuallyExclusiveCallbackGroup())):
@@ -229,15 +239,18 @@ class FrictionIdNode(LifecycleNode):
                                                                  callback_group=group))
         self._keep(self.destroy_timer, self.create_timer(cfg.diagnostics_period_s, self._on_diagnostics,
                                                          callback_group=MutuallyExclusiveCallbackGroup()))
-        action = IdentifyActionServer(self, self.identify_service, lambda: self.inputs.joints, self._log_identify,
-                                      identify)
-        self._keep(lambda a: a.destroy(), action)
+        for action in (identify_action(self, self.identify_service, lambda: self.inputs.joints, self._log_identify,
+                                       identify),
+                       payload_action(self, self.payload_service, self._log_identify, identify)):
+            self._keep(lambda a: a.destroy(), action)
 
         if cfg.joints:
             self.inputs.setup(list(cfg.joints))
         restored = sorted(self.active.results.per_joint)
         if restored:
             self._pub_params.publish(parameters_msg(self.active.results, self.inputs.joints))
+        if self.active.results.payload is not None:
+            self._pub_payload.publish(inertia_msg(self.active.results.payload))
         self.input_executor.add_node(inp)
         self._log.info(
             f"configured: system {cfg.system}, joints {list(cfg.joints) or '(from the first message)'}, buffer "
@@ -342,6 +355,16 @@ class FrictionIdNode(LifecycleNode):
         for problem in self.inputs.set_params(results.per_joint):
             self._log.warning(f"feed-forward: {problem}")
         self._pub_params.publish(parameters_msg(results, self.inputs.joints))
+        if results.payload is not None:
+            self._pub_payload.publish(inertia_msg(results.payload))
+
+    @_guarded
+    def _on_identify_payload(self, req, res):
+        answer = self.payload_service.handle(req)
+        res.success, res.message = answer.ok, answer.message
+        fill_payload(res, answer.payload)
+        self._log_identify(answer.ok, answer.message)
+        return res
 
     @_guarded
     def _on_reset(self, req, res):
@@ -384,6 +407,7 @@ class FrictionIdNode(LifecycleNode):
                                              feedforward_on=self._ff_on, **self.inputs.feedforward_values())
         self._pub_diag.publish(diagnostic_array(self.get_fully_qualified_name(), [
             ("joint buffer", ok, message, values), ("identification", *ident), ("safety gate", *self.online.status()),
+            ("payload", *self.payload_service.status()),
         ], self.get_clock().now().to_msg()))
 
 

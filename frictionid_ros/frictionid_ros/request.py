@@ -80,6 +80,14 @@ def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
                   population=int(req.population))
     fields.update((k, v) for k, v in (("friction_model", req.friction_model), ("solver", req.solver)) if v)
     request = node_request(cfg, joints, "request field", **fields)
+    ws, start, end = parse_window(req, cfg)
+    return Job(joints, request, ws, start, end, bool(req.dry_run))
+
+
+def parse_window(req, cfg: Config) -> tuple[float, int, int]:
+    """(window_seconds [s], window_start, window_end [ns since the epoch; 0 = open]) of a request's
+    window fields (Identify, IdentifyPayload): at most one of the two, within ``max_window_seconds``;
+    neither: the node's ``window_seconds``. InputError naming the field."""
     ws = float(req.window_seconds)
     for name in ("window_start", "window_end"):
         stamp = getattr(req, name)
@@ -100,7 +108,7 @@ def parse_request(req, cfg: Config, buffered: list[str]) -> Job:
                          f"{cfg.max_window_seconds:g} s")
     if ws == 0.0 and not (start or end):
         ws = cfg.window_seconds
-    return Job(joints, request, ws, start, end, bool(req.dry_run))
+    return ws, start, end
 
 
 def consistency_text(result: IdentifyResult) -> str:

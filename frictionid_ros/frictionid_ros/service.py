@@ -27,6 +27,7 @@ from frictionid_ros.worker import (
 
 if TYPE_CHECKING:
     from frictionid_core import IdentifyResult
+    from frictionid_core.identification import PayloadResult
     from frictionid_core.loop import Decision
 
 WAIT_PERIOD_S = 0.05  # how often a waiting request checks the wall time and calls on_wait [s]
@@ -34,13 +35,14 @@ WAIT_PERIOD_S = 0.05  # how often a waiting request checks the wall time and cal
 
 @dataclass
 class Answer:
-    """The answer to one request: ``ok``, one-line ``message``, the identification if ``ok``;
-    ``cancelled``: stopped by a cancel (client, ``~/reset``) or the wall-time limit."""
+    """The answer to one request: ``ok``, one-line ``message``, the identification (or the payload)
+    if ``ok``; ``cancelled``: stopped by a cancel (client, ``~/reset``) or the wall-time limit."""
 
     ok: bool
     message: str
     identified: Results | None = None
     cancelled: bool = False
+    payload: PayloadResult | None = None  # the payload of an ~/identify_payload answer
 
 
 class IdentifyService:
@@ -113,32 +115,40 @@ class IdentifyService:
             job = parse_request(req, self._settings(), self._inputs.joints)
         except FrictionIdError as exc:
             return self._record(False, str(exc))
+        return self.exclusive(lambda: self.run_job(job, control), control, on_wait,
+                              lambda value: self._identified(job, control, value))
+
+    def exclusive(self, work, control: JobControl, on_wait, done) -> Answer:
+        """Run ``work()`` in the one identification slot ("busy" at once when it is taken), in a
+        thread while this one waits: stopped by a cancel, the wall-time limit or :attr:`stopping`
+        (answered so); a FrictionIdError answered with its message; else ``done(its value)``
+        answers. ``on_wait(control)`` as in :meth:`handle`."""
         if not self._busy.acquire(blocking=False):  # not recorded: the running one is the news
             running = self._running
             since = f" (for {time.monotonic() - running.t_start:.1f} s)" if running is not None else ""
             return Answer(False, f"busy: an identification is already running{since}; try again later")
         try:
             self._running = control
-            return self._wait(job, control, on_wait)
+            return self._wait(work, control, on_wait, done)
         finally:
             self._running = None
             self._busy.release()
 
-    def _wait(self, job: Job, control: JobControl, on_wait) -> Answer:
+    def _wait(self, work, control: JobControl, on_wait, done) -> Answer:
         box: dict = {}
-        done = threading.Event()
+        finished = threading.Event()
 
-        def work():
+        def run():
             try:
-                box["result"] = self.run_job(job, control)
+                box["result"] = work()
             except BaseException as exc:  # reported to the caller below, never kills the node
                 box["error"] = exc
             finally:
                 control.stopped_at = control.stopped_at or time.monotonic()
-                done.set()
+                finished.set()
 
-        threading.Thread(target=work, name="frictionid-identify", daemon=True).start()
-        while not done.wait(WAIT_PERIOD_S):
+        threading.Thread(target=run, name="frictionid-identify", daemon=True).start()
+        while not finished.wait(WAIT_PERIOD_S):
             if self.stopping.is_set():
                 control.cancel("node shutting down")
                 return self._record(False, "node shutting down")
@@ -157,7 +167,11 @@ class IdentifyService:
                 return self._record(False, str(exc))
             self._log.error("identification crashed:\n" + "".join(traceback.format_exception(exc)))
             return self._record(False, f"identification failed: {type(exc).__name__}: {exc}")
-        result, _, sel = box["result"]
+        return done(box["result"])
+
+    def _identified(self, job: Job, control: JobControl, value) -> Answer:
+        """The answer of a finished identification: screened, activated unless a dry run."""
+        result, _, sel = value
         stamp = time.time_ns()
         n = len(sel.series)
         identified = Results(split_identification(result, stamp, self.limits(result, sel.series)), result,
@@ -197,6 +211,7 @@ class IdentifyService:
                  else run_identification(sel.series, job.request, control.report, gate))
         return *checked_result(reply, self._log.error), sel
 
-    def _record(self, ok: bool, message: str, identified: Results | None = None, cancelled: bool = False) -> Answer:
+    def _record(self, ok: bool, message: str, identified: Results | None = None, cancelled: bool = False,
+                payload=None) -> Answer:
         self.last_ok, self.last_status = ok, message
-        return Answer(ok, message, identified, cancelled)
+        return Answer(ok, message, identified, cancelled, payload)

@@ -9,7 +9,9 @@ clock (wall clock at its start + simulated time: regular 1 ms steps, as a robot'
 ``/effort_controller/commands`` (std_msgs/Float64MultiArray, joint order of ``joint_states``), held
 until the next one; the arm stands still until the first command.
 Parameter ``drift_start`` (set to true at runtime) starts the Coulomb drift: +``drift_fraction``
-of Fc and Fs over ``drift_s`` seconds. Steps run in a thread of their own at absolute times.
+of Fc and Fs over ``drift_s`` seconds; ``payload_kg`` (set > 0 at runtime) fixes the loop's payload
+of that mass to the last link (:func:`frictionid_core.loop.loop_payload`) before the next step.
+Steps run in a thread of their own at absolute times.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ class SimNode(LoopNode):
 
         p = {name: self.declare_parameter(name, default).value for name, default in (
             ("robot", "tx40"), ("rate_hz", 1000.0), ("drift_fraction", 0.3), ("drift_s", 60.0),
-            ("drift_start", False), ("joint_states_topic", "joint_states"),
+            ("drift_start", False), ("payload_kg", 0.0), ("joint_states_topic", "joint_states"),
             ("command_topic", "/effort_controller/commands"))}
         self.robot = robot = load_robot(p["robot"])
         self.sim = SimArm(robot, hidden_friction(p["robot"], robot.joints), q0=default_trajectory(robot).q0)
@@ -51,6 +53,7 @@ class SimNode(LoopNode):
             raise FrictionIdError(f"rate_hz must be {1.0 / self.sim.model.opt.timestep:g} (the simulation step)")
         self._drift = (float(p["drift_fraction"]), float(p["drift_s"]))
         self.command = None  # latest command (J,), None before the first
+        self._attach = None  # a payload to fix to the arm before the next step
         self.commands = self.rejected = 0
         self._pub = self.input_node.create_publisher(JointState, p["joint_states_topic"], SENSOR)
         self.input_node.create_subscription(Float64MultiArray, p["command_topic"], self._on_command, SENSOR)
@@ -65,6 +68,14 @@ class SimNode(LoopNode):
             if prm.name == "drift_start" and prm.value:
                 self.sim.start_drift(*self._drift)
                 self.get_logger().info(f"Coulomb drift started: +{100 * self._drift[0]:g} % over {self._drift[1]:g} s")
+            elif prm.name == "payload_kg" and prm.value > 0:
+                from frictionid_core.loop import loop_payload
+
+                try:
+                    self._attach = loop_payload(self.robot, float(prm.value))
+                except FrictionIdError as exc:
+                    return SetParametersResult(successful=False, reason=str(exc))
+                self.get_logger().info(f"payload of {prm.value:g} kg attached to {self._attach.link}")
         return SetParametersResult(successful=True)
 
     def _on_command(self, msg: Float64MultiArray) -> None:
@@ -90,6 +101,9 @@ class SimNode(LoopNode):
             elif delay < -CATCH_UP_S:
                 nxt -= delay
                 origin -= int(delay * 1e9)
+            if self._attach is not None:
+                sim.attach_payload(self._attach)
+                self._attach = None
             cmd = self.command
             if cmd is None:  # standing still: the clock follows the wall clock of the scheduled ticks
                 origin = time.time_ns() - round((time.monotonic() - nxt) * 1e9) - round(sim.t * 1e9)

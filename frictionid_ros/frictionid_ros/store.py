@@ -33,12 +33,20 @@ from pathlib import Path
 import numpy as np
 
 from frictionid_core import YAML_SUFFIXES, FrictionIdError, IdentifyResult, get_model, read_json, write_json
-from frictionid_core.safety import Limit, effort_sign_refusals, explicit_bounds, robot_limits, screen_parameters
+from frictionid_core.robots import Payload
+from frictionid_core.safety import (
+    Limit,
+    effort_sign_refusals,
+    explicit_bounds,
+    payload_refusals,
+    robot_limits,
+    screen_parameters,
+)
 from frictionid_ros.config import PARAMETERS
 
 FORMAT = "frictionid_ros/1"
 # Keys of the results file around the last identification's.
-_FILE_KEYS = ("format", "per_joint", "window_start_ns", "window_end_ns", "window_samples", "stamp_ns")
+_FILE_KEYS = ("format", "per_joint", "window_start_ns", "window_end_ns", "window_samples", "stamp_ns", "payload")
 
 
 @dataclass
@@ -124,12 +132,15 @@ class Results:
     window_end_ns: int = 0
     window_samples: int = 0
     stamp_ns: int = 0
+    payload: Payload | None = None
 
     def to_dict(self) -> dict:
         d = self.last.to_dict() if self.last is not None else {}
         d.update(format=FORMAT, window_start_ns=int(self.window_start_ns), window_end_ns=int(self.window_end_ns),
                  window_samples=int(self.window_samples), stamp_ns=int(self.stamp_ns),
                  per_joint={j: p.to_dict() for j, p in self.per_joint.items()})
+        if self.payload is not None:
+            d["payload"] = self.payload.to_dict()
         return d
 
 
@@ -226,8 +237,9 @@ def read_results(path: Path) -> Results:
             raise FrictionIdError(f"{path}: {exc}") from None
         if not all(math.isfinite(x) for x in vec):
             raise FrictionIdError(f"{path}: joint '{p.joint}' has non-finite friction parameters")
+    payload = None if data.get("payload") is None else Payload.from_dict(data["payload"], f"{path}: key 'payload'")
     return Results(per_joint, last, int(data.get("window_start_ns", 0)), int(data.get("window_end_ns", 0)),
-                   int(data.get("window_samples", 0)), int(data.get("stamp_ns", 0)))
+                   int(data.get("window_samples", 0)), int(data.get("stamp_ns", 0)), payload)
 
 
 class Screen:
@@ -289,8 +301,11 @@ class Screen:
             params, self.limits(results.per_joint), bounds=allowed, max_abs=self.max_abs, default=self.default, std=std)
 
     def check(self, results: Results) -> None:
-        """FrictionIdError naming the parameters at fault and their limits when ``results`` is refused."""
+        """FrictionIdError naming the parameters at fault and their limits when ``results`` (its
+        payload included) is refused."""
         refusals = self.refusals(results)
+        if results.payload is not None:
+            refusals += payload_refusals(results.payload, self.system, max_abs=self.max_abs)
         if refusals:
             more = f" (and {len(refusals) - 3} more)" if len(refusals) > 3 else ""
             raise FrictionIdError("refused by the safety screen: " + "; ".join(refusals[:3]) + more)
@@ -341,11 +356,13 @@ class ActiveParameters:
             self.results = results
 
     def activate(self, results: Results, save: bool = True) -> str:
-        """Merge ``results`` into the active parameters and save them; returns a note for the reply.
-        FrictionIdError (nothing changed) when the screen refuses them."""
+        """Merge ``results`` into the active parameters and save them (a set without a payload keeps
+        the active one); returns a note for the reply. FrictionIdError (nothing changed) when the
+        screen refuses them."""
         self.screen.check(results)
         with self.lock:
-            self.results = replace(results, per_joint={**self.results.per_joint, **results.per_joint})
+            self.results = replace(results, per_joint={**self.results.per_joint, **results.per_joint},
+                                   payload=results.payload or self.results.payload)
             self._on_change(self.results)
             if not save:
                 return ""

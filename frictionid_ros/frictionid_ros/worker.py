@@ -171,13 +171,15 @@ def run_identification(series, request: IdentifyRequest, progress=None, gate: Ga
     ``gate``: the result (or ``gate.candidate``, judged instead of identifying) is also judged by
     the safety gate; the decision is None without one. ``progress``: the optimiser's hook (see
     :func:`frictionid_core.identification.identify`); it cancels the run by raising :class:`Cancelled`."""
-    from frictionid_core import FrictionIdError, identify
+    from frictionid_core import FrictionIdError, IdentifyRequest, identify
 
     try:
         if gate is not None and gate.candidate is not None:
             result = gate.candidate
-        else:
+        elif isinstance(request, IdentifyRequest):
             result = identify(series, request, progress=progress)
+        else:  # a task of its own (~/identify_payload's: frictionid_ros.payload.PayloadTask)
+            result = request.run(series)
         decision = None
         if gate is not None:  # judged here too: the prediction of the held-back slice is CPU work
             from frictionid_core.loop import review
@@ -189,7 +191,8 @@ def run_identification(series, request: IdentifyRequest, progress=None, gate: Ga
     except FrictionIdError as exc:
         return ("error", str(exc))
     except ImportError as exc:
-        return ("error", f"solver '{request.solver.method}' is unavailable ({type(exc).__name__}: {exc})")
+        what = f"solver '{request.solver.method}'" if isinstance(request, IdentifyRequest) else "a module"
+        return ("error", f"{what} is unavailable ({type(exc).__name__}: {exc})")
     except Exception as exc:  # reported to the caller, never kills the worker
         return ("crash", f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}")
 
@@ -208,7 +211,11 @@ def checked_result(reply: tuple, log_crash) -> tuple[IdentifyResult, Decision | 
     if status == "crash":
         log_crash(f"identification crashed: {payload}")
         raise FrictionIdError(f"identification failed: {payload.splitlines()[0]}")
-    bad = [k for k, v in payload[0].params.items() if not math.isfinite(v)]
+    from frictionid_core import IdentifyResult
+
+    result = payload[0]
+    values = result.params if isinstance(result, IdentifyResult) else result.payload.parameters()
+    bad = [k for k, v in values.items() if not math.isfinite(v)]
     if bad:
         raise FrictionIdError(f"identification failed: non-finite parameter(s) {bad}")
     return payload

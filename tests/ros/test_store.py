@@ -124,3 +124,31 @@ def test_a_save_removes_the_temporary_file_of_a_node_killed_while_saving(tmp_pat
         path.write_text('{"per_joint": ')
     assert active.save(active.file(""))[0]
     assert not orphan.exists() and running.exists()
+
+
+def test_payload_is_screened_saved_with_the_parameters_and_kept_by_later_sets(tmp_path):
+    """A payload in the active parameters is written with them and read back; a set without one
+    keeps it; the screen refuses a payload the robot cannot hold (nothing changes)."""
+    from frictionid_core.identification import IdentifyRequest, identify
+    from frictionid_core.robots import Payload
+    from frictionid_ros.payload import base_result
+    from frictionid_ros.store import Screen
+    from support.payload_logs import PAYLOAD, loaded_logs
+
+    logs = loaded_logs("tx40")
+    base = identify(logs.base, IdentifyRequest(system="tx40", friction="coulomb"))
+    from frictionid_core.systems import get_system
+
+    active = ActiveParameters(tmp_path / "p.json", lambda results: None, LOG, screen=Screen(get_system("tx40")))
+    with pytest.raises(FrictionIdError, match="no active robot parameters to use as the base"):
+        base_result(active.results)
+    payload = Payload("link_6", **PAYLOAD)
+    active.activate(Results(split_identification(base), base, payload=payload))
+    assert base_result(active.results).params == base.params
+    active.activate(Results(split_identification(base), base))  # a later identification without a payload
+    assert active.results.payload == payload
+    assert read_results(tmp_path / "p.json").payload == payload
+    heavy = Payload("link_6", 80.0, (0, 0, 0.3), ((1, 0, 0), (0, 1, 0), (0, 0, 1)))
+    with pytest.raises(FrictionIdError, match="refused by the safety screen: payload on 'link_6' .*gravity torque"):
+        active.activate(Results({}, base, payload=heavy))
+    assert active.results.payload == payload

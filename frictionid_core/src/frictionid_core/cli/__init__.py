@@ -28,6 +28,7 @@ __all__ = ["COMMANDS", "PLUGIN_GROUP", "build_parser", "main", "run_handler"]
 COMMANDS: dict[str, tuple[str, str]] = {
     "identify": ("identify", "identify friction (and rigid-body) parameters from data"),
     "validate": ("validate", "cross-test identified parameters on other data"),
+    "payload": ("payload", "identify a payload (mass, centre of mass, inertia) on a link from a loaded log"),
     "simulate": ("simulate", "closed-loop simulation of identified parameters (EMPS)"),
     "study": ("study", "optimisers × friction models × seeds on the EMPS (thesis §6.3)"),
     "report": ("report", "HTML report of a result on any data (figures per joint), or the EMPS benchmark report"),

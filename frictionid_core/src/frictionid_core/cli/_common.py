@@ -54,6 +54,21 @@ def add_drive_argument(p: argparse.ArgumentParser,
                         f"file or a bundled drive (tx40); {role}")
 
 
+def add_hold_arguments(p: argparse.ArgumentParser) -> None:
+    """``--hold JOINT=VALUE`` and ``--hold-missing``: model joints held still (robot systems)."""
+    p.add_argument("--hold", action="append", metavar="JOINT=VALUE",
+                   help="tx40, urdf:PATH: hold a model joint still at this position (rad or m), e.g. one the log "
+                        "lacks; repeatable (or JOINT=VALUE,JOINT=VALUE)")
+    p.add_argument("--hold-missing", action="store_true", default=None,
+                   help="tx40, urdf:PATH: hold every model joint the log lacks still at 0 (or at the drive's "
+                        "position_offset of that joint); the result lists them in held_joints")
+
+
+def hold_option(args) -> dict[str, float] | None:
+    """{model joint: position} of the ``--hold`` items, or None without."""
+    return None if args.hold is None else parse_joint_values(",".join(args.hold), "--hold", "POSITION")
+
+
 def drive_option(args):
     """The Drive named by ``--drive``, or None."""
     if args.drive is None:

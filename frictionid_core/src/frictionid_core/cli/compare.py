@@ -15,7 +15,8 @@ from frictionid_core.errors import FrictionIdError
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("results", nargs="+", type=Path, metavar="FIT.json",
-                   help="JSON written by 'frictionid identify' (two or more, or one with --truth)")
+                   help="JSON written by 'frictionid identify' (two or more, or one with --truth), or two or more "
+                        "payload files of 'frictionid payload'")
     p.add_argument("--truth", type=Path, help="truth JSON ('frictionid synth --truth' or bags/tx40_truth.json)")
     p.add_argument("--bag", help="recording of a multi-bag truth file (default: the result's source)")
     p.add_argument("--validation", type=Path, nargs="+", metavar="SRC",
@@ -30,6 +31,12 @@ def run(args) -> int:
     from frictionid_core.jsonfile import read_json
     from frictionid_core.robots.compare import compare_fits, fit_labels
 
+    payloads = _payload_files(args.results)
+    if payloads:
+        refuse_overwriting({"--json": args.json}, {"FIT.json": args.results})
+        out = _print_payloads(payloads, args.results)
+        save_json(args.json, out)
+        return 0
     results = [read_result(path).to_dict() for path in args.results]
     refuse_overwriting({"--json": args.json}, {"FIT.json": args.results, "--truth": args.truth,
                                                "--validation": args.validation, "--layout": args.layout,
@@ -56,6 +63,43 @@ def run(args) -> int:
         out["validation"] = [_validation(src, labels, results, args, truth_all) for src in args.validation]
     save_json(args.json, out)
     return 0
+
+
+# -------------------------------------------------------------------- payloads side by side
+def _payload_files(paths: list[Path]) -> list:
+    """The payloads of ``paths`` when they are payload files ('frictionid payload --json': a
+    ``payload`` block and no ``params``), else []; FrictionIdError for a mix of both."""
+    from frictionid_core.identification import PayloadResult
+    from frictionid_core.jsonfile import read_json
+
+    data = [read_json(p, "an identification result or a payload file") for p in paths]
+    kinds = [isinstance(d, dict) and "payload" in d and "params" not in d for d in data]
+    if not any(kinds):
+        return []
+    if not all(kinds):
+        others = ", ".join(str(p) for p, k in zip(paths, kinds) if not k)
+        raise FrictionIdError(f"{others}: not a payload file; compare takes identification results or payload files, "
+                              "not both")
+    return [PayloadResult.from_dict(d, where=str(p)).payload for d, p in zip(data, paths)]
+
+
+def _print_payloads(payloads: list, paths: list[Path]) -> dict:
+    """Print payloads side by side (value, σ per payload; difference and z against A); return the block."""
+    from frictionid_core.robots.compare import compare_payloads
+
+    out = compare_payloads(payloads, [str(p) for p in paths])
+    labels = [p["label"] for p in out["payloads"]]
+    for p in out["payloads"]:
+        print(f"{p['label']}: {p['file']} · payload on {p['link']} · {'feasible' if p['feasible'] else 'NOT feasible'}"
+              f" · resolved {len(p['resolved'])} of 10")
+    print(f"{'quantity':<14}" + "".join(f"{lab:>13}{'σ ' + lab:>11}" for lab in labels)
+          + "".join(f"{lab + ' − ' + labels[0]:>14}{'z ' + lab:>9}" for lab in labels[1:]))
+    for name, row in out["quantities"].items():
+        print(f"{name:<14}" + "".join(f"{fmt(row['values'][lab]):>13}{fmt(row['sigma'][lab], 3):>11}" for lab in labels)
+              + "".join(f"{fmt(row['difference'][lab], 4):>14} {fmt(row['z'][lab], 3):>8}" for lab in labels[1:]))
+    print("units: kg, m (centre of mass in the link's frame), kg·m² (inertia about the centre of mass); σ — where "
+          "held; z: difference in units of the combined σ")
+    return out
 
 
 # ----------------------------------------------------------------------- fits side by side

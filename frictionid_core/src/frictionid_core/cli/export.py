@@ -1,5 +1,6 @@
-"""``frictionid export RESULT.json [--urdf OUT.urdf] [--mujoco OUT.xml] [--yaml OUT.yaml] [--force]``:
-a robot result's identified parameters as a URDF, a MuJoCo model and a parameters file."""
+"""``frictionid export RESULT.json [--payload P.json] [--urdf OUT.urdf] [--mujoco OUT.xml] [--yaml OUT.yaml]
+[--force]``: a robot result's identified parameters (and a payload on one of its links) as a URDF, a
+MuJoCo model and a parameters file."""
 
 from __future__ import annotations
 
@@ -17,6 +18,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--mujoco", type=Path, metavar="OUT.xml", help="MuJoCo MJCF: inertials, joint damping = Fv, "
                                                                   "frictionloss = Fc, armature = rotor inertia")
     p.add_argument("--yaml", type=Path, metavar="OUT.yaml", help="parameters file for the node and 'validate'")
+    p.add_argument("--payload", type=Path, metavar="P.json",
+                   help="a payload ('frictionid payload --json') to fix to its link: a fixed link 'payload' in the "
+                        "URDF and MuJoCo model, a 'payload' block (and its re-fitted friction levels) in the YAML")
     p.add_argument("--force", action="store_true",
                    help="export even when the result is not physically consistent or its links are implausible "
                         "against the robot model")
@@ -24,7 +28,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     from frictionid_core.cli._common import refuse_overwriting, system_file
-    from frictionid_core.identification import read_result
+    from frictionid_core.identification import payload_of, read_result
     from frictionid_core.jsonfile import write_text
     from frictionid_core.robots.export import export_data, mujoco_text, urdf_text, yaml_text
     from frictionid_core.systems import result_system
@@ -33,9 +37,9 @@ def run(args) -> int:
         raise FrictionIdError("nothing to export: give --urdf, --mujoco and/or --yaml")
     result = read_result(args.result)
     refuse_overwriting({"--urdf": args.urdf, "--mujoco": args.mujoco, "--yaml": args.yaml},
-                       {"RESULT": args.result, "--system": system_file(result.system)})
-    result = result.to_dict()
-    data = export_data(result, result_system(result), args.force)
+                       {"RESULT": args.result, "--system": system_file(result.system), "--payload": args.payload})
+    result, payload = payload_of(result, args.result, args.payload)
+    data = export_data(result, result_system(result), args.force, payload)
     if not data.feasible:
         print("frictionid: warning: exporting an inconsistent or implausible result (--force): "
               + "; ".join(data.problems))

@@ -14,8 +14,10 @@ import argparse
 
 from frictionid_core.cli._common import (
     add_drive_argument,
+    add_hold_arguments,
     add_source_arguments,
     drive_file,
+    hold_option,
     load_sources,
     parse_bounds,
     parse_fixed,
@@ -89,12 +91,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="tx40, urdf:PATH: hold the directions the data do not resolve at the robot model's own values "
                         "(default: dropped); with --consistent also pull each link toward the model's inertials "
                         "(log-det divergence)")
-    p.add_argument("--hold", action="append", metavar="JOINT=VALUE",
-                   help="tx40, urdf:PATH: hold a model joint still at this position (rad or m), e.g. one the log "
-                        "lacks; repeatable (or JOINT=VALUE,JOINT=VALUE)")
-    p.add_argument("--hold-missing", action="store_true", default=None,
-                   help="tx40, urdf:PATH: hold every model joint the log lacks still at 0 (or at the drive's "
-                        "position_offset of that joint); the result lists them in held_joints")
+    add_hold_arguments(p)
     p.add_argument("--gravity", action="store_true", default=None,
                    help="--system joint: add g_sin·sin q + g_cos·cos q per joint (a joint loaded by gravity)")
     p.add_argument("--prior-weight", type=float, metavar="W",
@@ -161,7 +158,7 @@ def given_fields(args) -> dict:
     top = {"system": args.system, "joints": split_list(args.joints), "drive": args.drive, "friction": args.friction,
            "asymmetric": args.asymmetric, "consistent": args.consistent, "prior": args.prior,
            "prior_weight": args.prior_weight, "stribeck_order": args.stribeck_order,
-           "hold": None if args.hold is None else parse_joint_values(",".join(args.hold), "--hold", "POSITION"),
+           "hold": hold_option(args),
            "hold_missing": args.hold_missing, "gravity": args.gravity, "known_rigid_body": args.known_rigid_body,
            "effort_sign": args.effort_sign,
            "joint_map": None if args.joint_map is None else parse_joint_map(args.joint_map),

@@ -33,6 +33,9 @@ from frictionid_core.cli.identify import add_preprocessing_arguments, preprocess
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_source_arguments(p)
     p.add_argument("--params", type=Path, required=True, help="JSON written by 'frictionid identify'")
+    p.add_argument("--payload", type=Path, metavar="P.json",
+                   help="a payload ('frictionid payload --json') on the robot: its torque (and re-fitted friction "
+                        "levels) added to the parameters' (default: the payload the parameters file carries, if any)")
     add_drive_argument(p, "default: the result's")
     p.add_argument("--system", help="inverse dynamic model (default: the parameter file's)")
     p.add_argument("--joint-map", help="bag joint → model joint names (default: the parameter file's): a=b,c=d")
@@ -45,6 +48,7 @@ def run(args) -> int:
     from frictionid_core.identification import (
         PreprocessingOverrides,
         model_from_result,
+        payload_of,
         read_result,
         validation_metrics,
         validation_record,
@@ -55,16 +59,19 @@ def run(args) -> int:
 
     result = read_result(args.params)
     refuse_overwriting({"--json": args.json}, {**source_inputs(args), "--params": args.params,
-                                               "--system": system_file(args.system or result.system)})
+                                               "--system": system_file(args.system or result.system),
+                                               "--payload": args.payload})
     drive = drive_option(args)
     if drive is not None:
         result = replace(result, drive=drive.to_dict())
+    loaded, payload = payload_of(result, args.params, args.payload)
     overrides = PreprocessingOverrides(**preprocessing_fields(args))
     sources = load_sources(args)
     joint_map = None if args.joint_map is None else parse_joint_map(args.joint_map)
     names = [s.source for s in sources]
-    model, x = model_from_result(sources, result, system=args.system, joint_map=joint_map,
-                                 joints=split_list(args.joints), preprocessing=overrides, window=window_of(args))
+    model, x = model_from_result(sources, loaded, system=args.system, joint_map=joint_map,
+                                 joints=split_list(args.joints), preprocessing=overrides, window=window_of(args),
+                                 payload=payload)
     metrics = validation_metrics(model, x, names)
     check_metrics(metrics, f"the cross-test of {args.params} on {', '.join(names)}")
     record = validation_record(model)
@@ -73,7 +80,10 @@ def run(args) -> int:
            "asymmetric": result.asymmetric, "drive": result.drive,
            "layout": None if args.layout is None else str(args.layout), "window": window_record(window_of(args)),
            "preprocessing": record, "metrics": metrics}
-    print(f"cross-test of {args.params} on {', '.join(names)}")
+    if payload is not None:
+        out["payload"] = payload.to_dict()
+    loaded = "" if payload is None else f" with a {payload.mass:.4g} kg payload on {payload.link}"
+    print(f"cross-test of {args.params}{loaded} on {', '.join(names)}")
     print(preprocessing_line(record))
     print_metrics(metrics)
     save_json(args.json, out)

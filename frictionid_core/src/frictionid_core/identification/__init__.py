@@ -10,7 +10,8 @@ pre-processing parts; ``checks``: its field checks), ``result`` (the result and 
 ``result_fields``: the key-by-key checks of a result file),
 ``orchestration`` (:func:`identify`), ``effort_sign`` (an effort logged against its joint's axis),
 ``plan`` (what each source gives a fit),
-``identifiability`` (what the data resolve), ``model_building`` (data → identification model,
+``identifiability`` (what the data resolve), ``payload`` and ``payload_fit`` (a payload on a
+link from a loaded log and a base result), ``model_building`` (data → identification model,
 metrics), ``solve`` (solver glue), ``linear_case`` (a law's Coulomb case: the bounds it grounds, the
 held-back comparison, the fallback), ``dip_refit`` (the
 friction-dip refit policy), ``uncertainty`` (σ, white and robust), ``plausibility`` (absurd fits,
@@ -34,11 +35,14 @@ _LAZY = {
     "solve_model": "solve",
     "model_from_result": "reload", "validate": "reload", "validation_settings": "reload",
     "validation_metrics": "reload", "validation_record": "reload",
+    "PayloadRequest": "payload", "PayloadResult": "payload", "identify_payload": "payload", "read_payload": "payload",
+    "payload_of": "payload", "loaded_result": "payload",
 }
 
-__all__ = ["FieldError", "IdentifyRequest", "IdentifyResult", "PreprocessingOverrides", "SolverOptions", "Sources",
-           "as_sources", "budget_field", "build_model", "identify", "metric_model", "model_from_result",
-           "model_metrics", "observe_sources", "read_request", "read_result", "solve_model", "validate",
+__all__ = ["FieldError", "IdentifyRequest", "IdentifyResult", "PayloadRequest", "PayloadResult",
+           "PreprocessingOverrides", "SolverOptions", "Sources", "as_sources", "budget_field", "build_model",
+           "identify", "identify_payload", "loaded_result", "metric_model", "model_from_result", "model_metrics",
+           "observe_sources", "payload_of", "read_payload", "read_request", "read_result", "solve_model", "validate",
            "validation_metrics", "validation_record", "validation_settings", "window_record", "write_request"]
 
 

@@ -108,7 +108,7 @@ def rule_series(series: JointSeries, system: System) -> JointSeries:
 def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, system: str | None = None,
                       joint_map: dict[str, str] | None = None, joints: list[str] | None = None,
                       preprocessing: PreprocessingOverrides | None = None,
-                      window: tuple[float | None, float | None] | None = None
+                      window: tuple[float | None, float | None] | None = None, payload=None
                       ) -> tuple[IdentificationModel, np.ndarray]:
     """The model of an identification ``result`` (an :class:`IdentifyResult` or its JSON, also one
     written by hand or by an earlier version) on ``series`` (one source or several) and its
@@ -121,7 +121,9 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
     the user fixes; ``joint_map`` goes with ``system`` when both are given). ``window`` cuts
     ``series`` (s from the first sample); the result's own window is not reused. The joints the
     result held still are held again where it held them (the base parameters are those of that
-    regressor; a logged column of such a joint is not used).
+    regressor; a logged column of such a joint is not used). ``payload``: a
+    :class:`~frictionid_core.robots.payload.Payload` whose ten columns (``payload.<p>``) and values
+    the model adds (:func:`~frictionid_core.robots.payload.with_payload`).
     """
     if isinstance(result, IdentifyResult):
         result = result.to_dict()
@@ -148,6 +150,11 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
                                               preprocessing)
     else:  # a hand-written file: the system's pre-processing, the user's settings over it
         settings, which = (preprocessing or PreprocessingOverrides()).apply(sys_.preprocessing), None
+    if payload is not None:
+        from frictionid_core.robots.payload import with_payload
+
+        plan = replace(plan, system=with_payload(plan.system, payload.link))
+        values = {**values, **payload.parameters()}
     try:
         model = build_model(plan, plan.system, friction, asymmetric, settings)
     except InputError as exc:  # these data cannot choose (nothing moves): the result's own settings

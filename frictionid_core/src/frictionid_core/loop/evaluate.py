@@ -61,6 +61,25 @@ def summarize(record: dict, phases: dict[str, tuple[int, int]], *, settle_s: flo
     return out
 
 
+def payload_figures(record: dict, phases: dict[str, tuple[int, int]], true_kg: float, identified_kg: float | None,
+                    settle_s: float = 2.0) -> dict:
+    """The ``payload`` block of ``frictionid loop --payload-kg``: the payload's true and identified
+    mass [kg] and the tracking error's RMS over every joint and step [rad | m] with the friction
+    feed-forward on: ``rms_before`` the payload was attached (phase ``feedforward_on``),
+    ``rms_attached`` (the controller's model without it: ``payload_attached``) and ``rms_after`` its
+    rigid-body feed-forward took the identified payload (``payload_updated``); per joint too."""
+    def total(per_joint: np.ndarray) -> float:
+        return float(np.sqrt(np.mean(per_joint**2)))
+
+    per_joint = {name: rms(record, *phases[phase], settle_s) for name, phase in (
+        ("rms_before", "feedforward_on"), ("rms_attached", "payload_attached"), ("rms_after", "payload_updated"))
+        if phase in phases}
+    out = {"true_kg": float(true_kg), "identified_kg": None if identified_kg is None else float(identified_kg)}
+    out.update((name, total(v)) for name, v in per_joint.items())
+    out["per_joint"] = {name: v.tolist() for name, v in per_joint.items()}
+    return out
+
+
 def median_ratio(summary: dict) -> float:
     """Median over joints of RMS(on) / RMS(off) of a :func:`summarize` result."""
     r = summary["rms_tracking_error"]

@@ -29,6 +29,22 @@ _SLOPE_H = 1e-6  # step of the numerical slope ∂f/∂v [rad/s | m/s]
 
 # Default hidden friction of a URDF arm (per joint, Stribeck): Fv [N·m·s/rad], Fc, Fs [N·m], vs [rad/s], δ.
 URDF_FRICTION = {"Fv": 0.8, "Fc": 1.5, "Fs": 2.0, "vs": 0.04, "delta": 2.0}
+# The payload ``frictionid loop --payload-kg`` attaches to the last link: a solid cube of this edge
+# [m] whose centre lies this far out along the link's z axis and a little off it [m].
+PAYLOAD_EDGE_M = 0.08
+PAYLOAD_COM_M = (0.01, 0.0, 0.06)
+
+
+def loop_payload(robot, mass: float):
+    """The loop's payload of ``mass`` [kg] on ``robot``'s last link (a :class:`~frictionid_core.robots.Payload`):
+    a solid cube of :data:`PAYLOAD_EDGE_M` centred at :data:`PAYLOAD_COM_M`."""
+    from frictionid_core.robots.payload import Payload, default_link
+
+    if not mass > 0:
+        raise FrictionIdError(f"payload mass must be > 0 kg, got {mass}")
+    moment = mass * PAYLOAD_EDGE_M**2 / 6.0
+    return Payload(default_link(robot), float(mass), PAYLOAD_COM_M,
+                   ((moment, 0.0, 0.0), (0.0, moment, 0.0), (0.0, 0.0, moment)))
 
 
 def load_robot(spec: str):
@@ -151,6 +167,22 @@ class SimArm:
     @property
     def qd(self) -> np.ndarray:
         return np.array(self.data.qvel)
+
+    def attach_payload(self, payload) -> None:
+        """Fix ``payload`` (a :class:`~frictionid_core.robots.Payload`) to its link from now on: the
+        MuJoCo model is rebuilt from the robot model with it, the state (q, q̇, t) carried over."""
+        import mujoco
+
+        from frictionid_core.robots.payload import robot_with_payload
+
+        old = self.data
+        model = mujoco.MjModel.from_xml_string(mjcf(robot_with_payload(self.robot, payload)))
+        model.dof_frictionloss[:] = self.model.dof_frictionloss
+        model.dof_damping[:] = self.model.dof_damping
+        data = mujoco.MjData(model)
+        data.qpos[:], data.qvel[:], data.time = old.qpos, old.qvel, old.time
+        mujoco.mj_forward(model, data)
+        self.model, self.data = model, data
 
     def start_drift(self, fraction: float, duration_s: float) -> None:
         """Scale the Coulomb level (Fc, Fs) by 1 + fraction·min(1, (t − now)/duration_s) from now on."""

@@ -14,10 +14,13 @@
   parameters (``frictionid consistency``).
 * :mod:`~frictionid_core.robots.compare` — results vs ground truth and the noise floor
   (``frictionid compare``).
+* :mod:`~frictionid_core.robots.payload` — a payload fixed to a link (:class:`Payload`, the model
+  with it: :func:`robot_with_payload`); its identification is ``frictionid payload``.
 
 Pinocchio is imported only when a robot model is built.
 """
 
+from frictionid_core.robots.payload import Payload, default_link, robot_with_payload
 from frictionid_core.robots.robot_model import RobotModel, example_robot_data_dir, load_urdf
 
-__all__ = ["RobotModel", "example_robot_data_dir", "load_urdf"]
+__all__ = ["Payload", "RobotModel", "default_link", "example_robot_data_dir", "load_urdf", "robot_with_payload"]

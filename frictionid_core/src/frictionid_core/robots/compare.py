@@ -120,6 +120,43 @@ def compare_fits(results: list[dict], files: list[str] | None = None) -> dict:
             "per_joint": per_joint, "settings": settings}
 
 
+def compare_payloads(payloads: list, files: list[str]) -> dict:
+    """Two or more payloads (:class:`~frictionid_core.robots.payload.Payload`) side by side, as
+    :func:`compare_fits` puts fits: {payloads: [{label, file, link, feasible, resolved}],
+    quantities: {quantity: {values, sigma, difference, z}}} (mass kg, centre of mass m, inertia
+    about it kg·m²; differences against A, z in units of the combined σ; σ None where held)."""
+    from frictionid_core.robots.payload import INERTIA_ENTRIES, QUANTITIES
+
+    if len(payloads) < 2:
+        raise FrictionIdError("comparing payloads needs two or more payload files")
+    labels = fit_labels(len(payloads))
+    links = sorted({p.link for p in payloads})
+    if len(links) > 1:
+        raise FrictionIdError(f"{' and '.join(files)} are payloads on different links ({', '.join(links)}): their "
+                              "centres of mass and inertias are in different frames")
+
+    def entries(p, sigma: bool) -> list:
+        block = (p.sigma or {}) if sigma else {"mass": p.mass, "com": p.com, "inertia": p.inertia}
+        com = block.get("com") or [None] * 3
+        inertia = block.get("inertia") or [[None] * 3] * 3
+        return [block.get("mass"), *com, *(inertia[a][b] for a, b in INERTIA_ENTRIES.values())]
+
+    values = [entries(p, False) for p in payloads]
+    sigmas = [entries(p, True) for p in payloads]
+    quantities = {}
+    for k, name in enumerate(QUANTITIES):
+        row = {"values": {lab: _number(v[k]) for lab, v in zip(labels, values)},
+               "sigma": {lab: _number(s[k]) for lab, s in zip(labels, sigmas)}, "difference": {}, "z": {}}
+        for lab in labels[1:]:
+            d = row["values"][lab] - row["values"][labels[0]]
+            comb = _combined_sigma(row["sigma"][labels[0]], row["sigma"][lab])
+            row["difference"][lab], row["z"][lab] = d, (d / comb if comb else None)
+        quantities[name] = row
+    listed = [{"label": lab, "file": str(f), "link": p.link, "feasible": p.feasible, "resolved": list(p.resolved)}
+              for lab, f, p in zip(labels, files, payloads)]
+    return {"payloads": listed, "quantities": quantities}
+
+
 def _is_number(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 

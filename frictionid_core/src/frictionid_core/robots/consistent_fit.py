@@ -148,14 +148,7 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
             if kind == "Fs" and (stem, "Fc") in by_kind:
                 cons.append(z[idx] >= z[by_kind[(stem, "Fc")]])
     problem = cp.Problem(cp.Minimize(objective), cons)
-    t0 = time.perf_counter()
-    try:
-        problem.solve(solver=SOLVER)
-    except cp.error.SolverError as exc:
-        raise FrictionIdError(f"consistent fit: {SOLVER} failed ({exc})") from None
-    wall = time.perf_counter() - t0
-    if problem.status not in ("optimal", "optimal_inaccurate") or u.value is None:
-        raise FrictionIdError(f"consistent fit: {SOLVER} ended '{problem.status}'")
+    wall = solve_program(problem, u, "consistent fit")
     zv = D * u.value
     pi = zv[:P]
     c = np.concatenate([A @ pi, zv[P:]])
@@ -186,6 +179,21 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
                         "Fv ≥ 0, Fc ≥ 0, Fs ≥ 0" + (", Fs ≥ Fc" if stribeck_order else "")],
     }
     return ConsistentFit(x, pi, names, record)
+
+
+def solve_program(problem, variable, what: str) -> float:
+    """Solve the cvxpy ``problem`` with :data:`SOLVER`; its wall time (s). FrictionIdError naming
+    ``what`` when the solver fails or ends without an optimal ``variable``."""
+    import cvxpy as cp
+
+    t0 = time.perf_counter()
+    try:
+        problem.solve(solver=SOLVER)
+    except cp.error.SolverError as exc:
+        raise FrictionIdError(f"{what}: {SOLVER} failed ({exc})") from None
+    if problem.status not in ("optimal", "optimal_inaccurate") or variable.value is None:
+        raise FrictionIdError(f"{what}: {SOLVER} ended '{problem.status}'")
+    return time.perf_counter() - t0
 
 
 def rows_parameters(robot) -> np.ndarray:

@@ -34,6 +34,7 @@ import numpy as np
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.robots.consistency_check import link_plausibility, report_for_result, standard_record
+from frictionid_core.robots.payload import PAYLOAD, Payload, link_frame, link_name, payload_link
 
 # MuJoCo joint attribute ← friction parameter
 MUJOCO_FRICTION = {"damping": "Fv", "frictionloss": "Fc"}
@@ -55,6 +56,8 @@ class ExportData:
         plausibility: the exported links against the robot model's (thresholds included).
         feasible: the consistency and plausibility verdict; ``problems`` the failing links/parameters.
         source: ``urdf:PATH`` file of the robot, or None (built-in model).
+        payload: a payload fixed to one of its links (a fixed link ``payload`` in the URDF and
+            MuJoCo model, the ``payload`` block of the YAML), or None.
     """
 
     robot: object
@@ -66,11 +69,13 @@ class ExportData:
     result: dict
     match: dict
     plausibility: dict
+    payload: Payload | None = None
 
 
-def export_data(result: dict, system, force: bool = False) -> ExportData:
-    """Standard parameters and friction of ``result`` (an identification of the robot ``system``);
-    FrictionIdError for an inconsistent result unless ``force``."""
+def export_data(result: dict, system, force: bool = False, payload: Payload | None = None) -> ExportData:
+    """Standard parameters and friction of ``result`` (an identification of the robot ``system``)
+    and ``payload`` (on one of its links); FrictionIdError for an inconsistent result or payload
+    unless ``force``, and for a payload on a link the robot lacks."""
     if system.robot is None:
         raise FrictionIdError(f"system '{system.name}' is not a robot system (tx40, urdf:PATH): nothing to export")
     info = system.robot
@@ -87,11 +92,17 @@ def export_data(result: dict, system, force: bool = False) -> ExportData:
     friction, match = _joint_friction(result, info)
     for j, f in match.items():
         problems += [f"joint '{j}' {k} {v:.4g} < 0" for k, v in f["fitted"].items() if v < 0]
+    if payload is not None:
+        link_frame(info.model, payload.link)  # a link of this robot
+        if not payload.feasible:
+            problems.append(f"payload on '{payload.link}' (mass {payload.mass:.4g} kg): its pseudo-inertia is not "
+                            "positive definite")
     if problems and not force:
         raise FrictionIdError("refused to export an inconsistent or implausible result: " + "; ".join(problems)
                               + " (identify with --consistent [--prior urdf], or export anyway with --force)")
     source = system.name.split(":", 1)[1] if system.name.startswith("urdf:") else None
-    return ExportData(info.model, links, friction, not problems, problems, source, result, match, plausibility)
+    return ExportData(info.model, links, friction, not problems, problems, source, result, match, plausibility,
+                      payload)
 
 
 def _joint_friction(result: dict, info) -> tuple[dict, dict]:
@@ -171,6 +182,10 @@ def _set_dynamics(joint: ET.Element, friction: dict) -> None:
 def urdf_text(data: ExportData) -> str:
     """The URDF of :mod:`this module's doc <frictionid_core.robots.export>`."""
     root = _urdf_from_file(data) if data.source else _urdf_from_model(data)
+    if data.payload is not None:
+        if any(el.get("name") == PAYLOAD for el in root.findall("link")):
+            raise FrictionIdError(f"the robot's URDF has a link named '{PAYLOAD}' already: cannot add the payload's")
+        root.extend(payload_link(data.payload, data.payload.link))
     ET.indent(root)
     return ET.tostring(root, encoding="unicode", xml_declaration=True) + "\n"
 
@@ -206,10 +221,6 @@ def _urdf_from_file(data: ExportData) -> ET.Element:
     return root
 
 
-def _link_name(joint: str) -> str:
-    return joint.replace("joint", "link") if "joint" in joint else f"{joint}_link"
-
-
 def _urdf_from_model(data: ExportData) -> ET.Element:
     """A URDF of a fixed-base Pinocchio model of revolute/prismatic joints along x, y or z."""
     import pinocchio as pin
@@ -226,14 +237,14 @@ def _urdf_from_model(data: ExportData) -> ET.Element:
         if kind not in "RP" or axis not in axes:
             raise FrictionIdError(f"joint '{name}' ({short}): only revolute/prismatic joints along x, y or z export "
                                   "to a URDF from a built-in model")
-        link = ET.SubElement(root, "link", name=_link_name(name))
+        link = ET.SubElement(root, "link", name=link_name(name))
         link.append(_inertial(data.links[name]))
         k = i - 1
         j = ET.SubElement(root, "joint", name=name, type="revolute" if kind == "R" else "prismatic")
         M = m.jointPlacements[i]
         ET.SubElement(j, "origin", xyz=_fmt(M.translation), rpy=_fmt(pin.rpy.matrixToRpy(M.rotation)))
-        ET.SubElement(j, "parent", link="base_link" if m.parents[i] == 0 else _link_name(m.names[m.parents[i]]))
-        ET.SubElement(j, "child", link=_link_name(name))
+        ET.SubElement(j, "parent", link="base_link" if m.parents[i] == 0 else link_name(m.names[m.parents[i]]))
+        ET.SubElement(j, "child", link=link_name(name))
         ET.SubElement(j, "axis", xyz=axes[axis])
         ET.SubElement(j, "limit", lower=_fmt(robot.lower[k]), upper=_fmt(robot.upper[k]),
                       effort=_fmt(m.effortLimit[k]), velocity=_fmt(robot.velocity_limit[k]))
@@ -278,6 +289,8 @@ def _exact_values(xml: str, data: ExportData) -> str:
     damping/frictionloss/armature written at full precision (MuJoCo's writer keeps 6 digits)."""
     root = ET.fromstring(xml)
     for body in root.iter("body"):
+        if data.payload is not None and body.get("name") == PAYLOAD:
+            _set_inertial(body, data.payload.com, data.payload.mass, data.payload.inertia)
         joint = body.find("joint")
         if joint is None or joint.get("name") not in data.links:
             continue
@@ -287,26 +300,37 @@ def _exact_values(xml: str, data: ExportData) -> str:
         joint.set("damping", _fmt(max(f["Fv"], 0.0)))
         joint.set("frictionloss", _fmt(max(f["Fc"], 0.0)))
         joint.set("armature", _fmt(max(float(link["rotor_inertia"]), 0.0)))
-        old = body.find("inertial")
-        if old is not None:
-            body.remove(old)
-        body.insert(0, ET.Element("inertial", pos=_fmt(link["com"]), mass=_fmt(link["mass"]),
-                                  fullinertia=_fmt([t[k] for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")])))
+        _set_inertial(body, link["com"], link["mass"], [[t["ixx"], t["ixy"], t["ixz"]], [t["ixy"], t["iyy"], t["iyz"]],
+                                                        [t["ixz"], t["iyz"], t["izz"]]])
     ET.indent(root)
     return ET.tostring(root, encoding="unicode") + "\n"
+
+
+def _set_inertial(body: ET.Element, com, mass: float, inertia) -> None:
+    """The MJCF ``<inertial>`` of ``body`` at full precision: centre of mass, mass, inertia (3×3) about it."""
+    old = body.find("inertial")
+    if old is not None:
+        body.remove(old)
+    I = np.asarray(inertia, dtype=float)
+    body.insert(0, ET.Element("inertial", pos=_fmt(com), mass=_fmt(mass),
+                              fullinertia=_fmt([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]])))
 
 
 # ------------------------------------------------------------------------------------------- YAML
 def yaml_text(data: ExportData) -> str:
     """The result as YAML (readable by ``frictionid validate`` and the node) with an ``export`` note;
     FrictionIdError naming the parameter and the limit when the safety screen refuses its
-    parameters (:func:`frictionid_core.safety.result_refusals`: the robot's effort and velocity limits)."""
-    from frictionid_core.safety import result_refusals
+    parameters (:func:`frictionid_core.safety.result_refusals`: the robot's effort and velocity limits)
+    or its payload (:func:`frictionid_core.safety.payload_refusals`)."""
+    from frictionid_core.safety import payload_refusals, result_refusals
+    from frictionid_core.systems import result_system
 
-    refusals = result_refusals(data.result)
-    if refusals:
+    refused = result_refusals(data.result)
+    if not refused and data.payload is not None:
+        refused = payload_refusals(data.payload, result_system(data.result))
+    if refused:
         raise FrictionIdError("refused to export the parameters: the safety screen refuses them: "
-                              + "; ".join(refusals))
+                              + "; ".join(refused))
     import json
 
     import yaml
@@ -316,4 +340,6 @@ def yaml_text(data: ExportData) -> str:
                        "joint_friction": data.friction, "friction_match": data.match,
                        "plausibility": data.plausibility,
                        "rotor_inertia": {j: v["rotor_inertia"] for j, v in data.links.items()}}
+    if data.payload is not None:
+        plain["payload"] = data.payload.to_dict()
     return yaml.safe_dump(plain, sort_keys=False, allow_unicode=True)

@@ -57,18 +57,25 @@ class RobotInfo:
         them), joint-major in that order (with motor rows: row block k is the motor of
         ``rows[k]``); q, q̇, q̈ (N, J) hold every model joint in the order of ``joints`` (rad,
         rad/s, rad/s²)."""
+        return self.regressor_columns(q, qd, qdd, joints, rows, self.base.reduce, self.base.rank)
+
+    def regressor_columns(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, joints: list[str],
+                          rows: list[str] | None, reduce: Callable[[np.ndarray], np.ndarray], width: int
+                          ) -> np.ndarray:
+        """Rows (B·N, ``width``) of ``reduce`` applied to the standard regressor of the fit rows
+        ((n, nv, P) → (n, nv, width)), laid out as :meth:`base_columns`."""
         index = {j: k for k, j in enumerate(self.model.joints)}
         order = [index[j] for j in joints]
         blocks = order if rows is None else [index[j] for j in rows]
         n = q.shape[0]
         qm, qdm, qddm = (np.empty((n, self.model.nv)) for _ in range(3))
         qm[:, order], qdm[:, order], qddm[:, order] = q, qd, qdd
-        out = np.empty((len(blocks) * n, self.base.rank))
+        out = np.empty((len(blocks) * n, width))
         # in chunks of samples: the standard regressor (N, nv, P) of a long log would take GBs
         chunk = max(64, _REGRESSOR_CHUNK_VALUES // (self.model.nv * len(self.base.names)))
         for k0 in range(0, n, chunk):
             k1 = min(n, k0 + chunk)
-            Y = self.base.reduce((self.rows or self.model).regressor(qm[k0:k1], qdm[k0:k1], qddm[k0:k1]))
+            Y = reduce((self.rows or self.model).regressor(qm[k0:k1], qdm[k0:k1], qddm[k0:k1]))
             for b, m in enumerate(blocks):
                 out[b * n + k0 : b * n + k1] = Y[:, m, :]
         return out
