@@ -15,6 +15,7 @@ inertias (the model's armature, one per motor) on ẇ = C·q̈:
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -34,8 +35,8 @@ def tx40_friction(friction: str, asymmetric: bool) -> dict[str, dict[str, float]
     the published model is symmetric)."""
     from frictionid_core.robots.tx40 import FRICTION, JOINTS
 
-    if friction == "threlfall":
-        raise FrictionIdError("the published TX40 model has no Threlfall parameters; pass --friction-params")
+    if friction == "threlfall" or get_model(friction).is_dynamic:
+        raise FrictionIdError(f"the published TX40 model has no {friction} parameters; pass --friction-params")
     names = get_model(friction, False).names
     out = {}
     for k, j in enumerate(JOINTS):
@@ -49,9 +50,10 @@ def tx40_friction(friction: str, asymmetric: bool) -> dict[str, dict[str, float]
 
 
 def friction_torques(friction: str, asymmetric: bool, params: dict[str, dict[str, float]], joints: list[str],
-                     qd: np.ndarray) -> np.ndarray:
-    """τ_f for velocities (N, J) of ``joints`` with per-joint parameters {joint: {name: value}}."""
-    model = get_model(friction, asymmetric)
+                     qd: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
+    """τ_f for velocities (N, J) of ``joints`` with per-joint parameters {joint: {name: value}};
+    a dynamic law's states integrated along the sample times ``t`` (N,) (s)."""
+    model = get_model(friction, asymmetric, _elements(friction, params))
     out = np.empty_like(qd)
     for k, j in enumerate(joints):
         if j not in params:
@@ -60,8 +62,18 @@ def friction_torques(friction: str, asymmetric: bool, params: dict[str, dict[str
         if missing:
             raise InputError(f"friction parameters of joint '{j}' lack {missing} for {model.label} "
                              f"({list(model.names)})")
-        out[:, k] = model.torque(np.array([params[j][n] for n in model.names]), qd[:, k])
+        out[:, k] = model.torque(np.array([params[j][n] for n in model.names]), qd[:, k],
+                                 t=t if model.is_dynamic else None)
     return out
+
+
+def _elements(friction: str, params: dict[str, dict[str, float]]) -> int | None:
+    """The Maxwell-slip elements of per-joint parameters (the k1, k2, … of the first joint), else None."""
+    from frictionid_core.friction import LAWS
+
+    if not LAWS[friction].per_element or not params:
+        return None
+    return max(1, sum(1 for n in next(iter(params.values())) if re.fullmatch(r"k\d+(_pos)?", n)))
 
 
 def synthesize(robot, trajectory, *, friction: str = "stribeck", asymmetric: bool = False,
@@ -110,10 +122,10 @@ def synthesize(robot, trajectory, *, friction: str = "stribeck", asymmetric: boo
     q, qd, qdd = q[:, order], qd[:, order], qdd[:, order]
     tau = robot.inverse_dynamics(q, qd, qdd)
     if motors is None:
-        tau += friction_torques(friction, asymmetric, friction_params, robot.joints, qd)
+        tau += friction_torques(friction, asymmetric, friction_params, robot.joints, qd, t)
     else:  # rotor inertias and friction on the motors: τ = Cᵀ·(Ia ⊙ ẇ + f(w))
         tau += motors.rotor_torques(qdd, robot.armature) - qdd * robot.armature
-        tau += friction_torques(friction, asymmetric, friction_params, motors.motors, qd @ motors.C.T) @ motors.C
+        tau += friction_torques(friction, asymmetric, friction_params, motors.motors, qd @ motors.C.T, t) @ motors.C
     tau += np.array([offsets[j] for j in robot.joints])
     rng = np.random.default_rng(seed)
     position = q + rng.standard_normal(q.shape) * sigma_q
