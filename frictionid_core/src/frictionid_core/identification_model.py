@@ -127,6 +127,7 @@ class IdentificationModel:
         dips: list[_Dip] = []
         fnames = self.friction.names
         law = self.friction.law
+        dynamic = law.is_dynamic  # its level and states are not linear: only Fv is (DynamicIdentificationModel)
         nb = len(self.friction.branch_names)
         for j in range(nj):
             prefix = f"{obs.joints[j]}/" if nj > 1 else ""
@@ -144,7 +145,8 @@ class IdentificationModel:
                 else:  # the decimated sign column (weighted like the others): the dip's sign step
                     mask = scol  # anti-aliased as the effort's is
                 dip_id = None
-                nl = [base + off + k for k, n in enumerate(self.friction.branch_names) if n in law.nonlinear]
+                nl = [base + off + k for k, n in enumerate(self.friction.branch_names)
+                      if n in law.nonlinear and not dynamic]
                 if nl:
                     dip_id = len(dips)
                     dips.append(_Dip(j, nl, mask, np.abs(v)))
@@ -152,10 +154,10 @@ class IdentificationModel:
                     idx = base + off + k
                     if n == "Fv":
                         terms.append(_Term(names[idx], idx, j, _place(vcol, j, nj, nd)))
-                    elif n == "Fc":
+                    elif n == "Fc" and not dynamic:
                         terms.append(_Term(names[idx], idx, j, _place(scol, j, nj, nd), dip_id,
                                            -1.0 if dip_id is not None else 0.0))
-                    elif n == "Fs":
+                    elif n == "Fs" and not dynamic:
                         terms.append(_Term(names[idx], idx, j, None, dip_id, 1.0))
         if self.offset:
             for j in range(nj):

@@ -42,7 +42,7 @@ FLAGS = {"system": "--system", "joints": "--joints", "joint_map": "--joint-map",
          "preprocessing.velocity": "--velocity", "window": "--start/--end", "window.start_s": "--start",
          "window.end_s": "--end", "consistent": "--consistent", "prior": "--prior", "prior_weight": "--prior-weight",
          "stribeck_order": "--stribeck-order", "hold": "--hold", "hold_missing": "--hold-missing",
-         "gravity": "--gravity", "known_rigid_body": "--known-rigid-body"}
+         "gravity": "--gravity", "known_rigid_body": "--known-rigid-body", "elements": "--elements"}
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -62,6 +62,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_drive_argument(p)
     p.add_argument("--friction", choices=FRICTIONS, help="friction model (default coulomb)")
     p.add_argument("--asymmetric", action="store_true", default=None, help="separate parameters for v > 0 and v < 0")
+    p.add_argument("--elements", type=int, metavar="N",
+                   help="--friction gms: number of Maxwell-slip elements (default 4; 1: Dahl's law with Fs = Fc)")
     p.add_argument("--solver", choices=SOLVERS, help="optimiser (default ls: linear least squares)")
     p.add_argument("--seed", type=int, help="random seed of stochastic solvers (default 0)")
     p.add_argument("--budget", type=int, help="generations (population solvers) or calls (bo, dt)")
@@ -159,6 +161,7 @@ def given_fields(args) -> dict:
            "prior_weight": args.prior_weight, "stribeck_order": args.stribeck_order,
            "hold": None if args.hold is None else parse_joint_values(",".join(args.hold), "--hold", "POSITION"),
            "hold_missing": args.hold_missing, "gravity": args.gravity, "known_rigid_body": args.known_rigid_body,
+           "elements": args.elements,
            "joint_map": None if args.joint_map is None else parse_joint_map(args.joint_map),
            "fixed": None if args.fix is None else parse_fixed(args.fix),
            "bounds": None if args.bounds is None else parse_bounds(args.bounds)}

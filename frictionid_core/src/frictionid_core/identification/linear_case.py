@@ -96,8 +96,8 @@ def with_data_bounds(model: IdentificationModel) -> IdentificationModel:
     bounds = data_bounds(model)
     if not bounds:
         return model
-    return IdentificationModel(model.obs, model.friction, model.offset, model.rigid_bounds, model.bound_overrides,
-                               model.fixed, bounds, model.physical)
+    return type(model)(model.obs, model.friction, model.offset, model.rigid_bounds, model.bound_overrides,
+                       model.fixed, bounds, model.physical)
 
 
 def holdout_comparison(model: IdentificationModel, x: np.ndarray, solver: SolverOptions) -> dict:

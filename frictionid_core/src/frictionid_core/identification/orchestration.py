@@ -89,7 +89,8 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
 
     def rebuild(pre) -> IdentificationModel:
         return with_data_bounds(build_model(fit_plan, fit_plan.system, request.friction, request.asymmetric, pre,
-                                            request.bounds, fixed={**fixed_request, **held}))
+                                            request.bounds, fixed={**fixed_request, **held},
+                                            elements=request.elements))
 
     model, fit_settings = exclude_stick_phases(rebuild(settings), settings)
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
@@ -109,7 +110,7 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
         std, design = jacobian_std(model, x, model.held_at_box(x))
         cond = float(np.linalg.cond(design))
     holdout = None
-    if not model.is_linear and solver.warm_start:
+    if not model.is_linear and solver.warm_start and not model.friction.is_dynamic:
         model, x, std, cond, holdout = against_linear_case(model, at_rule_rates, x, (std, cond), solver, warnings)
     std = {**std, **dict.fromkeys(held, float("nan"))}
     undetermined = {n for n, v in std.items() if not np.isfinite(v)}

@@ -127,6 +127,7 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         else:
             sys_ = result_system(result)
         friction, asymmetric = result["friction"], bool(result["asymmetric"])
+        elements = (result.get("request") or {}).get("elements")
         joints = joints or result.get("joints")  # None (a hand-written file): the data's joints
         values = result["params"]
         asked = result.get("request") or {}
@@ -143,7 +144,7 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
     else:  # a hand-written file: the system's pre-processing, the user's settings over it
         settings, which = (preprocessing or PreprocessingOverrides()).apply(sys_.preprocessing), None
     try:
-        model = build_model(plan, plan.system, friction, asymmetric, settings)
+        model = build_model(plan, plan.system, friction, asymmetric, settings, elements=elements)
     except InputError as exc:  # these data cannot choose (nothing moves): the result's own settings
         if which is None or not which["rechosen"] or "cannot be chosen from the data" not in str(exc):
             raise
@@ -151,7 +152,7 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         settings = replace(Preprocessing.from_dict(result["preprocessing"], 1.0 / sources[0].dt), **given)
         why = {**which["kept_why"], **dict.fromkeys(which["rechosen"], "these data cannot choose it")}
         which = {"rechosen": [], "kept": list(why), "kept_why": why, "set": which["set"]}
-        model = build_model(plan, plan.system, friction, asymmetric, settings)
+        model = build_model(plan, plan.system, friction, asymmetric, settings, elements=elements)
     if which is not None:
         model.obs.report.update(which)
     missing = [n for n in model.names if n not in values]

@@ -73,6 +73,7 @@ class IdentifyRequest:
             the friction and offsets; the result's base parameters are the links' with the
             identified rotor inertias in them, each rotor inertia also by its own name
             (``<joint>.Ia``). The node's ``known_rigid_body`` parameter.
+        elements: the ``gms`` law's number of Maxwell-slip elements (None: 4).
     """
 
     system: str = "emps"
@@ -94,6 +95,7 @@ class IdentifyRequest:
     hold_missing: bool = False
     gravity: bool = False
     known_rigid_body: bool = False
+    elements: int | None = None
 
     def __post_init__(self) -> None:
         from frictionid_core.friction import FRICTIONS
@@ -113,6 +115,13 @@ class IdentifyRequest:
         set_(self, "window", window_value(self.window))
         set_(self, "fixed", {k: number(f"fixed.{k}", v) for k, v in mapping("fixed", self.fixed).items()})
         set_(self, "bounds", {k: bound_value(f"bounds.{k}", v) for k, v in mapping("bounds", self.bounds).items()})
+        if self.elements is not None:
+            from frictionid_core.friction import get_model
+
+            try:
+                get_model(self.friction, self.asymmetric, self.elements)
+            except FrictionIdError as exc:
+                raise FieldError("elements", f": {exc}") from None
         self._check_consistency()
 
     def _check_consistency(self) -> None:

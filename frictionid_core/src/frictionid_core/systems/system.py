@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from frictionid_core.errors import InputError
-from frictionid_core.observation import Observation, build_observation, concat_observations
+from frictionid_core.observation import Observation, build_observation, concat_observations, keep_all_rows
 from frictionid_core.preprocess import (
     TRIM_PERIODS,
     Prepared,
@@ -232,9 +232,8 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
                 raise
             dropped.append(segment)
             continue
-        for o in (observed[k], observed[k].sampled):
-            if o is not None:
-                o.preprocessing = resolved  # stacked under one setting; the seams' trims are noted
+        for o in _with_all_rows(observed[k]):
+            o.preprocessing = resolved  # stacked under one setting; the seams' trims are noted
     obs = concat_observations([observed[k] for k in sorted(observed)])
     # the longest segment's report, with what the rule chose and the counts and extremes of them all
     report = dict(observed[longest].report)
@@ -246,9 +245,8 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
                   reversal_acceleration={j: max(r["reversal_acceleration"][j] or 0.0 for r in over)
                                          for j in report["reversal_acceleration"]},
                   segments={"used": len(observed), "left_out": len(dropped), "trim_at_gaps_s": seam})
-    for o in (obs, obs.sampled):
-        if o is not None:
-            o.report = report
+    for o in _with_all_rows(obs):
+        o.report = report
     t0 = series.t[0]
     gaps = [(a.t[-1], b.t[0]) for a, b in zip(segments[:-1], segments[1:])]
     listed = ", ".join(f"{end - start:.4g} s after {start - t0:.6g} s" for start, end in gaps[:3])
@@ -261,6 +259,12 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
                  "s from the start)")
     obs.notes.insert(0, note)
     return obs
+
+
+def _with_all_rows(obs: Observation) -> list[Observation]:
+    """``obs``, its sampled observation and their copies with every row (those there are)."""
+    out = [o for o in (obs, obs.sampled) if o is not None]
+    return out + [o.full for o in out if o.full is not None]
 
 
 def _observe_segment(series: JointSeries, system: System, settings: Preprocessing | None,
@@ -313,8 +317,10 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
         if system.motor_rows:
             o.coupling, o.data_joints = drive.C, joints
         o.report = report
-        # the sampled rows are instants of the fit's (all of them, or one in ``thin``)
-        exclude_rows(o, slow if o is obs else slow[np.searchsorted(obs.t, o.t)])
+    keep_all_rows(obs)
+    for o in (obs, obs.sampled):
+        if o is not None:  # the sampled rows are instants of the fit's (all of them, or one in ``thin``)
+            exclude_rows(o, slow if o is obs else slow[np.searchsorted(obs.t, o.t)])
     report["min_speed_rows"] = dict(zip(row_names, map(float, min_speed)))
     report["slow_rows_excluded"] = dict(zip(row_names, map(int, slow.sum(axis=0))))  # stick rows included
     report["stick_rows"] = dict(zip(row_names, map(int, stick.sum(axis=0))))
