@@ -55,11 +55,7 @@ class DynamicIdentificationModel(IdentificationModel):
 
     def predict(self, params: np.ndarray) -> np.ndarray:
         """Torque rows for parameters (P, k) → (P, R), or (k,) → (R,)."""
-        p = np.asarray(params, dtype=float)
-        single = p.ndim == 1
-        p = np.atleast_2d(p)
-        if p.shape[1] != self.k:
-            raise FrictionIdError(f"model takes {self.k} parameters {self.names}, got {p.shape[1]}")
+        p, single = self.population(params)
         pred = p[:, self.linear_index] @ self._fixed.T + self.state_rows(p)
         return pred[0] if single else pred
 

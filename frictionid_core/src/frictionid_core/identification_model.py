@@ -343,13 +343,18 @@ class IdentificationModel:
             out.append(shape * d.mask[None, :])
         return out
 
-    def predict(self, params: np.ndarray) -> np.ndarray:
-        """Torque rows for parameters (P, k) → (P, R), or (k,) → (R,)."""
+    def population(self, params: np.ndarray) -> tuple[np.ndarray, bool]:
+        """(parameters as (P, k), whether one vector (k,) was given); FrictionIdError for another k."""
         p = np.asarray(params, dtype=float)
         single = p.ndim == 1
         p = np.atleast_2d(p)
         if p.shape[1] != self.k:
             raise FrictionIdError(f"model takes {self.k} parameters {self.names}, got {p.shape[1]}")
+        return p, single
+
+    def predict(self, params: np.ndarray) -> np.ndarray:
+        """Torque rows for parameters (P, k) → (P, R), or (k,) → (R,)."""
+        p, single = self.population(params)
         coef = p[:, self.linear_index]
         pred = coef @ self._fixed.T
         if self._dips:
