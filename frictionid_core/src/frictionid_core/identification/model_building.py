@@ -168,7 +168,8 @@ def model_metrics(model: IdentificationModel, x) -> dict:
         return out
     out = observation_metrics(obs, predicted)
     if obs.full is not None:
-        out["all_rows"] = all_rows_metrics(obs.full, type(on)(obs.full, on.friction, on.offset).predict(x))
+        full = type(on)(obs.full, on.friction, on.offset, load_rigid=on.load_rigid)
+        out["all_rows"] = all_rows_metrics(obs.full, full.predict(x))
     return out
 
 
@@ -176,7 +177,7 @@ def metric_model(model: IdentificationModel) -> IdentificationModel:
     """``model`` on its metric observation (:attr:`Observation.metric`: the recorded effort at the
     analysis instants with the unfiltered columns there, or its own rows under the EMPS protocol)."""
     obs = model.obs.metric
-    return model if obs is model.obs else type(model)(obs, model.friction, model.offset)
+    return model if obs is model.obs else type(model)(obs, model.friction, model.offset, load_rigid=model.load_rigid)
 
 
 def preprocessing_record(obs: Observation, metrics: dict, default: Preprocessing, requested: Preprocessing) -> dict:

@@ -15,6 +15,7 @@ from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_rates
 from frictionid_core.identification.identifiability import identifiability
 from frictionid_core.identification.linear_case import holdout_comparison, linear_fallback, with_data_bounds
+from frictionid_core.identification.load import fit_with_load
 from frictionid_core.identification.model_building import (
     Sources,
     as_sources,
@@ -104,13 +105,19 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     at_rule_rates = model
     model, (x, std, cond, res) = fit_at_dip_rates(
         model, fit_settings, rebuild, lambda m, previous=None: fit_model(m, solver, progress, previous))
+    if request.load_dependent:
+        model, (x, std, cond, res), load_rounds = fit_with_load(
+            model, (x, std, cond, res), lambda m, previous=None: fit_model(m, solver, progress, previous))
+        if not load_rounds["settled"]:
+            warnings.append(f"the load-dependent Coulomb level did not settle in {load_rounds['rounds']} rounds "
+                            "(the rigid-body torque still moves): its Fc_load are approximate")
     inertia_warnings = list(sys_.robot.model.inertia_warnings) if sys_.robot is not None else []
     warnings = inertia_warnings + plan.warnings() + resolved.warning() + warnings + dip_warnings(model, x)
     if res is not None:
         std, design = jacobian_std(model, x, model.held_at_box(x))
         cond = float(np.linalg.cond(design))
     holdout = None
-    if not model.is_linear and solver.warm_start and not model.friction.is_dynamic:
+    if not model.is_linear and solver.warm_start and not model.friction.is_dynamic and not request.load_dependent:
         model, x, std, cond, holdout = against_linear_case(model, at_rule_rates, x, (std, cond), solver, warnings)
     std = {**std, **dict.fromkeys(held, float("nan"))}
     undetermined = {n for n, v in std.items() if not np.isfinite(v)}

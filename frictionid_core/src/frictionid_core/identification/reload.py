@@ -16,6 +16,7 @@ from frictionid_core.identification.plan import Holds, plan_fit
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.settings import PreprocessingOverrides
 from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.load_dependence import LOAD_NAME
 from frictionid_core.preprocess import Preprocessing, cutoff_interval, resample_uniform
 from frictionid_core.systems import System, as_system, result_system
 from frictionid_core.timeseries import JointSeries
@@ -153,6 +154,8 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         why = {**which["kept_why"], **dict.fromkeys(which["rechosen"], "these data cannot choose it")}
         which = {"rechosen": [], "kept": list(why), "kept_why": why, "set": which["set"]}
         model = build_model(plan, plan.system, friction, asymmetric, settings, elements=elements)
+    if any(n.rsplit("/", 1)[-1] == LOAD_NAME for n in values):  # load-dependent: τ_rigid of its rigid body
+        model = replace(model, load_rigid=np.array([values.get(n, 0.0) for n in model.obs.rigid_names], dtype=float))
     if which is not None:
         model.obs.report.update(which)
     missing = [n for n in model.names if n not in values]

@@ -74,6 +74,8 @@ class IdentifyRequest:
             identified rotor inertias in them, each rotor inertia also by its own name
             (``<joint>.Ia``). The node's ``known_rigid_body`` parameter.
         elements: the ``gms`` law's number of Maxwell-slip elements (None: 4).
+        load_dependent: robot systems: each row joint's Coulomb level rises with its rigid-body
+            torque, Fc + Fc_load·|τ_rigid| (``<joint>/Fc_load``, identified with the rest).
     """
 
     system: str = "emps"
@@ -96,6 +98,7 @@ class IdentifyRequest:
     gravity: bool = False
     known_rigid_body: bool = False
     elements: int | None = None
+    load_dependent: bool = False
 
     def __post_init__(self) -> None:
         from frictionid_core.friction import FRICTIONS
@@ -126,7 +129,7 @@ class IdentifyRequest:
 
     def _check_consistency(self) -> None:
         set_ = object.__setattr__
-        for name in ("consistent", "stribeck_order", "hold_missing", "gravity", "known_rigid_body"):
+        for name in ("consistent", "stribeck_order", "hold_missing", "gravity", "known_rigid_body", "load_dependent"):
             set_(self, name, flag(name, getattr(self, name)))
         hold = {k: number(f"hold.{k}", v) for k, v in mapping("hold", self.hold).items()}
         bad = [k for k, v in hold.items() if not math.isfinite(v)]
@@ -143,7 +146,8 @@ class IdentifyRequest:
         set_(self, "prior_weight", weight)
         robot = self.system == "tx40" or self.system.startswith("urdf:")
         for name, used in (("consistent", self.consistent), ("prior", self.prior is not None),
-                           ("hold", bool(self.hold)), ("hold_missing", self.hold_missing)):
+                           ("hold", bool(self.hold)), ("hold_missing", self.hold_missing),
+                           ("load_dependent", self.load_dependent)):
             if used and not robot:
                 raise FieldError(name, f": needs a robot system ({ROBOT_SYSTEMS}) with body parameters; "
                                        f"system '{self.system}' has none")

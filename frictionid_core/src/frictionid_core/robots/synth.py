@@ -1,6 +1,7 @@
 """Synthetic joint-state data of a robot following a trajectory.
 
-τ = rnea(q, q̇, q̈) (Pinocchio, rigid bodies + armature Ia·q̈) + τ_f(q̇) + offset + noise,
+τ = rnea(q, q̇, q̈) (Pinocchio, rigid bodies + armature Ia·q̈) + τ_f(q̇) + offset + noise (a joint's
+``Fc_load`` in its friction parameters adds Fc_load·|rnea|·sign(q̇): load-dependent Coulomb friction),
 sampled at ``rate`` Hz; the recorded position is q + noise. The ground truth (standard and
 base parameters, friction, offsets, noise, the thesis joint-2 equivalents for the TX40) is
 returned beside the data so identification results can be compared with it.
@@ -23,6 +24,7 @@ import numpy as np
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import FRICTIONS, get_model
 from frictionid_core.jsonfile import read_json
+from frictionid_core.load_dependence import LOAD_NAME
 from frictionid_core.timeseries import JointSeries
 
 DEFAULT_POSITION_NOISE = 1e-6  # rad, robots without a noise table (≈ 0.057e-3 deg)
@@ -121,6 +123,11 @@ def synthesize(robot, trajectory, *, friction: str = "stribeck", asymmetric: boo
     order = [trajectory.joints.index(j) for j in robot.joints]
     q, qd, qdd = q[:, order], qd[:, order], qdd[:, order]
     tau = robot.inverse_dynamics(q, qd, qdd)
+    load = np.array([float(friction_params.get(j, {}).get(LOAD_NAME, 0.0)) for j in robot.joints])
+    if load.any() and motors is not None:
+        raise InputError(f"{LOAD_NAME}: load-dependent friction is synthesised on the joints, not under a drive with "
+                         "friction on the motors")
+    tau += load * np.abs(tau) * np.sign(qd)  # Fc + Fc_load·|τ_rigid| (frictionid_core.load_dependence)
     if motors is None:
         tau += friction_torques(friction, asymmetric, friction_params, robot.joints, qd, t)
     else:  # rotor inertias and friction on the motors: τ = Cᵀ·(Ia ⊙ ẇ + f(w))
