@@ -184,6 +184,15 @@ def get_model(friction: str, asymmetric: bool = False, elements: int | None = No
     return FrictionModel(friction, asymmetric, elements)
 
 
+def elements_of(friction: str, names) -> int | None:
+    """The number of elements of a Maxwell-slip law's parameters ``names`` (their ``k1``, ``k2``, …,
+    with or without a ``<joint>/`` prefix and a branch suffix); None for another law."""
+    if friction not in LAWS or not LAWS[friction].per_element:
+        return None
+    stems = {n.rsplit("/", 1)[-1].removesuffix("_pos").removesuffix("_neg") for n in names}
+    return max(1, sum(1 for stem in stems if parameter_base(stem) == "k"))
+
+
 def all_models() -> list[FrictionModel]:
     """The 8 static models: each static law, symmetric then asymmetric."""
     return [FrictionModel(f, a) for f in STATIC_FRICTIONS for a in (False, True)]

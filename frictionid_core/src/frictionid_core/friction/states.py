@@ -91,6 +91,7 @@ class StateFriction:
         self.nb = len(model.branch_names) if model.asymmetric else 0
         self.z: np.ndarray | None = None
         self.v: np.ndarray | None = None
+        self.t_s: float | None = None  # the time of the last sample of advance()
 
     @property
     def started(self) -> bool:
@@ -118,9 +119,20 @@ class StateFriction:
         self.v = v.copy()
         return self.force(v)
 
+    def advance(self, v: np.ndarray, t_s: float, max_gap_s: float) -> np.ndarray:
+        """Step to velocities v (J,) sampled at ``t_s`` [s] and return the friction there; the
+        states restart at the sliding values of v (0 at rest) on the first sample, after a gap over
+        ``max_gap_s``, a time that does not move forward or a non-finite velocity (taken as 0)."""
+        v = np.asarray(v, dtype=float)
+        h = t_s - self.t_s if self.t_s is not None and self.z is not None else 0.0
+        finite = np.isfinite(v)
+        out = self.step(v, h) if finite.all() and 0.0 < h <= max_gap_s else self.reset(np.where(finite, v, 0.0))
+        self.t_s = float(t_s)
+        return out
+
     def clear(self) -> None:
         """Forget the states: the next :meth:`step` starts from the sliding values."""
-        self.z = self.v = None
+        self.z = self.v = self.t_s = None
 
     def force(self, v: np.ndarray) -> np.ndarray:
         """The friction (J,) of the current states at velocities v (J,)."""

@@ -8,7 +8,8 @@ pre-sliding part from every row (:func:`fit_dynamic`).
    When that dip does not beat its Coulomb case on held-back rows (as for static laws), Fs = Fc
    and vs at its lower bound are held: the level is Fc (Dahl's law with one Maxwell-slip element).
 2. *Pre-sliding start.* Each joint's stiffness from a grid of break-away deflections g/(n·k)
-   (PRESLIDE_GRID, m or rad) at those levels, σ1 = 0: per joint the value whose rows fit best.
+   (PRESLIDE_GRID, m or rad) at its level near rest, max(Fc, Fs), σ1 = 0: per joint the value
+   whose rows fit best.
 3. *Every parameter.* Levenberg–Marquardt (trust-region reflective) on every row, standstill and
    reversals included, over every nonlinear parameter of the law (Fc, Fs, vs and the pre-sliding
    ones), the rigid body, Fv and the offsets solved in closed form for each (variable projection).
@@ -128,7 +129,8 @@ def presliding_start(model, x: np.ndarray) -> np.ndarray:
         joint, _, name = names[k].rpartition("/")
         suffix = name[-4:] if name.endswith(("_pos", "_neg")) else ""
         kind = parameter_base(name)
-        level = max(float(x[names.index(f"{joint}/Fc{suffix}" if joint else f"Fc{suffix}")]), 1e-9)
+        stem = f"{joint}/" if joint else ""
+        level = max(float(x[names.index(f"{stem}Fc{suffix}")]), float(x[names.index(f"{stem}Fs{suffix}")]), 1e-9)
         if kind == "sigma0":
             candidates[:, k] = level / PRESLIDE_GRID
         elif kind == "sigma1":

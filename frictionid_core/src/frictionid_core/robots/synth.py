@@ -16,13 +16,12 @@ inertias (the model's armature, one per motor) on ẇ = C·q̈:
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.friction import FRICTIONS, get_model
+from frictionid_core.friction import FRICTIONS, elements_of, get_model
 from frictionid_core.jsonfile import read_json
 from frictionid_core.load_dependence import LOAD_NAME
 from frictionid_core.timeseries import JointSeries
@@ -55,7 +54,7 @@ def friction_torques(friction: str, asymmetric: bool, params: dict[str, dict[str
                      qd: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
     """τ_f for velocities (N, J) of ``joints`` with per-joint parameters {joint: {name: value}};
     a dynamic law's states integrated along the sample times ``t`` (N,) (s)."""
-    model = get_model(friction, asymmetric, _elements(friction, params))
+    model = get_model(friction, asymmetric, elements_of(friction, next(iter(params.values()), {})))
     out = np.empty_like(qd)
     for k, j in enumerate(joints):
         if j not in params:
@@ -67,15 +66,6 @@ def friction_torques(friction: str, asymmetric: bool, params: dict[str, dict[str
         out[:, k] = model.torque(np.array([params[j][n] for n in model.names]), qd[:, k],
                                  t=t if model.is_dynamic else None)
     return out
-
-
-def _elements(friction: str, params: dict[str, dict[str, float]]) -> int | None:
-    """The Maxwell-slip elements of per-joint parameters (the k1, k2, … of the first joint), else None."""
-    from frictionid_core.friction import LAWS
-
-    if not LAWS[friction].per_element or not params:
-        return None
-    return max(1, sum(1 for n in next(iter(params.values())) if re.fullmatch(r"k\d+(_pos)?", n)))
 
 
 def synthesize(robot, trajectory, *, friction: str = "stribeck", asymmetric: bool = False,
