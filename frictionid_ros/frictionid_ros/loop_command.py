@@ -33,7 +33,12 @@ phases: feed-forward off; identified feed-forward on (~/identify on the off phas
 drift (+DRIFT_FRACTION over DRIFT_S) with online re-identification; the feed-forward off again
 under the drifted friction (the reference of the drift's gain); a deliberately bad parameter set
 offered to the safety gate (~/load). Writes the figures as JSON (--json) and one PNG of the
-tracking error per phase (--plots)."""
+tracking error per phase (--plots).
+
+--hidden-friction lugre: the arm's hidden friction is a LuGre law; after the off phase the node
+identifies a Stribeck law on it (phase feedforward_on), then a LuGre law on the same window (phase
+feedforward_on_lugre, its states driven by the desired velocity); no drift, no online
+re-identification. The JSON's lugre_vs_stribeck_at_reversals compares the two."""
 
 NS = 1_000_000_000
 
@@ -60,6 +65,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="the node's feed-forward velocity: the controller's desired velocity (default) or the "
                         "measured one (its sign chatters near zero speed)")
     p.add_argument("--no-drift", action="store_true", help="only the off and on phases (and the gate)")
+    p.add_argument("--hidden-friction", choices=("stribeck", "lugre"), default="stribeck",
+                   help="the simulated arm's hidden friction (default stribeck); lugre: a Stribeck and a LuGre "
+                        "feed-forward identified on the same off phase, one phase each (no drift)")
     p.add_argument("--realtime", default="auto", metavar="PRIO|auto|off",
                    help="run the three processes SCHED_FIFO at priority PRIO (1..99), as ros2_control runs its "
                         "control loop (the identification worker goes back to normal scheduling); auto "
@@ -86,6 +94,10 @@ def handler(args) -> int:
     print(f"RMS tracking error [mrad] off {[round(x * 1e3, 3) for x in r['feedforward_off']]}")
     print(f"                          on  {[round(x * 1e3, 3) for x in r['feedforward_on']]}")
     print(f"median RMS(on)/RMS(off) = {median_ratio(result):.3f}")
+    if "lugre_vs_stribeck_at_reversals" in result:
+        c = result["lugre_vs_stribeck_at_reversals"]
+        print(f"RMS at reversals, LuGre / Stribeck feed-forward: median {c['median']:.3f}, per joint "
+              f"{[None if x is None else round(x, 3) for x in c['per_joint']]}")
     if "drift" in result:
         print(f"drift: recovered fraction {result['drift']['recovered_fraction']:.3f}, "
               f"recovery {result['drift']['recovery_s']} s")
@@ -117,10 +129,12 @@ def node_parameters(robot: str, joints: list[str], work: Path, args) -> Path:
     system = robot if robot.startswith("urdf:") else "tx40"
     values = {"system": system, "joints": joints, "friction_model": "coulomb", "solver": "ls",
               "velocity_source": args.velocity_source, "smoothing_eps": 0.02, "known_rigid_body": True,
-              "online_period_s": float(args.online_period_s), "online_window_s": float(args.online_window_s),
+              "online_period_s": float(args.online_period_s) if args.hidden_friction == "stribeck" else 0.0,
+              "online_window_s": float(args.online_window_s),
               "online_holdout": 0.25, "gate_max_abs": 1000.0, "feedforward_max": 100.0, "feedforward_ramp_s": 0.5,
               "results_file": str(work / "results" / "parameters.json"), "max_missing_pct": 20.0,
-              "buffer_seconds": 30.0, "diagnostics_period_s": 0.5}
+              "buffer_seconds": 30.0 if args.hidden_friction == "stribeck" else 4.0 * args.phase_s + 30.0,
+              "diagnostics_period_s": 0.5}  # lugre: the off phase stays buffered for its second identification
     path = work / "node.yaml"
     path.write_text("frictionid:\n  ros__parameters:\n" + "".join(
         f"    {k}: {json.dumps(v)}\n" for k, v in values.items()))
@@ -257,10 +271,11 @@ def _wait(seconds: float, procs: Processes) -> None:
         time.sleep(min(0.2, max(0.0, end - time.monotonic())))
 
 
-def offer_bad_parameters(client: Client, results_file: Path) -> bool:
-    """Offer the active set with every Coulomb level negated and tripled to the gate (~/load);
-    True if the node refused it and did not activate it (the online re-identification may replace
-    the active set meanwhile: that is no sign of the offer)."""
+def offer_bad_parameters(client: Client, results_file: Path, gated: bool = True) -> bool:
+    """Offer the active set with every Coulomb level negated and tripled to the gate (~/load; its
+    safety screen without online re-identification, ``gated`` False); True if the node refused it
+    and did not activate it (the online re-identification may replace the active set meanwhile:
+    that is no sign of the offer)."""
     from frictionid_interfaces.srv import ParametersFile
 
     data = json.loads(results_file.read_text())
@@ -276,7 +291,28 @@ def offer_bad_parameters(client: Client, results_file: Path) -> bool:
         time.sleep(0.2)
     params = lambda results: {joint: p["params"] for joint, p in results["per_joint"].items()}
     active = params(json.loads(results_file.read_text()))
-    return (not res.success) and "safety gate" in res.message and active != params(bad)
+    return (not res.success) and ("safety gate" if gated else "not loaded") in res.message and active != params(bad)
+
+
+def identify_off_phase(client: Client, friction: str = "", span: tuple[int, int] | None = None,
+                       seconds: float = 0.0) -> None:
+    """~/identify the off phase with the law ``friction`` (by lm; empty: the node's law and solver),
+    activating the result: its last ``seconds``, or the stamps ``span`` [ns] less their first second when the
+    off phase lies in the past; FrictionIdError when it fails."""
+    from builtin_interfaces.msg import Time
+    from frictionid_interfaces.srv import Identify
+
+    request = Identify.Request(friction_model=friction, solver="lm" if friction else "", window_seconds=seconds)
+    if span is not None:
+        start, end = span[0] + NS, span[1]
+        request.window_start, request.window_end = (Time(sec=x // NS, nanosec=x % NS) for x in (start, end))
+    while True:  # the online re-identification may hold the slot for a moment
+        res = client.call(Identify, "/frictionid/identify", request)
+        if res.success or not res.message.startswith("busy"):
+            break
+        time.sleep(0.2)
+    if not res.success:
+        raise FrictionIdError(f"identification of the off phase failed: {res.message}")
 
 
 def run(args) -> tuple[dict, dict, dict]:
@@ -301,7 +337,8 @@ def run(args) -> tuple[dict, dict, dict]:
         procs.start("controller", "frictionid_ros.controller_node", "--ros-args", "-p", f"robot:={args.robot}",
                     "-p", f"record_file:={record_file}")
         procs.start("sim", "frictionid_ros.sim_node", "--ros-args", "-p", f"robot:={args.robot}",
-                    "-p", f"drift_s:={args.drift_s}", "-p", f"drift_fraction:={args.drift_fraction}")
+                    "-p", f"drift_s:={args.drift_s}", "-p", f"drift_fraction:={args.drift_fraction}",
+                    "-p", f"hidden_friction:={args.hidden_friction}")
         client = Client(domain)
         from rcl_interfaces.srv import SetParameters
 
@@ -322,22 +359,20 @@ def run(args) -> tuple[dict, dict, dict]:
             phases[name] = (start, time.time_ns())
 
         phase("feedforward_off", args.phase_s)
-        while True:  # the online re-identification may hold the slot for a moment
-            res = client.call(Identify, "/frictionid/identify", Identify.Request(window_seconds=args.phase_s - 1.0))
-            if res.success or not res.message.startswith("busy"):
-                break
-            time.sleep(0.2)
-        if not res.success:
-            raise FrictionIdError(f"identification of the off phase failed: {res.message}")
+        lugre = args.hidden_friction == "lugre"
+        identify_off_phase(client, "stribeck" if lugre else "", seconds=args.phase_s - 1.0)
         client.set_parameter("frictionid_loop_controller", "feedforward_enabled", True)
         phase("feedforward_on", args.phase_s)
-        if not args.no_drift:
+        if lugre:
+            identify_off_phase(client, "lugre", span=phases["feedforward_off"])
+            phase("feedforward_on_lugre", args.phase_s)
+        if not args.no_drift and not lugre:
             client.set_parameter("frictionid_sim", "drift_start", True)
             phase("drift", args.drift_s)
             phase("after_drift", args.after_s)
             client.set_parameter("frictionid_loop_controller", "feedforward_enabled", False)
             phase("drift_off", args.phase_s)
-        rejected = offer_bad_parameters(client, work / "results" / "parameters.json")
+        rejected = offer_bad_parameters(client, work / "results" / "parameters.json", gated=not lugre)
     finally:
         if client is not None:
             client.close()
@@ -349,6 +384,13 @@ def run(args) -> tuple[dict, dict, dict]:
         record = {k: z[k] for k in z.files}
     figures = summarize(record, phases, after_s=args.after_s)
     result = {k: figures[k] for k in ("rms_tracking_error", "drift") if k in figures}
+    if "feedforward_on_lugre" in phases:
+        at = figures["rms_at_reversals"]
+        ratio = [None if a is None or b is None or b <= 0 else a / b
+                 for a, b in zip(at["feedforward_on_lugre"], at["feedforward_on"])]
+        known = [r for r in ratio if r is not None]
+        result["lugre_vs_stribeck_at_reversals"] = {"per_joint": ratio,
+                                                    "median": float(np.median(known)) if known else None}
     result["gate"] = {"bad_parameters_rejected": bool(rejected)}
     result.update({k: v for k, v in figures.items() if k not in result})
     if not args.keep:

@@ -26,6 +26,7 @@ from frictionid_core.friction.laws import (
     DEFAULT_BOUNDS,
     FRICTIONS,
     LAWS,
+    LUGRE_DELTA,
     MAX_ELEMENTS,
     NUMPY_OPS,
     STATIC_FRICTIONS,
@@ -136,6 +137,18 @@ class FrictionModel:
         if self.asymmetric:
             out = np.where(v >= 0.0, out, self._branch(table, nb, v, s, a))
         return out[0] if single else out
+
+    def static_equivalent(self, params: np.ndarray) -> tuple[FrictionModel, np.ndarray]:
+        """(the static law of this law's sliding limit, its parameters (…, k′) from ``params``
+        (…, k)): the law itself for a static law; for a dynamic one the Stribeck law with δ = 2
+        (Fv, Fc, Fs, vs, 2 per branch): what it predicts at constant speed, without its states."""
+        p = np.asarray(params, dtype=float)
+        if not self.is_dynamic:
+            return self, p
+        nb = len(self.branch_names)
+        branches = [np.concatenate([p[..., o : o + 4], np.full(p.shape[:-1] + (1,), LUGRE_DELTA)], axis=-1)
+                    for o in ((0, nb) if self.asymmetric else (0,))]
+        return FrictionModel("stribeck", self.asymmetric), np.concatenate(branches, axis=-1)
 
     def torque_each(self, params: np.ndarray, v: np.ndarray, eps: float = 0.0) -> np.ndarray:
         """Friction (J,) of J joints, each with its own parameters ``params`` (J, k) at its own
