@@ -188,3 +188,46 @@ def test_loop_command_registers_in_the_core_cli():
     args = sub.choices["loop"].parse_args(["--json", "x.json"])
     assert callable(handler) and args.robot == "tx40" and args.realtime == "auto" and args.drift_s == 60.0
     assert args.velocity_source == "reference" and args.drift_fraction == 0.3
+
+
+def test_rms_at_reversals_takes_the_error_near_each_reversal_only():
+    """Desired velocity sin(2π·0.5·t) (reversals at 1 s and 2 s of 0–3 s), an error of 1 within 0.3 s
+    of them and 5 elsewhere: per phase, the RMS at reversals is 1; a joint that never reverses: None."""
+    from frictionid_core.loop.evaluate import rms_at_reversals
+
+    t = np.arange(0, 3000) * 1e-3
+    v = np.column_stack([np.sin(2 * np.pi * 0.5 * t + 1e-9), np.ones_like(t)])
+    near = (np.abs(t - 1.0) <= 0.3) | (np.abs(t - 2.0) <= 0.3)
+    error = np.column_stack([np.where(near, 1.0, 5.0), np.full_like(t, 2.0)])
+    record = {"stamp_ns": (t * 1e9).round().astype(np.int64), "desired_velocity": v, "error": error}
+    got = rms_at_reversals(record, 0, 3_000_000_000)
+    assert got[0] == pytest.approx(1.0) and got[1] is None
+
+
+@pytest.mark.slow
+def test_lugre_feedforward_beats_its_sliding_limit_at_reversals(tx40):
+    """The arm's hidden friction a LuGre law (the TX40 table's levels, σ0 = Fc/5e-4, critical σ1):
+    fed forward with its states stepped by the desired velocity, the tracking error within 0.3 s of
+    the reversals is below half of what its sliding limit (a static Stribeck law) leaves, per joint."""
+    from frictionid_core.friction import StateFriction
+    from frictionid_core.loop.evaluate import rms_at_reversals
+
+    traj = default_trajectory(tx40)
+    params = hidden_friction("tx40", tx40.joints)
+    lugre = get_model("lugre")
+    def feedforward(name: str, truth: np.ndarray):
+        if name == "lugre":
+            states = StateFriction(lugre, truth)
+            return lambda v: states.step(v, 1e-3)
+        static, sliding = lugre.static_equivalent(truth)
+        return lambda v: static.torque_each(sliding, v, 0.02)
+
+    errors = {}
+    for name in ("static", "lugre"):
+        sim = SimArm(tx40, params, q0=traj.q0, law="lugre")
+        errors[name] = run_loop(sim, Controller(tx40, traj), 6.0, feedforward(name, sim.params))
+    stamp = np.arange(errors["lugre"].shape[0], dtype=np.int64) * 1_000_000 + 1_000_000
+    v_d = np.array([traj.at(k * 1e-3)[1] for k in range(stamp.size)])
+    ratio = [np.array(rms_at_reversals({"stamp_ns": stamp, "desired_velocity": v_d, "error": errors[n]}, 0,
+                                       int(stamp[-1]) + 1, 0.5), dtype=float) for n in ("lugre", "static")]
+    assert np.all(ratio[0] < 0.5 * ratio[1]), ratio

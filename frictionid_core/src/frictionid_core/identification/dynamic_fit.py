@@ -2,14 +2,17 @@
 pre-sliding part from every row (:func:`fit_dynamic`).
 
 1. *Static part.* The law's sliding limit is the Stribeck law with δ = 2: that law (δ fixed) is
-   fitted on the moving rows by the request's solver (``ls`` asks for a closed form the dip does
-   not have: variable projection with lm instead), with the rigid body, Fv and the offsets in
-   closed form: Fc, Fs, vs, Fv.
-   When that dip does not beat its Coulomb case on held-back rows (as for static laws), Fs = Fc
-   and vs at its lower bound are held: the level is Fc (Dahl's law with one Maxwell-slip element).
+   fitted on the moving rows by the request's solver with variable projection (``ls`` asks for a
+   closed form the dip does not have: lm instead), the rigid body, Fv and the offsets in closed
+   form: Fc, Fs, vs, Fv.
+   On dynamic data this fit is biased (a static law follows the pre-sliding rows after each
+   reversal badly): it is a start only, no test of the dip (a dip the data do not support ends
+   at speeds below the data's, where it has no effect).
 2. *Pre-sliding start.* Each joint's stiffness from a grid of break-away deflections g/(n·k)
-   (PRESLIDE_GRID, m or rad) at its level near rest, max(Fc, Fs), σ1 = 0: per joint the value
-   whose rows fit best.
+   (PRESLIDE_GRID, m or rad) at its level near rest, max(Fc, Fs), σ1 = 0, from two static starts:
+   step 1's, and a Coulomb fit of the rows faster than SLIDING_SHARE of each joint's top speed
+   (Fs = Fc; the pre-sliding rows after reversals, which a static law fits badly, left out): per
+   joint the candidate whose rows fit best.
 3. *Every parameter.* Levenberg–Marquardt (trust-region reflective) on every row, standstill and
    reversals included, over every nonlinear parameter of the law (Fc, Fs, vs and the pre-sliding
    ones), the rigid body, Fv and the offsets solved in closed form for each (variable projection).
@@ -25,12 +28,7 @@ import numpy as np
 
 from frictionid_core.friction import get_model
 from frictionid_core.friction.laws import LUGRE_DELTA, parameter_base
-from frictionid_core.identification.linear_case import (
-    holdout_comparison,
-    linear_special_case,
-    special_case_parameters,
-    with_data_bounds,
-)
+from frictionid_core.identification.linear_case import with_data_bounds
 from frictionid_core.identification.settings import SolverOptions
 from frictionid_core.identification_model import IdentificationModel
 from frictionid_core.observation import Observation
@@ -42,6 +40,8 @@ PRESLIDE_GRID = np.geomspace(1e-6, 3e-2, 19)
 STATIC_KINDS = ("Fv", "Fc", "Fs", "vs")
 # Stiffness ratio between consecutive Maxwell-slip elements at the start.
 ELEMENT_SPREAD = 4.0
+# The second start's Coulomb fit takes the rows faster than this share of each joint's top speed.
+SLIDING_SHARE = 0.2
 
 
 def fit_dynamic(model, solver: SolverOptions, progress=None, previous=None) -> tuple:
@@ -57,20 +57,11 @@ def fit_dynamic(model, solver: SolverOptions, progress=None, previous=None) -> t
         x, res = solve_model(model, polish, progress=progress, start=previous[0])
         return x, None, None, previous[1].refined(res, "dynamic refit at the finer rates: lm from this point")
     static, x_static, res_static = static_part(model, solver, progress)
-    searched, how = model, "pre-sliding parameters on every row: lm (variable projection) from the static fit"
-    holdout = holdout_comparison(static, x_static, polish)
-    if holdout.get("beats_linear") is False:  # no dip: Fs and vs would wander; held without effect
-        special, x_special = linear_special_case(static)
-        x_static = special_case_parameters(static, x_static, special, x_special)
-        lo, _ = static.bounds()
-        held = {n: float(lo[i] if parameter_kind(n) == "vs" else x_static[i]) for i, n in enumerate(static.names)
-                if parameter_kind(n) in ("vs", "Fs") and i not in static.fixed_values}
-        searched = replace(model, fixed={**model.fixed, **held})
-        how += (f" (the static dip does not beat Coulomb on held-back rows: {holdout['law_relerr_pct']:.4g} % vs "
-                f"{holdout['linear_relerr_pct']:.4g} %; Fs = Fc and vs at its lower bound held)")
-    start = presliding_start(searched, static_start(searched, static, x_static))
-    x, res = solve_model(searched, polish, progress=progress, start=start)
-    return x, None, None, res if res_static is None else res_static.refined(res, how + " and a stiffness grid")
+    first = static_start(model, static, x_static)
+    start = presliding_start(model, [first, sliding_start(model, static, first)])
+    x, res = solve_model(model, polish, progress=progress, start=start)
+    how = "every parameter on every row: lm (variable projection) from the static fits and a stiffness grid"
+    return x, None, None, res if res_static is None else res_static.refined(res, how)
 
 
 def static_part(model, solver: SolverOptions, progress=None) -> tuple[IdentificationModel, np.ndarray, object]:
@@ -89,10 +80,7 @@ def static_part(model, solver: SolverOptions, progress=None) -> tuple[Identifica
         moving_rows(model.obs), law, model.offset, model.rigid_bounds,
         {k: v for k, v in model.bound_overrides.items() if applies(k)},
         {**{k: v for k, v in model.fixed.items() if applies(k)}, "delta": LUGRE_DELTA}))
-    method = solver if solver.method != "ls" else SolverOptions("lm", solver.seed, varpro=True)
-    if method.varpro is None:
-        method = SolverOptions(method.method, method.seed, method.pop, method.generations, method.calls, True,
-                               method.warm_start, method.options)
+    method = replace(solver, varpro=True) if solver.method != "ls" else SolverOptions("lm", solver.seed, varpro=True)
     x, _, _, res = fit_model(static, method, progress)
     return static, x, res
 
@@ -117,14 +105,31 @@ def static_start(model, static: IdentificationModel, x_static: np.ndarray) -> np
     return np.array([values.get(n, 0.0) for n in model.names], dtype=float)
 
 
-def presliding_start(model, x: np.ndarray) -> np.ndarray:
-    """``x`` with each joint's pre-sliding parameters set from PRESLIDE_GRID (module doc): all
-    joints on one deflection per candidate, each joint then taking its best; σ1 at 0, the
-    Maxwell-slip stiffnesses spread by ELEMENT_SPREAD. User-fixed values are kept."""
-    obs, names = model.obs, model.names
+def presliding_start(model, starts: list[np.ndarray]) -> np.ndarray:
+    """The start of the last stage: for each of ``starts`` (k,) (the static fit's, the sliding
+    rows' Coulomb fit's) its joints' pre-sliding parameters set from PRESLIDE_GRID (module doc) —
+    all joints on one deflection per candidate, σ1 at 0, the Maxwell-slip stiffnesses spread by
+    ELEMENT_SPREAD — and each joint taking its best candidate of all. User-fixed values are kept."""
+    obs = model.obs
     nj, nd = len(obs.joints), obs.n_samples
-    candidates = np.repeat(x[None], PRESLIDE_GRID.size, axis=0)
-    n = model.friction.elements
+    candidates = np.vstack([_grid(model, x) for x in starts])
+    lo, hi = model.bounds()
+    candidates = np.clip(candidates, lo, hi)
+    for i, v in model.fixed_values.items():
+        candidates[:, i] = v
+    full, _ = model.solve_linear(candidates)
+    error = ((obs.y[None] - model.predict(full)) ** 2).reshape(len(candidates), nj, nd).sum(axis=2)
+    out = full[int(np.argmin(error.sum(axis=1)))].copy()
+    for j in range(nj):
+        best = int(np.argmin(error[:, j]))
+        out[model.joint_index[j]] = candidates[best, model.joint_index[j]]
+    return out
+
+
+def _grid(model, x: np.ndarray) -> np.ndarray:
+    """(PRESLIDE_GRID.size, k): ``x`` with its pre-sliding parameters at each deflection of the grid."""
+    names, n = model.names, model.friction.elements
+    candidates = np.repeat(np.asarray(x, dtype=float)[None], PRESLIDE_GRID.size, axis=0)
     for k in model.joint_index.ravel():
         joint, _, name = names[k].rpartition("/")
         suffix = name[-4:] if name.endswith(("_pos", "_neg")) else ""
@@ -139,14 +144,29 @@ def presliding_start(model, x: np.ndarray) -> np.ndarray:
             element = int(name.removesuffix(suffix)[1:]) - 1
             spread = ELEMENT_SPREAD ** ((n - 1) / 2.0 - element)  # geometric, centred on the grid's value
             candidates[:, k] = level * spread / (n * PRESLIDE_GRID)
-    lo, hi = model.bounds()
-    candidates = np.clip(candidates, lo, hi)
-    for i, v in model.fixed_values.items():
-        candidates[:, i] = v
-    full, _ = model.solve_linear(candidates)
-    error = ((obs.y[None] - model.predict(full)) ** 2).reshape(PRESLIDE_GRID.size, nj, nd).sum(axis=2)
-    out = full[0].copy()
-    for j in range(nj):
-        best = int(np.argmin(error[:, j]))
-        out[model.joint_index[j]] = candidates[best, model.joint_index[j]]
+    return candidates
+
+
+def sliding_start(model, static: IdentificationModel, x: np.ndarray) -> np.ndarray:
+    """``x`` (the dynamic model's (k,)) with the rigid body, Fv, Fc and offsets of a Coulomb fit of
+    the rows faster than SLIDING_SHARE × each joint's top speed (where the bristles slide: the
+    pre-sliding rows after each reversal mislead a static fit), Fs = Fc; ``x`` when that fit fails."""
+    from frictionid_core.errors import FrictionIdError
+    from frictionid_core.identification.stick import coulomb_fit, coulomb_model, without_rows
+
+    obs = static.obs
+    used = obs.used.reshape(len(obs.joints), obs.n_samples)
+    speed = {j: SLIDING_SHARE * float(np.quantile(np.abs(obs.velocity[used[k], k]), 0.99))
+             for k, j in enumerate(obs.joints) if used[k].any()}
+    try:
+        fit = coulomb_model(static, without_rows(obs, speed))
+        values = dict(zip(fit.names, coulomb_fit(fit)))
+    except FrictionIdError:
+        return x
+    out = x.copy()
+    for i, name in enumerate(model.names):
+        kind, stem = parameter_kind(name), name[: len(name) - len(name.rsplit("/", 1)[-1])]
+        source = f"{stem}Fc{name[len(stem) + 2:]}" if kind == "Fs" else name
+        if source in values and i not in model.fixed_values:
+            out[i] = values[source]
     return out
