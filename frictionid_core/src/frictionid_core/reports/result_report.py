@@ -40,6 +40,7 @@ ROTARY_UNITS = ("N·m", "rad/s")
 # Result keys shown as settings (beside system, friction, solver, source and joints).
 SETTING_KEYS = ("joint_map", "preprocessing", "drive", "layout", "window", "fixed", "bounds", "varpro")
 REVERSAL_PLOT_S = 0.5  # the reversal figure shows this either side of the reversal [s]
+REVERSAL_SPEED_SHARE = 0.1  # … a reversal reaching this share of the top speed on both sides
 
 
 @dataclass
@@ -149,15 +150,24 @@ def joint_figure(trace: JointTrace, friction, units: tuple, title: str) -> bytes
 
 
 def reversal_span(trace: JointTrace) -> slice | None:
-    """The rows within ±REVERSAL_PLOT_S of the reversal of ``trace`` (every row) whose side has the
-    longest stretch of slow rows, or None without a reversal."""
+    """The rows within ±REVERSAL_PLOT_S of a reversal of ``trace`` (every row): a sign change of the
+    velocity with REVERSAL_SPEED_SHARE of the top speed reached on both sides within that window (not
+    the noise of a standstill), the slowest such (the most rows below 5 % of the top speed: where
+    pre-sliding shows); None without one."""
     v, t = trace.velocity, trace.t
+    top = float(np.max(np.abs(v), initial=0.0))
     flips = np.flatnonzero(np.sign(v[1:]) * np.sign(v[:-1]) < 0) + 1
-    if flips.size == 0 or t.size < 3:
+
+    def near(k: int) -> np.ndarray:
+        return (t >= t[k] - REVERSAL_PLOT_S) & (t <= t[k] + REVERSAL_PLOT_S)
+
+    real = [k for k in flips if min(np.max(np.abs(v[near(k) & (t < t[k])]), initial=0.0),
+                                    np.max(np.abs(v[near(k) & (t >= t[k])]), initial=0.0))
+            >= REVERSAL_SPEED_SHARE * top]
+    if not real or top <= 0.0:
         return None
-    slow = np.abs(v) < 0.05 * np.max(np.abs(v))
-    best = max(flips, key=lambda k: int(slow[(t >= t[k] - REVERSAL_PLOT_S) & (t <= t[k] + REVERSAL_PLOT_S)].sum()))
-    keep = np.flatnonzero((t >= t[best] - REVERSAL_PLOT_S) & (t <= t[best] + REVERSAL_PLOT_S))
+    slow = np.abs(v) < 0.05 * top
+    keep = np.flatnonzero(near(max(real, key=lambda k: int(slow[near(k)].sum()))))
     return slice(int(keep[0]), int(keep[-1]) + 1)
 
 
