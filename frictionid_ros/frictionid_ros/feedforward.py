@@ -81,6 +81,9 @@ class FeedForward:
             except FrictionIdError as exc:
                 problems.append(str(exc))
                 continue
+            if p.params.get("Fc_load"):
+                problems.append(f"joint '{j}': its load-dependent Coulomb level (Fc_load {p.params['Fc_load']:.6g}) "
+                                "is not fed forward (the node has no rigid-body torque): Fc alone")
             idx, rows = groups.setdefault(model, ([], []))
             idx.append(i)
             rows.append(vec)

@@ -62,3 +62,11 @@ def test_a_dynamic_law_is_fed_forward_with_its_states_at_the_input_rate():
     assert ff.torque(np.array([0.0, 0.0]))[0] == 0.0
     ff.advance(np.array([np.nan, 0.0]), T0_NS + 2_501_000_000)  # unknown velocity: restarted at rest
     assert ff.torque(np.array([0.0, 0.0]))[0] == 0.0
+
+
+def test_a_load_dependent_level_is_named_as_not_fed_forward():
+    ff = FeedForward(["a"])
+    problems = ff.set_params({"a": JointParams("a", "tx40", "coulomb", False, "ls",
+                                               {"Fv": 1.0, "Fc": 0.5, "Fc_load": 0.04})})
+    assert len(problems) == 1 and "Fc_load 0.04" in problems[0] and "not fed forward" in problems[0]
+    assert ff.torque(np.array([1.0]))[0] == pytest.approx(1.5)  # Fv·v + Fc
