@@ -19,12 +19,13 @@ LOAD_ROUNDS = 20
 LOAD_SETTLED = 1e-7
 
 
-def fit_with_load(model: IdentificationModel, first: Fit, refit: Callable[..., Fit]
-                  ) -> tuple[IdentificationModel, Fit, dict]:
-    """(the load-dependent model, its fit, {rounds, settled}) from ``model`` (no load dependence)
-    and its fit ``first``: each round builds the load columns of the last solution's rigid-body
-    parameters and calls ``refit(model, previous)`` (previous: the last point with its Fc_load, and
-    the optimiser's result, for a local polish)."""
+def fit_with_load(model: IdentificationModel, first: Fit, warnings: list[str], refit: Callable[..., Fit]
+                  ) -> tuple[IdentificationModel, Fit]:
+    """(the load-dependent model, its fit) from ``model`` (no load dependence) and its fit
+    ``first``: each round builds the load columns of the last solution's rigid-body parameters and
+    calls ``refit(model, previous)`` (previous: the last point with its Fc_load, and the
+    optimiser's result, for a local polish); a warning appended to ``warnings`` when LOAD_ROUNDS
+    rounds do not settle it."""
     r = len(model.obs.rigid_names)
     x, fit = np.asarray(first[0], dtype=float), first
     load = np.zeros(len(model.obs.joints))
@@ -39,4 +40,7 @@ def fit_with_load(model: IdentificationModel, first: Fit, refit: Callable[..., F
         new_tau = rigid_torque(model.obs, x[:r])
         settled = bool(np.linalg.norm(new_tau - tau) <= LOAD_SETTLED * max(np.linalg.norm(tau), 1e-300))
         tau, rounds = new_tau, rounds + 1
-    return loaded, fit, {"rounds": rounds, "settled": settled}
+    if not settled:
+        warnings.append(f"the load-dependent Coulomb level did not settle in {rounds} rounds (the rigid-body "
+                        "torque still moves): its Fc_load are approximate")
+    return loaded, fit

@@ -90,8 +90,7 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
 
     def rebuild(pre) -> IdentificationModel:
         return with_data_bounds(build_model(fit_plan, fit_plan.system, request.friction, request.asymmetric, pre,
-                                            request.bounds, fixed={**fixed_request, **held},
-                                            elements=request.elements))
+                                            request.bounds, fixed={**fixed_request, **held}, elements=request.elements))
 
     model, fit_settings = exclude_stick_phases(rebuild(settings), settings)
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
@@ -103,14 +102,12 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
         held.update(resolved.held)
         model = replace(model, fixed={**fixed_request, **held})
     at_rule_rates = model
-    model, (x, std, cond, res) = fit_at_dip_rates(
-        model, fit_settings, rebuild, lambda m, previous=None: fit_model(m, solver, progress, previous))
-    if request.load_dependent:
-        model, (x, std, cond, res), load_rounds = fit_with_load(
-            model, (x, std, cond, res), lambda m, previous=None: fit_model(m, solver, progress, previous))
-        if not load_rounds["settled"]:
-            warnings.append(f"the load-dependent Coulomb level did not settle in {load_rounds['rounds']} rounds "
-                            "(the rigid-body torque still moves): its Fc_load are approximate")
+    def fit(m: IdentificationModel, previous=None):
+        return fit_model(m, solver, progress, previous)
+
+    model, (x, std, cond, res) = fit_at_dip_rates(model, fit_settings, rebuild, fit)
+    if request.load_dependent:  # Fc_load: the closed form alternated with the rigid-body torque
+        model, (x, std, cond, res) = fit_with_load(model, (x, std, cond, res), warnings, fit)
     inertia_warnings = list(sys_.robot.model.inertia_warnings) if sys_.robot is not None else []
     warnings = inertia_warnings + plan.warnings() + resolved.warning() + warnings + dip_warnings(model, x)
     if res is not None:

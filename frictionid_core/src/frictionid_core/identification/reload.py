@@ -11,6 +11,7 @@ import numpy as np
 
 from frictionid_core.drive import result_drive
 from frictionid_core.errors import FrictionIdError, InputError
+from frictionid_core.friction import elements_of
 from frictionid_core.identification.model_building import Sources, as_sources, build_model, metric_model, model_metrics
 from frictionid_core.identification.plan import Holds, plan_fit
 from frictionid_core.identification.result import IdentifyResult
@@ -128,7 +129,7 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         else:
             sys_ = result_system(result)
         friction, asymmetric = result["friction"], bool(result["asymmetric"])
-        elements = (result.get("request") or {}).get("elements")
+        elements = elements_of(friction, result["params"])  # a Maxwell-slip law's, from its k1 … kn
         joints = joints or result.get("joints")  # None (a hand-written file): the data's joints
         values = result["params"]
         asked = result.get("request") or {}
