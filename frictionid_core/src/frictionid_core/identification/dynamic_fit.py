@@ -42,6 +42,9 @@ STATIC_KINDS = ("Fv", "Fc", "Fs", "vs")
 ELEMENT_SPREAD = 4.0
 # The second start's Coulomb fit takes the rows faster than this share of each joint's top speed.
 SLIDING_SHARE = 0.2
+# Reshaped dips of the starts: vs at these shares of each joint's top speed, Fs at FS_START × Fc.
+VS_SHARES = (0.01, 0.05)
+FS_START = 1.5
 
 
 def fit_dynamic(model, solver: SolverOptions, progress=None, previous=None) -> tuple:
@@ -106,13 +109,13 @@ def static_start(model, static: IdentificationModel, x_static: np.ndarray) -> np
 
 
 def presliding_start(model, starts: list[np.ndarray]) -> np.ndarray:
-    """The start of the last stage: for each of ``starts`` (k,) (the static fit's, the sliding
-    rows' Coulomb fit's) its joints' pre-sliding parameters set from PRESLIDE_GRID (module doc) —
-    all joints on one deflection per candidate, σ1 at 0, the Maxwell-slip stiffnesses spread by
-    ELEMENT_SPREAD — and each joint taking its best candidate of all. User-fixed values are kept."""
+    """The start of the last stage: candidates from each of ``starts`` (k,) (the static fit's, the
+    sliding rows' Coulomb fit's) — the dip as there or reshaped (:func:`_shapes`), the
+    pre-sliding parameters at each deflection of PRESLIDE_GRID (:func:`_grid`), all joints alike in
+    one candidate — and each joint taking its best candidate of all. User-fixed values are kept."""
     obs = model.obs
     nj, nd = len(obs.joints), obs.n_samples
-    candidates = np.vstack([_grid(model, x) for x in starts])
+    candidates = np.vstack([_grid(model, shaped) for x in starts for shaped in _shapes(model, x)])
     lo, hi = model.bounds()
     candidates = np.clip(candidates, lo, hi)
     for i, v in model.fixed_values.items():
@@ -123,6 +126,29 @@ def presliding_start(model, starts: list[np.ndarray]) -> np.ndarray:
     for j in range(nj):
         best = int(np.argmin(error[:, j]))
         out[model.joint_index[j]] = candidates[best, model.joint_index[j]]
+    return out
+
+
+def _shapes(model, x: np.ndarray) -> list[np.ndarray]:
+    """``x`` and copies with each branch's dip reshaped: vs at each VS_SHARES of its joint's top
+    speed (99th percentile of |q̇|), Fs at FS_START × its Fc (a static fit's dip on dynamic data
+    is often wrong: too fast, or below Fc)."""
+    obs, names = model.obs, model.names
+    used = obs.used.reshape(len(obs.joints), obs.n_samples)
+    top = [float(np.quantile(np.abs(obs.velocity[used[j], j]), 0.99)) if used[j].any() else 0.0
+           for j in range(len(obs.joints))]
+    out = [np.asarray(x, dtype=float)]
+    for share in VS_SHARES:
+        shaped = out[0].copy()
+        for j, row in enumerate(model.joint_index):
+            for k in row:
+                name = names[k].rsplit("/", 1)[-1]
+                if parameter_base(name) == "vs" and top[j] > 0:
+                    shaped[k] = share * top[j]
+                elif parameter_base(name) == "Fs":
+                    shaped[k] = FS_START * shaped[names.index(names[k].replace("/Fs", "/Fc") if "/" in names[k]
+                                                              else "Fc" + name[2:])]
+        out.append(shaped)
     return out
 
 
