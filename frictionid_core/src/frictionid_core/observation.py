@@ -56,7 +56,8 @@ class Observation:
             (:func:`~frictionid_core.preprocess.thinned_rows`): ``y``, ``rigid`` and ``columns``
             hold weighted rows, a dip term multiplies its column by it; None: every weight 1.
         full: the same instants with every row, the slow ones too (:func:`keep_all_rows`: what
-            the all-rows metrics and the dynamic friction laws use); None when not kept.
+            the all-rows metrics and the dynamic friction laws use); None when not kept (the fit
+            rows of a static law's observation with sampled rows).
         moving: in a ``full`` observation, (J·Nd,) the rows the observation it was kept from
             uses (the moving rows); None elsewhere.
     """
@@ -108,10 +109,12 @@ class Observation:
         return np.einsum("mj,...mn->...jn", self.coupling, u).reshape(rows.shape)
 
 
-def keep_all_rows(obs: Observation) -> None:
-    """Keep a copy of the rows of ``obs`` (and of its sampled observation) as they are now in
-    ``obs.full`` (``obs.sampled.full``, also ``obs.full.sampled``), every row used, ``moving``
-    holding the used rows of ``obs`` (the same array: rows it leaves out later are not moving)."""
+def keep_all_rows(obs: Observation, fit_rows: bool = False) -> None:
+    """Keep a copy of the rows of ``obs``'s metric observation (:attr:`Observation.metric`: its
+    sampled one, or itself without) as they are now in its ``full`` — and with ``fit_rows`` of
+    ``obs`` itself too (``obs.full``, whose ``sampled`` is ``obs.sampled.full``) — every row used,
+    ``moving`` holding the used rows (the same array: rows left out later are not moving). Only
+    the metric rows' by default: the all-rows metrics need them, a dynamic law every fit row."""
     def copy(o: Observation, sampled: Observation | None) -> Observation:
         return replace(o, y=o.y.copy(), rigid=o.rigid.copy(), velocity=o.velocity.copy(),
                        columns=[{k: c.copy() for k, c in cols.items()} for cols in o.columns],
@@ -119,7 +122,8 @@ def keep_all_rows(obs: Observation) -> None:
 
     if obs.sampled is not None:
         obs.sampled.full = copy(obs.sampled, None)
-    obs.full = copy(obs, obs.sampled.full if obs.sampled is not None else None)
+    if fit_rows or obs.sampled is None:
+        obs.full = copy(obs, obs.sampled.full if obs.sampled is not None else None)
 
 
 def velocity_columns(qd: np.ndarray) -> np.ndarray:

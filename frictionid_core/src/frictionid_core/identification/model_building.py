@@ -36,8 +36,8 @@ def build_model(series: Sources | FitPlan, system: str | System, friction: str, 
     (:class:`~frictionid_core.dynamic_model.DynamicIdentificationModel`) is on every row.
     """
     plan = series if isinstance(series, FitPlan) else plan_fit(as_sources(series), as_system(system, joint_map))
-    obs = observe_plan(plan, preprocessing)
     law = get_model(friction, asymmetric, elements)
+    obs = observe_plan(plan, preprocessing, all_rows=law.is_dynamic)
     cls = IdentificationModel
     if law.is_dynamic:
         from frictionid_core.dynamic_model import DynamicIdentificationModel
@@ -53,7 +53,7 @@ def observe_sources(series: Sources, system: System, settings: Preprocessing | N
     return observe_plan(plan_fit(as_sources(series), system), settings)
 
 
-def observe_plan(plan: FitPlan, settings: Preprocessing | None = None) -> Observation:
+def observe_plan(plan: FitPlan, settings: Preprocessing | None = None, *, all_rows: bool = False) -> Observation:
     """The observation of the sources of ``plan``: each pre-processed alone (no filter runs across
     the seam between two recordings), then their rows stacked per joint (a joint a source does not
     fit has no rows there).
@@ -61,7 +61,7 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None) -> Observ
     One pre-processing describes the fit: the first source resolves the settings left to the
     data, its cut-off (one for every joint) the largest that any source's motion asks for; a joint
     the first source lacks takes its min speed from the first source that has it and the highest of
-    its cut-offs."""
+    its cut-offs. ``all_rows``: keep the fit rows with every row too (a dynamic law's model)."""
     system = plan.system
     requested = settings or system.preprocessing
     first, rest = plan.sources[0], plan.sources[1:]
@@ -69,7 +69,7 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None) -> Observ
         fastest = max(cutoff_range(choose_preprocessing(resample_uniform(_preprocessed(sp, system)), requested)[0]
                                    .cutoff_hz)[1] for sp in plan.sources)  # one for every joint of every source
         requested = replace(requested, cutoff_hz=fastest)
-    observations = [observe(first.series, system, requested, held=first.held, rows=first.rows)]
+    observations = [observe(first.series, system, requested, held=first.held, rows=first.rows, all_rows=all_rows)]
     resolved = observations[0].preprocessing
     if requested is not (settings or system.preprocessing):
         observations[0].report["from_data"].insert(0, "cutoff_hz")
@@ -83,7 +83,7 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None) -> Observ
                 j: cutoffs.get(j, max(cutoffs.values())) for j in series.joints}))[0].min_speed
             speeds.update((j, own[j]) for j in missing)
         observations.append(observe(sp.series, system, replace(resolved, min_speed=dict(speeds), cutoff_hz=cutoffs),
-                                    held=sp.held, rows=sp.rows))
+                                    held=sp.held, rows=sp.rows, all_rows=all_rows))
     if not rest:
         return observations[0]
     merged = replace(resolved, min_speed=speeds)

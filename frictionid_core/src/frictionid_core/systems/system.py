@@ -172,7 +172,8 @@ def parse_joint_map(text: str | None) -> dict[str, str]:
 
 
 def observe(series: JointSeries, system: System, settings: Preprocessing | None = None, *,
-            held: dict[str, float] | None = None, rows: list[str] | None = None) -> Observation:
+            held: dict[str, float] | None = None, rows: list[str] | None = None, all_rows: bool = False
+            ) -> Observation:
     """Pre-process ``series`` (unset settings chosen from its data) and build the decimated
     observation of ``system`` (``settings`` overrides the system's pre-processing), without its
     slow rows (see :func:`exclude_rows`).
@@ -180,6 +181,8 @@ def observe(series: JointSeries, system: System, settings: Preprocessing | None 
     ``rows``: the data joints whose efforts are fitted (default: every data joint); a robot
     system's columns still see the motion of the others. ``held``: {model joint: position (rad
     or m)} of a robot system's joints the data lack, held still (q̇ = q̈ = 0) in its columns.
+    ``all_rows``: keep the fit rows' copy with every row too
+    (:func:`~frictionid_core.observation.keep_all_rows`: a dynamic law's model).
 
     A system with a drive first takes the log to the joint side (:meth:`Drive.to_joint_side`).
     With friction on the motors the rows are the referred motor torques u = C⁻ᵀ·τ, named after
@@ -207,12 +210,13 @@ def observe(series: JointSeries, system: System, settings: Preprocessing | None 
         series = series.select(rows)
     segments = series.segments()
     if len(segments) == 1:
-        return _observe_segment(series, system, settings, held, rows)
-    return _observe_segments(series, segments, system, settings, held, rows)
+        return _observe_segment(series, system, settings, held, rows, all_rows)
+    return _observe_segments(series, segments, system, settings, held, rows, all_rows)
 
 
 def _observe_segments(series: JointSeries, segments: list[JointSeries], system: System,
-                      settings: Preprocessing | None, held: dict[str, float], rows: list[str]) -> Observation:
+                      settings: Preprocessing | None, held: dict[str, float], rows: list[str],
+                      all_rows: bool = False) -> Observation:
     """The observation of a series cut at the gaps of its stamps: each segment pre-processed
     alone (no filter runs across a gap) with the settings resolved on the longest, trimmed by
     TRIM_PERIODS / cut-off at each gap (the filters' transients, as the rule trims a record's
@@ -226,7 +230,7 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
         trims = {"trim_start_s": seam if k > 0 else resolved.trim_start_s,  # the log's ends: its own trims
                  "trim_end_s": seam if k < len(segments) - 1 else resolved.trim_end_s}
         try:
-            observed[k] = _observe_segment(segment, system, replace(resolved, **trims), held, rows)
+            observed[k] = _observe_segment(segment, system, replace(resolved, **trims), held, rows, all_rows)
         except TooFewSamples:
             if k == longest:
                 raise
@@ -268,10 +272,10 @@ def _with_all_rows(obs: Observation) -> list[Observation]:
 
 
 def _observe_segment(series: JointSeries, system: System, settings: Preprocessing | None,
-                     held: dict[str, float], rows: list[str]) -> Observation:
+                     held: dict[str, float], rows: list[str], all_rows: bool = False) -> Observation:
     """:func:`observe` of a series without gaps, on the joint side; TooFewSamples names its source."""
     try:
-        return _observe_gapless(series, system, settings, held, rows)
+        return _observe_gapless(series, system, settings, held, rows, all_rows)
     except TooFewSamples as exc:
         if str(exc).startswith(f"{series.source}:"):
             raise
@@ -279,7 +283,7 @@ def _observe_segment(series: JointSeries, system: System, settings: Preprocessin
 
 
 def _observe_gapless(series: JointSeries, system: System, settings: Preprocessing | None,
-                     held: dict[str, float], rows: list[str]) -> Observation:
+                     held: dict[str, float], rows: list[str], all_rows: bool = False) -> Observation:
     drive = system.drive
     joints = list(series.joints)
     prepared, resolved, report, notes = preprocess(series, settings or system.preprocessing)
@@ -317,7 +321,7 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
         if system.motor_rows:
             o.coupling, o.data_joints = drive.C, joints
         o.report = report
-    keep_all_rows(obs)
+    keep_all_rows(obs, all_rows)
     for o in (obs, obs.sampled):
         if o is not None:  # the sampled rows are instants of the fit's (all of them, or one in ``thin``)
             exclude_rows(o, slow if o is obs else slow[np.searchsorted(obs.t, o.t)])
