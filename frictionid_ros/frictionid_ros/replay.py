@@ -159,7 +159,7 @@ def load_stream(bag: str | Path, *, topic: str | None = None, effort_topic: str 
 
 def publish_stream(node, stream: Stream, *, rate: float = 1.0, loops: int = 1, qos=None,
                    wait_subscribers: float = 5.0, settle: float = 0.3, ack_timeout: float = 2.0,
-                   stop=None) -> dict:
+                   stop=None, pause=None) -> dict:
     """Publish ``stream`` with ``node`` (rclpy), re-stamped to now; returns counts and timing.
 
     Args:
@@ -173,6 +173,9 @@ def publish_stream(node, stream: Stream, *, rate: float = 1.0, loops: int = 1, q
         ack_timeout: at the end, wait up to this long [s] for reliable subscribers to acknowledge
             everything (a writer destroyed earlier may drop the last messages).
         stop: optional callable; publishing ends when it returns True.
+        pause: optional callable, given the count of messages sent so far every 64 messages; it may
+            block (flow control: a subscriber that drains its history slower than the bag's rate
+            loses what overflows a keep-last history, reliable or not).
     """
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
@@ -211,8 +214,11 @@ def publish_stream(node, stream: Stream, *, rate: float = 1.0, loops: int = 1, q
                         time.sleep(delay)
                 pubs[i].publish(restamp(cdr, st + shift) if st else cdr)
                 sent += 1
-                if stop is not None and (sent & 63) == 0 and stop():
-                    raise KeyboardInterrupt
+                if (sent & 63) == 0:
+                    if pause is not None:
+                        pause(sent)
+                    if stop is not None and stop():
+                        raise KeyboardInterrupt
             n_pass += 1
     except KeyboardInterrupt:
         pass

@@ -19,7 +19,8 @@ from frictionid_core import FrictionIdError
 
 GIL_SWITCH_INTERVAL = 0.0005  # [s]
 SERVICE_THREADS = 8  # identify (service and action), cancel, reset, save, load, online, lifecycle, diagnostics
-NAME_CHECK_S = 2.0  # how long a starting node looks for another node of its name on the graph [s]
+NAME_CHECK_S = 4.0  # how long a starting node looks for another node of its name on the graph [s]: longer
+# than one discovery announcement period (3 s in Fast DDS), as a first exchange can be missed
 
 
 def parse_argv(argv: list[str]) -> tuple[list[str], bool]:

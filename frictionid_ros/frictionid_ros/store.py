@@ -34,7 +34,7 @@ import numpy as np
 
 from frictionid_core import YAML_SUFFIXES, FrictionIdError, IdentifyResult, get_model, read_json, write_json
 from frictionid_core.friction import elements_of
-from frictionid_core.safety import Limit, explicit_bounds, robot_limits, screen_parameters
+from frictionid_core.safety import Limit, effort_sign_refusals, explicit_bounds, robot_limits, screen_parameters
 from frictionid_ros.config import PARAMETERS
 
 FORMAT = "frictionid_ros/1"
@@ -234,7 +234,9 @@ def read_results(path: Path) -> Results:
 class Screen:
     """The node's safety screen and the feed-forward's clamp.
 
-    Every parameter set that would become active passes :func:`frictionid_core.safety.screen_parameters`
+    A set identified with an effort's sign other than the node's drive gives it is refused
+    (:func:`frictionid_core.safety.effort_sign_refusals`). Every parameter set that would become active passes
+    :func:`frictionid_core.safety.screen_parameters`
     with ``max_abs`` (gate_max_abs) against a limit per joint: the robot model's (``system``, a robot
     system: :func:`frictionid_core.safety.robot_limits`), else the one recorded with the parameters (the
     data they were identified on), else ``feedforward_max``. The feed-forward of a joint is clamped
@@ -242,8 +244,9 @@ class Screen:
     """
 
     def __init__(self, system=None, feedforward_max: float = PARAMETERS["feedforward_max"].default,
-                 max_abs: float = PARAMETERS["gate_max_abs"].default):
+                 max_abs: float = PARAMETERS["gate_max_abs"].default, drive=None):
         self.system = system
+        self.drive = drive  # the feed-forward's (the node's drive_file): the signs a result must share
         self.feedforward_max = float(feedforward_max)
         self.max_abs = float(max_abs)
         self.default = Limit(self.feedforward_max, math.nan, "the node's feedforward_max")
@@ -258,7 +261,7 @@ class Screen:
             system = get_system(cfg.system, drive=cfg.drive)
         except FrictionIdError:  # a drive that does not fit the system: identifications say so
             system = get_system(cfg.system)
-        return cls(system, cfg.feedforward_max, cfg.gate_max_abs)
+        return cls(system, cfg.feedforward_max, cfg.gate_max_abs, cfg.drive)
 
     def limits(self, per_joint: dict[str, JointParams]) -> dict[str, Limit]:
         """{joint (or motor): its Limit} of ``per_joint``'s owners."""
@@ -283,8 +286,8 @@ class Screen:
             params[k], std[k] = v, sigma
             if k in bounds:
                 allowed[k] = bounds[k]
-        return screen_parameters(params, self.limits(results.per_joint), bounds=allowed, max_abs=self.max_abs,
-                                 default=self.default, std=std)
+        return effort_sign_refusals(last, self.drive) + screen_parameters(
+            params, self.limits(results.per_joint), bounds=allowed, max_abs=self.max_abs, default=self.default, std=std)
 
     def check(self, results: Results) -> None:
         """FrictionIdError naming the parameters at fault and their limits when ``results`` is refused."""

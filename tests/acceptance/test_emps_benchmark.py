@@ -17,7 +17,7 @@ from frictionid_core.cli import main
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.identification import IdentifyRequest, identify, validate
 from frictionid_core.linear import least_squares
-from support.data import EMPS_ESTIMATION, EMPS_VALIDATION
+from support.data import EMPS_ESTIMATION, EMPS_VALIDATION, REPO
 
 REF = {"M": 95.1089, "Fv": 203.5034, "Fc": 20.3935, "offset": -3.1648}
 REF_STD = {"M": 0.1085, "Fv": 1.146, "Fc": 0.1012, "offset": 0.0444}
@@ -115,6 +115,20 @@ def test_cli_validate_emps_bag(cli_runs):
     v = json.loads((d / "v.json").read_text())
     assert v["metrics"]["relerr_pct"] == pytest.approx(5.98, abs=0.1)
     assert v["source"] == f"{EMPS_VALIDATION}:/joint_states"
+
+
+def test_make_demo_prints_the_readme_block(tmp_path, monkeypatch, capsys):
+    """The two commands of ``make demo`` print what the README shows, to every digit."""
+    readme = (REPO / "README.md").read_text()
+    shown = readme.split("```\nemps · coulomb", 1)[1].split("```", 1)[0]
+    demo = [line.split("$(VENV)/bin/frictionid ", 1)[1].split() for line in (REPO / "Makefile").read_text().splitlines()
+            if line.startswith("\t$(VENV)/bin/frictionid ")][:2]
+    assert [d[0] for d in demo] == ["identify", "validate"], demo
+    (tmp_path / "bags").symlink_to(REPO / "bags")
+    monkeypatch.chdir(tmp_path)
+    capsys.readouterr()
+    assert all(main(argv) == 0 for argv in demo)
+    assert capsys.readouterr().out == "emps · coulomb" + shown
 
 
 def test_mat_file_gives_the_bag_figures(emps_estimation, tmp_path):

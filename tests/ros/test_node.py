@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from support.ros_harness import NS, RELIABLE, ROOT, NodeProcess, Ros, start_node
+from support.ros_harness import NS, ROOT, NodeProcess, Ros, start_node
 from support.waiting import wait_until
 
 with warnings.catch_warnings():
@@ -95,12 +95,8 @@ def offline(stream):
 def identified(ros, node, stream):
     """Reset, replay 8 s of the bag into the node, identify; returns (response, replay stats)."""
     ros.reset()
-    before = ros.received()
-    # the writer is kept until everything is acknowledged: lost samples are resent
-    stats = replay.publish_stream(ros.node, stream, rate=REPLAY_RATE, qos=RELIABLE, wait_subscribers=60.0,
-                                  ack_timeout=60.0)
-    assert stats["sent"] == len(stream) and stats["subscribers"] >= 1
-    ros.wait_received(before + len(stream))
+    stats = ros.feed(stream, REPLAY_RATE)
+    assert stats["sent"] == len(stream)
     start = stats["first_stamp_ns"]
     res = ros.identify(window_start=Time(sec=start // NS, nanosec=start % NS))
     assert res.success, res.message

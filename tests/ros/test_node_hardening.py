@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from support.ros_harness import DOMAIN, NS, RELIABLE, ROOT, NodeProcess, Ros, private_domain, start_node
+from support.ros_harness import DOMAIN, NS, ROOT, NodeProcess, Ros, private_domain, start_node
 from support.waiting import wait_until
 
 with warnings.catch_warnings():
@@ -77,13 +77,8 @@ def _start(workdir: Path, ros: Ros, name: str, *args: str, domain: int = DOMAIN,
 
 def _feed(ros: Ros, seconds: float = SECONDS, rate: float = 2.0) -> dict:
     """Replay ``seconds`` of the bag into the node at ``rate`` x real time; returns the request
-    fields of exactly that window (a few lost messages are tolerated: max_missing_pct)."""
-    stream = replay.load_stream(BAG, duration=seconds)
-    before = ros.received()
-    # the writer stays until the node has acknowledged everything: a sample lost on the wire is
-    # resent from its history (a writer destroyed at once dropped up to 37 % of a 4 s feed once)
-    stats = replay.publish_stream(ros.node, stream, rate=rate, qos=RELIABLE, wait_subscribers=60.0, ack_timeout=60.0)
-    ros.wait_received(before + int(0.97 * len(stream)), timeout=60.0)
+    fields of exactly that window."""
+    stats = ros.feed(replay.load_stream(BAG, duration=seconds), rate)
     start = stats["first_stamp_ns"]
     return dict(window_start=_time(start), window_end=_time(start + int(seconds * NS)))
 

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from support.ros_harness import NS, RELIABLE, ROOT, NodeProcess, Ros, private_domain, start_node
+from support.ros_harness import NS, ROOT, NodeProcess, Ros, private_domain, start_node
 from support.waiting import wait_until
 
 with warnings.catch_warnings():
@@ -69,10 +69,7 @@ def _time(ns: int) -> Time:
 
 def _feed(ros: Ros, seconds: float = 8.0) -> dict:
     """Replay ``seconds`` of the EMPS bag into the node; the request fields of exactly that window."""
-    stream = replay.load_stream(BAG, duration=seconds)
-    before = ros.received()
-    stats = replay.publish_stream(ros.node, stream, rate=2.0, qos=RELIABLE, wait_subscribers=60.0, ack_timeout=60.0)
-    ros.wait_received(before + int(0.97 * len(stream)), timeout=60.0)
+    stats = ros.feed(replay.load_stream(BAG, duration=seconds), 2.0)
     start = stats["first_stamp_ns"]
     return dict(window_start=_time(start), window_end=_time(start + int(seconds * NS)))
 

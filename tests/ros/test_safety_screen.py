@@ -66,6 +66,28 @@ def test_load_and_restore_refuse_an_absurd_set_naming_the_parameter_and_the_limi
                                 "parameter 'a/Fc' = 1e+300"), errors
 
 
+def test_a_set_identified_with_a_negated_effort_needs_the_same_drive(tmp_path):
+    """A result whose drive negates joint a's effort (a driver's sign opposite to the model's axis):
+    refused by a node without that drive (its feed-forward would add to a's friction), accepted by a
+    node whose drive_file negates it too."""
+    flipped = identification_dict(["a", "b"], {"a/Fv": 2.0, "a/Fc": 0.5, "b/Fv": 1.0, "b/Fc": 0.2})
+    flipped["drive"] = {"name": "signs", "joints": ["a", "b"], "side": "joint", "effort_scale": [-1.0, 1.0]}
+    (tmp_path / "flipped.json").write_text(json.dumps(flipped))
+    plain = ActiveParameters(tmp_path / "plain.json", lambda _: None, LOG,
+                             screen=Screen.of(node_config(tmp_path, results_file=str(tmp_path / "plain.json"))))
+    ok, message = plain.load(tmp_path / "flipped.json")
+    assert not ok and "a: identified with its effort negated but the feed-forward's drive keeps it" in message
+    assert "b:" not in message and not plain.results.per_joint, message
+    (tmp_path / "signs.yaml").write_text("joints: [a, b]\nside: joint\neffort_scale: [-1, 1]\n")
+    cfg = node_config(tmp_path, results_file=str(tmp_path / "signed.json"), drive_file=str(tmp_path / "signs.yaml"))
+    signed = ActiveParameters(cfg.results_file, lambda _: None, LOG, screen=Screen.of(cfg))
+    ok, message = signed.load(tmp_path / "flipped.json")
+    assert ok and signed.results.per_joint["a"].params["Fc"] == 0.5, message
+    (tmp_path / "plain_set.json").write_text(json.dumps(identification_dict(["a", "b"], flipped["params"])))
+    ok, message = signed.load(tmp_path / "plain_set.json")  # the reverse: identified as logged, the node negates
+    assert not ok and "a: identified with its effort as logged but the feed-forward's drive negates it" in message
+
+
 def test_an_identification_keeps_its_data_limits_and_a_refused_one_changes_nothing(tmp_path):
     cfg = node_config(tmp_path, identification_worker="thread")
     inputs = make_inputs(cfg)

@@ -36,7 +36,8 @@ FV, FC = np.array([2.0, 1.0]), np.array([0.5, 0.3])  # joints a, b
 
 def node_config(tmp_path, **changes):
     values = {name: p.default for name, p in PARAMETERS.items()}
-    values.update(joints=["a", "b"], system="friction-only", results_file=str(tmp_path / "p.json"), **changes)
+    values.update({"joints": ["a", "b"], "system": "friction-only", "results_file": str(tmp_path / "p.json"),
+                   **changes})
     return make_config(values)
 
 

@@ -38,6 +38,7 @@ from support.waiting import wait_until
 ROOT = Path(__file__).resolve().parents[2]
 NS = 1_000_000_000
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2000, reliability=ReliabilityPolicy.RELIABLE)
+FEED_LAG = 1000  # joint states a replay runs ahead of the node at most: half the nodes' qos_depth
 LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -236,6 +237,35 @@ class Ros:
         except AssertionError as exc:
             raise AssertionError(f"{exc} (got {got[0]})") from None
         return got[0]
+
+    def feed(self, stream, rate: float) -> dict:
+        """Replay ``stream`` (``frictionid_ros.replay.load_stream``) into the node at ``rate`` × real
+        time, reliable, flow-controlled: publishing waits while the node is more than FEED_LAG joint
+        states behind (a node starved of CPU by other processes drains its keep-last history slower
+        than the bag's rate and would lose what overflows it). Returns the replay's stats; the node
+        has every joint state on return."""
+        from frictionid_ros import replay
+
+        before = self.received()
+        share = float(np.mean(np.asarray(stream.topic_index) == 0))  # joint states among the messages
+        taken = [before]
+
+        def pause(sent: int) -> None:
+            if share * sent - (taken[0] - before) <= FEED_LAG:
+                return
+
+            def caught_up() -> bool:
+                taken[0] = self.received()
+                return share * sent - (taken[0] - before) <= FEED_LAG / 2
+
+            wait_until(caught_up, f"the node taking in the replay ({taken[0] - before} of {sent})", 60.0,
+                       period=0.0)
+
+        stats = replay.publish_stream(self.node, stream, rate=rate, qos=RELIABLE, wait_subscribers=60.0,
+                                      ack_timeout=60.0, pause=pause)
+        assert stats["subscribers"] >= 1, "the node did not subscribe to the replayed topic"
+        self.wait_received(before + int(round(share * stats["sent"])))
+        return stats
 
     def publish_states(self, t_ns, position, velocity=None, effort=None, names=("emps",), rate_hz: float = 4000.0,
                        wait: bool = False):

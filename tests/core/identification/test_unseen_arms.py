@@ -8,6 +8,7 @@ The robot is a small URDF written here: a continuous base pan joint and a two-fi
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -109,6 +110,7 @@ def test_model_joints_the_log_lacks_are_held(arm_urdf, tmp_path, capsys):
         assert r.params[f"{j}/Fv"] == pytest.approx(FRICTION[j][0], rel=0.03), j
         assert r.params[f"{j}/Fc"] == pytest.approx(FRICTION[j][1], rel=0.03), j
     assert not any(n.startswith(("finger", "pan")) and "/" in n for n in r.params)  # no friction of held joints
+    assert r.drive is None and not any("sign opposite" in w for w in r.warnings)
     assert validate(val, r)["relerr_pct"] < 1.2 * r.metrics["relerr_pct"]
     back = json.loads(json.dumps(r.to_dict()))
     assert back["held_joints"] == r.held_joints and validate(val, back) == validate(val, r)
@@ -124,6 +126,52 @@ def test_model_joints_the_log_lacks_are_held(arm_urdf, tmp_path, capsys):
     assert "held still: " in capsys.readouterr().out
     v = run_json(["validate", tmp_path / "val.csv", "--params", tmp_path / "r.json"], tmp_path / "v.json")
     assert v["metrics"]["relerr_pct"] == pytest.approx(validate(val, r)["relerr_pct"], rel=1e-9)
+
+
+def negated(series: JointSeries, joint: str) -> JointSeries:
+    """``series`` with the effort of ``joint`` negated (a driver's sign opposite to the URDF axis)."""
+    effort = series.effort.copy()
+    effort[:, series.joints.index(joint)] *= -1.0
+    return replace(series, effort=effort)
+
+
+def test_an_effort_logged_against_the_joint_axis_is_negated(arm_urdf, tmp_path, capsys):
+    """The elbow's effort logged with the opposite sign: fitted as logged its friction ends at the
+    sign constraint's 0; the check fits it negated (auto: that fit, its drive holding the sign, the
+    friction back within 3 %, validate reading the drive; as-logged: the log's fit and a warning
+    naming the joint). Links of held joints keep the model's inertials (the data see their sum only)."""
+    system = f"urdf:{arm_urdf}"
+    holds = {"finger_l": FINGER, "finger_r": FINGER}
+    est = negated(recording(arm_urdf, ARM, seed=1), "elbow")
+    val = negated(recording(arm_urdf, ARM, seed=2, source="val"), "elbow")
+    r = identify(est, IdentifyRequest(system=system, hold=holds, hold_missing=True))
+    assert r.drive["joints"] == ARM and r.drive["effort_scale"] == [1.0, -1.0, 1.0]
+    flagged = [w for w in r.warnings if "sign opposite to the model's joint axes" in w]
+    assert len(flagged) == 1 and flagged[0].startswith("the effort of elbow is logged"), r.warnings
+    for j in ARM:
+        assert r.params[f"{j}/Fv"] == pytest.approx(FRICTION[j][0], rel=0.03), j
+        assert r.params[f"{j}/Fc"] == pytest.approx(FRICTION[j][1], rel=0.03), j
+    assert r.request.effort_sign == "auto" and r.request.drive is None  # the request reruns to the same fit
+    assert validate(val, r)["relerr_pct"] < 1.2 * r.metrics["relerr_pct"]
+    for finger in holds:  # held: as modelled, not spread over by the reconstruction
+        link = r.plausibility["links"][finger]
+        assert link["mass"] == pytest.approx(link["model_mass"], rel=1e-6) and not link["problems"]
+    kept = identify(est, IdentifyRequest(system=system, hold=holds, hold_missing=True, effort_sign="as-logged"))
+    assert kept.drive is None and kept.params["elbow/Fc"] == 0.0 and kept.params["elbow/Fv"] == 0.0
+    assert any(w.startswith("the effort of elbow seems logged with the sign opposite") for w in kept.warnings)
+    assert kept.metrics["per_joint"]["elbow"]["relerr_pct"] > 2 * r.metrics["per_joint"]["elbow"]["relerr_pct"]
+    # the command line: the flag, and validate with the result's drive
+    save_csv(est, tmp_path / "est.csv")
+    save_csv(val, tmp_path / "val.csv")
+    cli = run_json(["identify", tmp_path / "est.csv", "--system", system, "--hold-missing", "--hold",
+                    f"finger_l={FINGER},finger_r={FINGER}"], tmp_path / "r.json")
+    assert cli["drive"]["effort_scale"] == [1.0, -1.0, 1.0]
+    assert "sign opposite to the model's joint axes" in capsys.readouterr().err
+    v = run_json(["validate", tmp_path / "val.csv", "--params", tmp_path / "r.json"], tmp_path / "v.json")
+    assert v["metrics"]["relerr_pct"] == pytest.approx(validate(val, r)["relerr_pct"], rel=1e-6)
+    as_logged = run_json(["identify", tmp_path / "est.csv", "--system", system, "--hold-missing", "--hold",
+                          f"finger_l={FINGER},finger_r={FINGER}", "--effort-sign", "as-logged"], tmp_path / "k.json")
+    assert as_logged.get("drive") is None and as_logged["params"]["elbow/Fc"] == 0.0
 
 
 def test_the_held_position_enters_the_dynamics(arm_urdf):

@@ -205,9 +205,10 @@ def preprocessing_line(p: dict) -> str:
         parts.append(f"set: {', '.join(p['overridden'])}")
     why = p.get("kept_why") or {}
     for key, what in (("rechosen", "chosen from these data"), ("kept", "kept from the result"), ("set", "set")):
-        if p.get(key):
-            names = [f"{n} ({why[n]})" if key == "kept" and n in why else n for n in p[key]]
-            parts.append(f"{what}: {', '.join(names)}")
+        reasons: dict[str, list[str]] = {}  # the names of one reason together: "kept from the result (why): a, b"
+        for n in p.get(key) or []:
+            reasons.setdefault(why.get(n, "") if key == "kept" else "", []).append(n)
+        parts += [f"{what}{f' ({reason})' if reason else ''}: {', '.join(names)}" for reason, names in reasons.items()]
     return "preprocessing: " + ", ".join(parts)
 
 

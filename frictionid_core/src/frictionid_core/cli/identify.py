@@ -42,8 +42,8 @@ FLAGS = {"system": "--system", "joints": "--joints", "joint_map": "--joint-map",
          "preprocessing.velocity": "--velocity", "window": "--start/--end", "window.start_s": "--start",
          "window.end_s": "--end", "consistent": "--consistent", "prior": "--prior", "prior_weight": "--prior-weight",
          "stribeck_order": "--stribeck-order", "hold": "--hold", "hold_missing": "--hold-missing",
-         "gravity": "--gravity", "known_rigid_body": "--known-rigid-body", "elements": "--elements",
-         "load_dependent": "--load-dependent"}
+         "gravity": "--gravity", "known_rigid_body": "--known-rigid-body", "effort_sign": "--effort-sign",
+         "elements": "--elements", "load_dependent": "--load-dependent"}
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -110,6 +110,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--load-dependent", action="store_true", default=None,
                    help="tx40, urdf:PATH: Coulomb friction rising with the transmitted torque: Fc + Fc_load·|τ_rigid| "
                         "per joint (τ_rigid its rigid-body torque), <joint>/Fc_load identified with the rest")
+    p.add_argument("--effort-sign", choices=("auto", "as-logged"),
+                   help="joints whose friction ends ≤ 0 are fitted again with their efforts negated; auto (default): "
+                        "the negated fit when it is clearly better (a driver's sign opposite to the model's joint "
+                        "axis; its drive in the result holds the signs), as-logged: the log's signs and a warning")
     p.add_argument("--warm-start", action=argparse.BooleanOptionalAction,
                    help="global solvers evaluate the closed-form start (never worse than the nested linear model) "
                         "first; --no-warm-start: purely random initial population, the thesis protocol (default on)")
@@ -165,7 +169,7 @@ def given_fields(args) -> dict:
            "prior_weight": args.prior_weight, "stribeck_order": args.stribeck_order,
            "hold": None if args.hold is None else parse_joint_values(",".join(args.hold), "--hold", "POSITION"),
            "hold_missing": args.hold_missing, "gravity": args.gravity, "known_rigid_body": args.known_rigid_body,
-           "elements": args.elements, "load_dependent": args.load_dependent,
+           "effort_sign": args.effort_sign, "elements": args.elements, "load_dependent": args.load_dependent,
            "joint_map": None if args.joint_map is None else parse_joint_map(args.joint_map),
            "fixed": None if args.fix is None else parse_fixed(args.fix),
            "bounds": None if args.bounds is None else parse_bounds(args.bounds)}

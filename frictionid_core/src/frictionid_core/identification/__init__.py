@@ -8,7 +8,8 @@
 One module per job: ``request`` (the request, its YAML file; ``settings``: its solver and
 pre-processing parts; ``checks``: its field checks), ``result`` (the result and its JSON;
 ``result_fields``: the key-by-key checks of a result file),
-``orchestration`` (:func:`identify`), ``plan`` (what each source gives a fit),
+``orchestration`` (:func:`identify`), ``effort_sign`` (an effort logged against its joint's axis),
+``plan`` (what each source gives a fit),
 ``identifiability`` (what the data resolve), ``model_building`` (data → identification model,
 metrics), ``solve`` (solver glue), ``linear_case`` (a law's Coulomb case: the bounds it grounds, the
 held-back comparison, the fallback), ``dip_refit`` (the

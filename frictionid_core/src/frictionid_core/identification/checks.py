@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Mapping
 from dataclasses import fields
 from numbers import Integral, Real
+from pathlib import Path
 
 from frictionid_core.errors import FrictionIdError
 
@@ -92,3 +94,39 @@ def bound_value(path: str, value) -> tuple[float, float]:
     if isinstance(value, str) or not hasattr(value, "__len__") or len(value) != 2:
         raise FieldError(path, f" must be [lo, hi], got {value!r}")
     return number(path, value[0]), number(path, value[1])
+
+
+def system_name(name) -> str:
+    from frictionid_core.systems.registry import FIXED_SYSTEMS, SYSTEM_NAMES, URDF_PREFIX
+
+    if not isinstance(name, str) or not (name in FIXED_SYSTEMS or name == "tx40"
+                                         or (name.startswith(URDF_PREFIX) and len(name) > len(URDF_PREFIX))):
+        raise FieldError("system", f": unknown system {name!r}; choose one of {', '.join(SYSTEM_NAMES)}")
+    return name
+
+
+def joint_names(joints) -> tuple[str, ...] | None:
+    if joints is None:
+        return None
+    if not isinstance(joints, (list, tuple)) or not joints or not all(isinstance(j, str) and j for j in joints):
+        raise FieldError("joints", f" must be a non-empty list of joint names, got {joints!r}")
+    dup = sorted({j for j in joints if list(joints).count(j) > 1})
+    if dup:
+        raise FieldError("joints", f": duplicated name(s) {dup}")
+    return tuple(joints)
+
+
+def drive_value(drive) -> str | dict | None:
+    if drive is None or (isinstance(drive, str) and drive):
+        return drive
+    if isinstance(drive, Path):
+        return str(drive)
+    if isinstance(drive, Mapping):
+        from frictionid_core.drive import drive_from_dict
+
+        try:
+            drive_from_dict(dict(drive))
+        except FrictionIdError as exc:
+            raise FieldError("drive", f": {exc}") from None
+        return copy.deepcopy(dict(drive))
+    raise FieldError("drive", f" must be a drive file, a bundled drive name or the drive's keys, got {drive!r}")

@@ -13,6 +13,7 @@ from frictionid_core import diagnostics
 from frictionid_core.drive import drive_from_dict, load_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_rates
+from frictionid_core.identification.effort_sign import checked_effort_sign
 from frictionid_core.identification.identifiability import identifiability
 from frictionid_core.identification.linear_case import holdout_comparison, linear_fallback, with_data_bounds
 from frictionid_core.identification.load import fit_with_load
@@ -70,11 +71,31 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     stops the run). A motor-side drive's friction, offsets and rotor inertias are per motor
     (``motor_<k>/…``), its metrics on the joint torques. Unresolved directions are held (at 0, or at
     the model's values with ``prior``: :mod:`.identifiability`), σ NaN; ``consistent`` keeps the
-    unconstrained fit's σ."""
+    unconstrained fit's σ. Joints whose friction ends ≤ 0 get the effort-sign check
+    (:mod:`.effort_sign`)."""
     t0 = time.perf_counter()
     request = IdentifyRequest() if request is None else request
     if not isinstance(request, IdentifyRequest):
         raise FrictionIdError(f"identify takes an IdentifyRequest, got {type(request).__name__}")
+
+    def fit(data: Sources, asked: IdentifyRequest) -> IdentifyResult:
+        return fit_request(data, asked, progress)
+
+    result = checked_effort_sign(fit, series, request, fit(series, request), logged_joints(series, request))
+    return replace(result, wall_s=time.perf_counter() - t0)
+
+
+def logged_joints(series: Sources, request: IdentifyRequest) -> list[str]:
+    """The joints of every source, as the model names them (the request's joint map), in order."""
+    names: list[str] = []
+    for source in request_sources(series, request):
+        names += [request.joint_map.get(j, j) for j in source.joints if request.joint_map.get(j, j) not in names]
+    return names
+
+
+def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> IdentifyResult:
+    """The fit of :func:`identify`, the log's effort signs as they are."""
+    t0 = time.perf_counter()
     sys_ = request_system(request)
     settings = request.preprocessing.apply(sys_.preprocessing)
     solver = request.solver if request.solver.varpro is not None else replace(request.solver,
@@ -102,6 +123,7 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
         held.update(resolved.held)
         model = replace(model, fixed={**fixed_request, **held})
     at_rule_rates = model
+
     def fit(m: IdentificationModel, previous=None):
         return fit_model(m, solver, progress, previous)
 
@@ -131,7 +153,7 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     notes = [*(note for s in sources for note in s.notes), *model.obs.notes, *plan.notes()]
     warnings = result_warnings(model, x, std, notes, warnings)
     params, std, std_robust, fixed, plausibility = reported_parameters(
-        model, x, (std, std_robust, robust_names, robust_cov), held, rigid, sys_, standard, warnings)
+        model, x, (std, std_robust, robust_names, robust_cov), held, rigid, sys_, standard, warnings, plan.held)
     return IdentifyResult(
         system=sys_.name, joint_map=dict(sys_.joint_map), friction=request.friction, asymmetric=request.asymmetric,
         solver=solver.method, source=sources[0].source if len(sources) == 1 else [s.source for s in sources],
@@ -149,13 +171,14 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
 
 
 def reported_parameters(model: IdentificationModel, x: np.ndarray, sigmas: tuple, held: dict[str, float],
-                        rigid: KnownRigidBody | None, sys_: System, standard: dict | None, warnings: list[str]
-                        ) -> tuple[dict, dict, dict, dict, dict | None]:
+                        rigid: KnownRigidBody | None, sys_: System, standard: dict | None, warnings: list[str],
+                        held_joints: dict[str, float]) -> tuple[dict, dict, dict, dict, dict | None]:
     """(params, std, std_robust, fixed, plausibility) of a fit as its result reports them: by name,
     ``fixed`` without the directions held because the data do not resolve them; a known rigid
     body's in the robot's base parameters (:func:`known_rigid_body_report`); a robot fit's links
-    judged against the model (their warnings appended to ``warnings``). ``sigmas``: (std,
-    std_robust, the robust covariance's names, that covariance)."""
+    judged against the model (their warnings appended to ``warnings``; the links of ``held_joints``, the
+    model joints held still, kept as modelled). ``sigmas``: (std, std_robust, the robust covariance's
+    names, that covariance)."""
     std, std_robust, robust_names, robust_cov = sigmas
     params = dict(zip(model.names, map(float, x)))
     fixed = {model.names[i]: v for i, v in model.fixed_values.items() if model.names[i] not in held}
@@ -166,7 +189,8 @@ def reported_parameters(model: IdentificationModel, x: np.ndarray, sigmas: tuple
             rigid, model, x, std, std_robust, (white_names, white_covariance(model, x, white_names)),
             (robust_names, robust_cov))
     elif sys_.robot is not None:
-        plausibility = robot_plausibility(params, sys_, standard)
+        held_links = [j for j in held_joints if j in sys_.robot.model.joints]
+        plausibility = robot_plausibility(params, sys_, standard, held_links)
         warnings += plausibility_warnings(plausibility)
     return params, std, std_robust, fixed, plausibility
 

@@ -101,14 +101,14 @@ def known_rigid_body_report(held: KnownRigidBody, model: IdentificationModel, x:
     return params, stds[0], stds[1], fixed
 
 
-def robot_plausibility(params: dict[str, float], sys_: System, standard: dict | None) -> dict:
+def robot_plausibility(params: dict[str, float], sys_: System, standard: dict | None, held: tuple | list = ()) -> dict:
     """The ``plausibility`` block of a robot fit (``params`` by name): its links (the consistent fit's standard
     parameters, else those reconstructed from its base parameters: the model's own corrected by
     the least change, the rotor inertias, which URDFs seldom hold, taking up what they can
-    first) against the robot model's."""
+    first, the links of the ``held`` joints kept as modelled) against the robot model's."""
     info = sys_.robot
     if standard is not None:
         return link_plausibility(info, standard_from_record(info, standard), "the consistent fit's")
     beta = np.array([params[n] for n in sys_.rigid_names])
-    pi, _ = projection(info.model, info.base, beta, rotors_first=True)
+    pi, _ = projection(info.model, info.base, beta, rotors_first=True, held=held)
     return link_plausibility(info, pi, "reconstructed from the base parameters")

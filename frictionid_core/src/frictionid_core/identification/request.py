@@ -23,15 +23,19 @@ from frictionid_core.identification.checks import (
     FieldError,
     bound_value,
     choice,
+    drive_value,
     flag,
+    joint_names,
     known_keys,
     mapping,
     number,
+    system_name,
     window_value,
 )
 from frictionid_core.identification.settings import PreprocessingOverrides, SolverOptions
 
 ROBOT_SYSTEMS = "tx40, urdf:PATH"  # the systems with body parameters, for messages
+EFFORT_SIGNS = ("auto", "as-logged")  # effort_sign: take a clearly better negated effort, or keep the log's
 
 
 @dataclass(frozen=True)
@@ -73,6 +77,10 @@ class IdentifyRequest:
             the friction and offsets; the result's base parameters are the links' with the
             identified rotor inertias in them, each rotor inertia also by its own name
             (``<joint>.Ia``). The node's ``known_rigid_body`` parameter.
+        effort_sign: ``auto``: joints whose friction ends ≤ 0 are fitted again with their efforts
+            negated, and the negated fit is returned when it is clearly better (its drive then
+            holds the signs: :mod:`~frictionid_core.identification.effort_sign`); ``as-logged``:
+            the log's signs, with a warning when negating would fit clearly better.
         elements: the ``gms`` law's number of Maxwell-slip elements (None: 4).
         load_dependent: robot systems: each row joint's Coulomb level rises with its rigid-body
             torque, Fc + Fc_load·|τ_rigid| (``<joint>/Fc_load``, identified with the rest).
@@ -97,6 +105,7 @@ class IdentifyRequest:
     hold_missing: bool = False
     gravity: bool = False
     known_rigid_body: bool = False
+    effort_sign: str = "auto"
     elements: int | None = None
     load_dependent: bool = False
 
@@ -104,14 +113,15 @@ class IdentifyRequest:
         from frictionid_core.friction import FRICTIONS
 
         set_ = object.__setattr__
-        set_(self, "system", _system_name(self.system))
-        set_(self, "joints", _joint_names(self.joints))
+        set_(self, "system", system_name(self.system))
+        set_(self, "joints", joint_names(self.joints))
         joint_map = mapping("joint_map", self.joint_map)
         if not all(isinstance(v, str) and v for v in joint_map.values()):
             raise FieldError("joint_map", f" must map data joint names to model joint names, got {joint_map!r}")
         set_(self, "joint_map", joint_map)
-        set_(self, "drive", _drive(self.drive))
+        set_(self, "drive", drive_value(self.drive))
         choice("friction", self.friction, FRICTIONS, "friction model")
+        choice("effort_sign", self.effort_sign, EFFORT_SIGNS, "effort sign policy")
         set_(self, "asymmetric", flag("asymmetric", self.asymmetric))
         set_(self, "solver", _nested("solver", self.solver, SolverOptions, "method"))
         set_(self, "preprocessing", _nested("preprocessing", self.preprocessing, PreprocessingOverrides))
@@ -205,42 +215,6 @@ def _nested(path: str, value, cls, shorthand: str | None = None):
         raise FieldError(path, f" must be a {cls.__name__} or a mapping of its fields, got {value!r}")
     known_keys(path, value, cls)
     return cls(**value)
-
-
-def _system_name(name) -> str:
-    from frictionid_core.systems.registry import FIXED_SYSTEMS, SYSTEM_NAMES, URDF_PREFIX
-
-    if not isinstance(name, str) or not (name in FIXED_SYSTEMS or name == "tx40"
-                                         or (name.startswith(URDF_PREFIX) and len(name) > len(URDF_PREFIX))):
-        raise FieldError("system", f": unknown system {name!r}; choose one of {', '.join(SYSTEM_NAMES)}")
-    return name
-
-
-def _joint_names(joints) -> tuple[str, ...] | None:
-    if joints is None:
-        return None
-    if not isinstance(joints, (list, tuple)) or not joints or not all(isinstance(j, str) and j for j in joints):
-        raise FieldError("joints", f" must be a non-empty list of joint names, got {joints!r}")
-    dup = sorted({j for j in joints if list(joints).count(j) > 1})
-    if dup:
-        raise FieldError("joints", f": duplicated name(s) {dup}")
-    return tuple(joints)
-
-
-def _drive(drive) -> str | dict | None:
-    if drive is None or (isinstance(drive, str) and drive):
-        return drive
-    if isinstance(drive, Path):
-        return str(drive)
-    if isinstance(drive, Mapping):
-        from frictionid_core.drive import drive_from_dict
-
-        try:
-            drive_from_dict(dict(drive))
-        except FrictionIdError as exc:
-            raise FieldError("drive", f": {exc}") from None
-        return copy.deepcopy(dict(drive))
-    raise FieldError("drive", f" must be a drive file, a bundled drive name or the drive's keys, got {drive!r}")
 
 
 def read_request(path: str | Path) -> IdentifyRequest:

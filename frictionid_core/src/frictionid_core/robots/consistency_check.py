@@ -20,6 +20,7 @@ is strong evidence, not a proof (the search is local).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -104,14 +105,19 @@ def generic_prior(robot) -> np.ndarray:
 # Scale of the rotor inertias in :func:`projection` with ``rotors_first``: so large against the links'
 # (kg, kg·m, kg·m²) that a change the rotor inertias can make goes to them.
 ROTORS_FIRST_SCALE = 1e3
+# A held link's scale in the projection, relative to its own: it keeps the prior's values (the data
+# see it only summed into its moving parent).
+HELD_LINK_SCALE = 1e-6
 
 
 def projection(robot, base, beta_hat: np.ndarray, prior: np.ndarray | None = None,
-               rotors_first: bool = False) -> tuple[np.ndarray, np.ndarray]:
+               rotors_first: bool = False, held: Sequence[str] = ()) -> tuple[np.ndarray, np.ndarray]:
     """(the standard parameters nearest ``prior`` (default: the model's own) that reproduce the base
     parameters ``beta_hat``: the weighted least-squares correction, each parameter measured
     relative to its scale (kg, kg·m, kg·m²); those scales (P,)). ``rotors_first``: the rotor
-    inertias (which URDFs seldom hold) take up what they can before the links change."""
+    inertias (which URDFs seldom hold) take up what they can before the links change. ``held``:
+    joints held still in the fit: their links move rigidly with their parents, the data see only
+    the sum, so the change goes to the moving links (a held link keeps the prior's values)."""
     A = base.combination_matrix()
     beta_hat = np.asarray(beta_hat, dtype=float)
     if beta_hat.shape != (A.shape[0],):
@@ -122,20 +128,25 @@ def projection(robot, base, beta_hat: np.ndarray, prior: np.ndarray | None = Non
     D = np.maximum(np.abs(pi0), floor)
     if rotors_first:
         D[10 * nb :] = ROTORS_FIRST_SCALE
+    for joint in held:
+        k = robot.joints.index(joint)
+        D[10 * k : 10 * k + 10] *= HELD_LINK_SCALE
     return pi0 + D * (np.linalg.pinv(A * D) @ (beta_hat - A @ pi0)), D
 
 
 def check_consistency(robot, base, beta_hat: np.ndarray, prior: np.ndarray | None = None,
-                      margin: float = 1e-6, prior_label: str = "given prior") -> ConsistencyReport:
+                      margin: float = 1e-6, prior_label: str = "given prior",
+                      held: Sequence[str] = ()) -> ConsistencyReport:
     """Search standard parameters consistent with the identified base parameters ``beta_hat``
     (module doc). ``prior``: standard parameters to stay close to (default: the model's own),
-    named ``prior_label`` in the report's method."""
+    named ``prior_label`` in the report's method; ``held``: joints held still in the fit
+    (:func:`projection`)."""
     from scipy.linalg import null_space
     from scipy.optimize import minimize
 
     A = base.combination_matrix()
     beta_hat = np.asarray(beta_hat, dtype=float)
-    pi, D = projection(robot, base, beta_hat, prior)
+    pi, D = projection(robot, base, beta_hat, prior, held=held)
     AD = A * D
     nb = robot.model.njoints - 1
     method = "least-squares projection of the " + ("model's parameters" if prior is None else prior_label)
@@ -242,7 +253,8 @@ def report_for_result(result: dict, system, prior: str = "model") -> dict:
         pri = np.array(rows.parameters(), dtype=float)  # the model's links and the identified rotor inertias
         pri[-info.model.nv :] = [result["params"][n] for n in rotors]
         prior, label = "result", "model's links with the result's rotor inertias (identify --known-rigid-body)"
-    rep = check_consistency(info.model, info.base, beta, pri, prior_label=label)
+    held = [j for j in (result.get("held_joints") or {}) if j in info.model.joints]
+    rep = check_consistency(info.model, info.base, beta, pri, prior_label=label, held=held)
     return dict(rep.to_dict(), system=system.name, prior=prior)
 
 

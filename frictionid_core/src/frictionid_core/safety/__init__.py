@@ -6,8 +6,8 @@ from its module on first use (PEP 562)."""
 
 from frictionid_core import _lazy
 
-__all__ = ["DATA_MARGIN", "Limit", "data_limits", "explicit_bounds", "result_refusals", "robot_limits",
-           "screen_parameters"]
+__all__ = ["DATA_MARGIN", "Limit", "data_limits", "effort_sign_refusals", "explicit_bounds", "result_refusals",
+           "robot_limits", "screen_parameters"]
 _LAZY = dict.fromkeys(__all__, "frictionid_core.safety.screen")
 
 __getattr__, __dir__ = _lazy.lazy_names(__name__, _LAZY)

@@ -240,6 +240,25 @@ def result_refusals(result, limits: Mapping[str, Limit] | None = None, *, max_ab
                              default=default, std=dict(get("std") or {}))
 
 
+def effort_sign_refusals(result, drive=None) -> list[str]:
+    """One line per joint whose effort the result (an IdentifyResult or its JSON) was identified
+    with negated (its drive's ``effort_scale`` < 0: a driver's sign opposite to the model's axis)
+    where ``drive`` (the feed-forward's: a :class:`~frictionid_core.drive.Drive`, None: none) keeps it,
+    or the reverse: the feed-forward of that joint would have the wrong sign and add to its friction."""
+    keys = _getter(result)("drive") if result is not None else None
+    own = dict(zip(keys["joints"], keys.get("effort_scale") or [])) if keys else {}
+    node = dict(zip(drive.joints, drive.effort_scale)) if drive is not None else {}
+    out = []
+    for joint in sorted(set(own) | set(node)):
+        was, now = own.get(joint, 1.0) < 0, node.get(joint, 1.0) < 0
+        if was != now:
+            out.append(f"{joint}: identified with its effort {'negated' if was else 'as logged'} but the "
+                       f"feed-forward's drive {'negates' if now else 'keeps'} it (effort_scale "
+                       f"{node.get(joint, 1.0):g}): its friction torque would have the wrong sign; give the node a "
+                       "drive_file with the result's effort_scale")
+    return out
+
+
 def explicit_bounds(result) -> dict[str, tuple[float, float]]:
     """The bounds a result (an IdentifyResult or its JSON; None: none) was asked for, and its
     negative ``fixed`` values as (value, value): where a physical magnitude may be negative."""
