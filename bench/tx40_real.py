@@ -14,7 +14,9 @@ no preprocessing flag. Identify on 0–6.3 s, validate on 6.3–9 s:
 * ``joint friction``: the same fit with the drive's ``friction_on: joint`` (the kinematic coupling
   kept, friction and rotor inertia per joint: what a tool without motor-side friction fits);
 * ``no coupling``: a drive without the coupling term at all (joint 6 read from motor 6 alone);
-* ``stribeck``: Stribeck hybrid with ``--drive tx40``, timed.
+* ``stribeck``: Stribeck hybrid with ``--drive tx40``, timed;
+* ``lugre``: LuGre hybrid with ``--drive tx40`` (the dynamic law: standstill and reversals
+  predicted), timed; every run's validation also on all rows (``metrics.all_rows``).
 
 Prints the acceptance of the issue and writes bench/results/tx40_real.{json,txt}.
 """
@@ -100,6 +102,7 @@ def main() -> int:
               "no coupling": drive_variant(tmp, "tx40_no_coupling", friction_on="joint", coupling=False)}
     runs = {name: ("coulomb", "ls", drive) for name, drive in drives.items()}
     runs["stribeck"] = ("stribeck", "hybrid", "tx40")
+    runs["lugre"] = ("lugre", "hybrid", "tx40")
     out: dict = {"data": str(data), "layout": LAYOUT, "split_s": SPLIT_S, "runs": {}}
     for name, (friction, solver, drive) in runs.items():
         wall, r, v = fit_and_validate(source, layout, drive, friction, solver, tmp / f"{name}.json",
@@ -131,8 +134,16 @@ def acceptance(runs: dict) -> list[dict]:
         ("no negative rotor inertia", min(rotors.values()), min(rotors.values()) >= 0.0),
         ("stribeck hybrid ≤ 15 s", s["wall_s"], s["wall_s"] <= 15.0),
         ("stribeck validation not worse than coulomb ls", _val(s), _val(s) <= _val(c)),
+        ("lugre all-rows validation ≤ 24 %", _all(runs["lugre"]), _all(runs["lugre"]) <= 24.0),
+        ("lugre moving-row validation ≤ stribeck's + 0.3", _val(runs["lugre"]) - _val(s),
+         _val(runs["lugre"]) <= _val(s) + 0.3),
+        ("lugre hybrid ≤ 15 s", runs["lugre"]["wall_s"], runs["lugre"]["wall_s"] <= 15.0),
     ]
     return [{"criterion": name, "value": float(value), "pass": bool(ok)} for name, value, ok in checks]
+
+
+def _all(run: dict) -> float:
+    return run["validation"]["all_rows"]["relerr_pct"]
 
 
 def summary(out: dict) -> str:
@@ -140,7 +151,8 @@ def summary(out: dict) -> str:
     for name, r in out["runs"].items():
         per = r["validation"].get("per_joint", {})
         lines.append(f"{name:<15} {r['command']:<60} wall {r['wall_s']:6.1f} s  estimation "
-                     f"{r['estimation']['relerr_pct']:6.2f} %  validation {r['validation']['relerr_pct']:6.2f} %  "
+                     f"{r['estimation']['relerr_pct']:6.2f} %  validation {r['validation']['relerr_pct']:6.2f} % "
+                     f"(all rows {_all(r):6.2f} %)  "
                      "per joint " + " ".join(f"{v['relerr_pct']:.1f}" for v in per.values()))
     for c in out["acceptance"]:
         lines.append(f"{'PASS' if c['pass'] else 'FAIL'}  {c['criterion']}: {c['value']:.4g}")

@@ -14,8 +14,8 @@ of the joint state it answers) while parameter ``feedforward_enabled`` is true. 
 default the last) joins the controller's model: its rigid-body feed-forward takes it from then on.
 
 Recorded for ``frictionid loop`` and written to ``record_file`` (.npz) at exit: per joint state
-its stamp and its receipt − stamp [ns], q_d − q [rad | m], whether and what feed-forward went
-out; per feed-forward message its latency = receipt − stamp of the joint state it answers [ns].
+its stamp and its receipt − stamp [ns], q_d − q [rad | m], the desired velocity q̇_d, whether and
+what feed-forward went out; per feed-forward message its latency = receipt − stamp of the joint state it answers [ns].
 """
 
 from __future__ import annotations
@@ -69,6 +69,7 @@ class ControllerNode(LoopNode):
         self.n = self.n_lat = 0
         self.stamp = np.zeros(CAPACITY, dtype=np.int64)
         self.err = np.zeros((CAPACITY, nj))
+        self.v_d = np.zeros((CAPACITY, nj))
         self.ff_used = np.zeros((CAPACITY, nj))
         self.ff_on = np.zeros(CAPACITY, dtype=bool)
         self.lat = np.zeros(CAPACITY, dtype=np.int64)
@@ -110,6 +111,7 @@ class ControllerNode(LoopNode):
         self._pub_cmd.publish(self._cmd)
         k = self.n % CAPACITY
         self.stamp[k], self.err[k], self.ff_on[k], self.state_lat[k] = stamp, q_d - q, on, now - stamp
+        self.v_d[k] = v_d
         self.ff_used[k] = self.ff if on else 0.0
         self.n += 1
 
@@ -141,7 +143,8 @@ class ControllerNode(LoopNode):
         n, m = min(self.n, CAPACITY), min(self.n_lat, CAPACITY)
         np.savez(self.record_file, joints=np.array(self.joints), stamp_ns=self.stamp[:n], error=self.err[:n],
                  feedforward=self.ff_used[:n], feedforward_on=self.ff_on[:n], latency_ns=self.lat[:m],
-                 state_latency_ns=self.state_lat[:n], payload_taken_ns=self.payload_taken_ns)
+                 state_latency_ns=self.state_lat[:n], payload_taken_ns=self.payload_taken_ns,
+                 desired_velocity=self.v_d[:n])
 
 
 def main(argv: list[str] | None = None) -> int:

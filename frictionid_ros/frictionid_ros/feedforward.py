@@ -11,6 +11,13 @@ which are published as recorded efforts (:meth:`Drive.recorded_effort_matrix`).
 Rate limit and clamp: new parameters blend in linearly over ``ramp_s`` (τ = (1 − α)·τ_old + α·τ_new,
 α from 0 to 1; 0: at once), and every joint's torque is clamped to ±``limit`` (one value, or one per
 joint; the node's is always finite: :meth:`frictionid_ros.store.Screen.clamp`).
+
+Dynamic laws (LuGre, Maxwell-slip): their states (:class:`frictionid_core.friction.StateFriction`)
+advance with each input sample (:meth:`FeedForward.advance`, at the input rate, whatever the
+publication rate; with ``velocity_source: reference`` the reference velocity drives them), and
+restart at the sliding values of the current velocity — 0 at rest — when the parameters change, on
+the first sample, after a gap longer than :data:`STATE_GAP_S`, a stamp that does not move forward,
+or a non-finite velocity (safe: never a stored deflection from another motion).
 """
 
 from __future__ import annotations
@@ -21,7 +28,11 @@ import time
 import numpy as np
 
 from frictionid_core import FrictionIdError, FrictionModel
+from frictionid_core.friction import StateFriction
 from frictionid_ros.store import JointParams
+
+# A dynamic law's states restart after an input gap longer than this [s].
+STATE_GAP_S = 0.1
 
 
 class FeedForward:
@@ -42,6 +53,7 @@ class FeedForward:
         # (groups (model, owner indices, parameters), drive maps (order, A, B) or None)
         self._state: tuple[tuple, tuple | None] = ((), None)
         self.active: tuple[str, ...] = ()
+        self._t0_ns: int | None = None  # the first stamp of advance()
 
     @property
     def limit(self) -> np.ndarray:
@@ -69,6 +81,9 @@ class FeedForward:
             except FrictionIdError as exc:
                 problems.append(str(exc))
                 continue
+            if p.params.get("Fc_load"):
+                problems.append(f"joint '{j}': its load-dependent Coulomb level (Fc_load {p.params['Fc_load']:.6g}) "
+                                "is not fed forward (the node has no rigid-body torque): Fc alone")
             idx, rows = groups.setdefault(model, ([], []))
             idx.append(i)
             rows.append(vec)
@@ -76,7 +91,8 @@ class FeedForward:
         # One immutable tuple, swapped atomically: readers in other threads never see a half update.
         if self.ramp_s > 0.0 and self.active:
             self._ramp = (self._state, time.monotonic())
-        self._state = (tuple((m, np.array(idx, dtype=np.intp), np.array(rows, dtype=float))
+        self._state = (tuple((m, np.array(idx, dtype=np.intp), np.array(rows, dtype=float),
+                              StateFriction(m, np.array(rows, dtype=float)) if m.is_dynamic else None)
                              for m, (idx, rows) in groups.items()), maps)
         self.active = tuple(active)
         return problems
@@ -100,6 +116,31 @@ class FeedForward:
         if any(m in per_joint for m in drive.motor_names()):  # friction on the motors: f(C·q̇) → Cᵀ·f
             return drive.motor_names(), (np.array(order), drive.C @ A, B @ drive.C.T)
         return [self.joints[k] for k in order], (np.array(order), A, B)
+
+    def advance(self, v: np.ndarray, t_ns: int) -> None:
+        """Advance the dynamic laws' states to velocities v (J,) stamped ``t_ns`` [ns] (see the
+        module docstring for when they restart)."""
+        if self._t0_ns is None:
+            self._t0_ns = int(t_ns)
+        t_s = (int(t_ns) - self._t0_ns) * 1e-9  # from the first stamp: steps exact to the nanosecond
+        states = [self._state]
+        if self._ramp[0] is not None:
+            states.append(self._ramp[0])
+        for groups, maps in states:
+            dynamic = [(idx, state) for _, idx, _, state in groups if state is not None]
+            if not dynamic:
+                continue
+            owners = self._owner_velocity(maps, v)
+            for idx, state in dynamic:
+                state.advance(owners[idx], t_s, STATE_GAP_S)
+
+    def _owner_velocity(self, maps, v: np.ndarray) -> np.ndarray:
+        """The velocities of the owners of friction parameters (the joints, or the drive's motors)."""
+        if maps is None:
+            return np.asarray(v, dtype=float)
+        order, A, _ = maps
+        vd = v[order]
+        return A @ np.where(np.isfinite(vd), vd, np.nan)
 
     def torque(self, v: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Friction torque (J,) at velocities v (J,); non-finite velocities give 0 (under a drive,
@@ -136,6 +177,11 @@ class FeedForward:
 
     def _friction(self, groups, v: np.ndarray, out: np.ndarray) -> np.ndarray:
         """Each owner's friction at its velocity v[owner] into ``out``."""
-        for model, idx, params in groups:
-            out[idx] = model.torque_each(params, v[idx], self.eps)
+        for model, idx, params, state in groups:
+            if state is None:
+                out[idx] = model.torque_each(params, v[idx], self.eps)
+            elif state.started:  # the states of the last input sample
+                out[idx] = state.force(v[idx])
+            else:  # no input sample since the parameters came: the sliding values
+                out[idx] = StateFriction(model, params).reset(v[idx])
         return out

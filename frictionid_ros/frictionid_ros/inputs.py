@@ -156,6 +156,7 @@ class Inputs:
                 v.fill(np.nan)  # unknown velocity → zero torque
         self.ff_stamp = t_ns
         self.have_v = True
+        self.ff.advance(v, t_ns)  # a dynamic law's states, at the input rate
         return True
 
     def effort(self, msg, t_rx: int) -> None:
@@ -218,6 +219,7 @@ class Inputs:
         self._ref_t = t_ns
         self.ff_stamp = t_ns
         self.have_v = True
+        self.ff.advance(v, t_ns)  # a dynamic law's states, driven by the reference velocity
         return True
 
     def clear(self) -> int:

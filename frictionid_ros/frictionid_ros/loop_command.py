@@ -35,7 +35,12 @@ under the drifted friction (the reference of the drift's gain); a deliberately b
 offered to the safety gate (~/load). With --payload-kg M, instead of the drift: a payload of M kg
 fixed to the arm's last link after the on phase, identified by the node (~/identify_payload) and
 taken by the controller's rigid-body feed-forward (online re-identification off). Writes the
-figures as JSON (--json) and one PNG of the tracking error per phase (--plots)."""
+figures as JSON (--json) and one PNG of the tracking error per phase (--plots).
+
+--hidden-friction lugre: the arm's hidden friction is a LuGre law; after the off phase the node
+identifies a Stribeck law on it (phase feedforward_on), then a LuGre law on the same window (phase
+feedforward_on_lugre, its states driven by the desired velocity); no drift, no online
+re-identification. The JSON's lugre_vs_stribeck_at_reversals compares the two."""
 
 NS = 1_000_000_000
 
@@ -67,6 +72,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "identifies it and the controller takes it (implies --no-drift, online re-identification off)")
     p.add_argument("--payload-s", type=float, default=15.0,
                    help="the payload's phase before its identification [s]")
+    p.add_argument("--hidden-friction", choices=("stribeck", "lugre"), default="stribeck",
+                   help="the simulated arm's hidden friction (default stribeck); lugre: a Stribeck and a LuGre "
+                        "feed-forward identified on the same off phase, one phase each (no drift)")
     p.add_argument("--realtime", default="auto", metavar="PRIO|auto|off",
                    help="run the three processes SCHED_FIFO at priority PRIO (1..99), as ros2_control runs its "
                         "control loop (the identification worker goes back to normal scheduling); auto "
@@ -97,6 +105,10 @@ def handler(args) -> int:
     print(f"RMS tracking error [mrad] off {[round(x * 1e3, 3) for x in r['feedforward_off']]}")
     print(f"                          on  {[round(x * 1e3, 3) for x in r['feedforward_on']]}")
     print(f"median RMS(on)/RMS(off) = {median_ratio(result):.3f}")
+    if "lugre_vs_stribeck_at_reversals" in result:
+        c = result["lugre_vs_stribeck_at_reversals"]
+        print(f"RMS at reversals, LuGre / Stribeck feed-forward: median {c['median']:.3f}, per joint "
+              f"{[None if x is None else round(x, 3) for x in c['per_joint']]}")
     if "drift" in result:
         print(f"drift: recovered fraction {result['drift']['recovered_fraction']:.3f}, "
               f"recovery {result['drift']['recovery_s']} s")
@@ -133,11 +145,12 @@ def node_parameters(robot: str, joints: list[str], work: Path, args) -> Path:
     system = robot if robot.startswith("urdf:") else "tx40"
     values = {"system": system, "joints": joints, "friction_model": "coulomb", "solver": "ls",
               "velocity_source": args.velocity_source, "smoothing_eps": 0.02, "known_rigid_body": True,
-              "online_period_s": 0.0 if args.payload_kg > 0 else float(args.online_period_s),
+              "online_period_s": float(args.online_period_s) if gated(args) else 0.0,
               "online_window_s": float(args.online_window_s),
               "online_holdout": 0.25, "gate_max_abs": 1000.0, "feedforward_max": 100.0, "feedforward_ramp_s": 0.5,
               "results_file": str(work / "results" / "parameters.json"), "max_missing_pct": 20.0,
-              "buffer_seconds": 30.0, "diagnostics_period_s": 0.5}
+              "buffer_seconds": 30.0 if args.hidden_friction == "stribeck" else 4.0 * args.phase_s + 30.0,
+              "diagnostics_period_s": 0.5}  # lugre: the off phase stays buffered for its second identification
     path = work / "node.yaml"
     path.write_text("frictionid:\n  ros__parameters:\n" + "".join(
         f"    {k}: {json.dumps(v)}\n" for k, v in values.items()))
@@ -275,10 +288,11 @@ def _wait(seconds: float, procs: Processes) -> None:
 
 
 def offer_bad_parameters(client: Client, results_file: Path, refused_by: str = "safety gate") -> bool:
-    """Offer the active set with every Coulomb level negated and tripled to the gate (~/load);
-    True if the node refused it (its message names ``refused_by``: the gate, or the safety screen
-    when online re-identification is off) and did not activate it (the online re-identification may
-    replace the active set meanwhile: that is no sign of the offer)."""
+    """Offer the active set with every Coulomb level negated and tripled to the gate (~/load; its
+    safety screen without online re-identification); True if the node refused it (its message names
+    ``refused_by``: the gate, or the safety screen when online re-identification is off) and did not
+    activate it (the online re-identification may replace the active set meanwhile: that is no sign
+    of the offer)."""
     from frictionid_interfaces.srv import ParametersFile
 
     data = json.loads(results_file.read_text())
@@ -295,6 +309,12 @@ def offer_bad_parameters(client: Client, results_file: Path, refused_by: str = "
     params = lambda results: {joint: p["params"] for joint, p in results["per_joint"].items()}
     active = params(json.loads(results_file.read_text()))
     return (not res.success) and refused_by in res.message and active != params(bad)
+
+
+def gated(args) -> bool:
+    """Whether the loop runs the node's online re-identification (its safety gate answers ~/load):
+    not with a payload or a hidden LuGre law, whose phases would be disturbed by it."""
+    return args.payload_kg <= 0 and args.hidden_friction == "stribeck"
 
 
 def payload_phases(client: Client, args, phase, phases: dict, procs: Processes) -> float:
@@ -318,6 +338,26 @@ def payload_phases(client: Client, args, phase, phases: dict, procs: Processes) 
     return float(res.inertia.m)
 
 
+def identify_off_phase(client: Client, friction: str = "", span: tuple[int, int] | None = None,
+                       seconds: float = 0.0) -> None:
+    """~/identify the off phase with the law ``friction`` (by lm; empty: the node's law and solver),
+    activating the result: its last ``seconds``, or the stamps ``span`` [ns] less their first second when the
+    off phase lies in the past; FrictionIdError when it fails."""
+    from builtin_interfaces.msg import Time
+    from frictionid_interfaces.srv import Identify
+
+    request = Identify.Request(friction_model=friction, solver="lm" if friction else "", window_seconds=seconds)
+    if span is not None:
+        start, end = span[0] + NS, span[1]
+        request.window_start, request.window_end = (Time(sec=x // NS, nanosec=x % NS) for x in (start, end))
+    while True:  # the online re-identification may hold the slot for a moment
+        res = client.call(Identify, "/frictionid/identify", request)
+        if res.success or not res.message.startswith("busy"):
+            break
+        time.sleep(0.2)
+    if not res.success:
+        raise FrictionIdError(f"identification of the off phase failed: {res.message}")
+
 def run(args) -> tuple[dict, dict, dict]:
     """The loop's phases → (the JSON figures, the controller's record, the phases' stamps)."""
     import numpy as np
@@ -340,7 +380,8 @@ def run(args) -> tuple[dict, dict, dict]:
         procs.start("controller", "frictionid_ros.controller_node", "--ros-args", "-p", f"robot:={args.robot}",
                     "-p", f"record_file:={record_file}")
         procs.start("sim", "frictionid_ros.sim_node", "--ros-args", "-p", f"robot:={args.robot}",
-                    "-p", f"drift_s:={args.drift_s}", "-p", f"drift_fraction:={args.drift_fraction}")
+                    "-p", f"drift_s:={args.drift_s}", "-p", f"drift_fraction:={args.drift_fraction}",
+                    "-p", f"hidden_friction:={args.hidden_friction}")
         client = Client(domain)
         from rcl_interfaces.srv import SetParameters
 
@@ -361,16 +402,14 @@ def run(args) -> tuple[dict, dict, dict]:
             phases[name] = (start, time.time_ns())
 
         phase("feedforward_off", args.phase_s)
-        while True:  # the online re-identification may hold the slot for a moment
-            res = client.call(Identify, "/frictionid/identify", Identify.Request(window_seconds=args.phase_s - 1.0))
-            if res.success or not res.message.startswith("busy"):
-                break
-            time.sleep(0.2)
-        if not res.success:
-            raise FrictionIdError(f"identification of the off phase failed: {res.message}")
+        lugre = args.hidden_friction == "lugre"
+        identify_off_phase(client, "stribeck" if lugre else "", seconds=args.phase_s - 1.0)
         client.set_parameter("frictionid_loop_controller", "feedforward_enabled", True)
         phase("feedforward_on", args.phase_s)
-        if not args.no_drift:
+        if lugre:
+            identify_off_phase(client, "lugre", span=phases["feedforward_off"])
+            phase("feedforward_on_lugre", args.phase_s)
+        if not args.no_drift and not lugre:
             client.set_parameter("frictionid_sim", "drift_start", True)
             phase("drift", args.drift_s)
             phase("after_drift", args.after_s)
@@ -380,7 +419,7 @@ def run(args) -> tuple[dict, dict, dict]:
         if args.payload_kg > 0:
             identified_kg = payload_phases(client, args, phase, phases, procs)
         rejected = offer_bad_parameters(client, work / "results" / "parameters.json",
-                                        "refused by the safety screen" if args.payload_kg > 0 else "safety gate")
+                                        "safety gate" if gated(args) else "refused by the safety screen")
     finally:
         if client is not None:
             client.close()
@@ -392,6 +431,13 @@ def run(args) -> tuple[dict, dict, dict]:
         record = {k: z[k] for k in z.files}
     figures = summarize(record, phases, after_s=args.after_s)
     result = {k: figures[k] for k in ("rms_tracking_error", "drift") if k in figures}
+    if "feedforward_on_lugre" in phases:
+        at = figures["rms_at_reversals"]
+        ratio = [None if a is None or b is None or b <= 0 else a / b
+                 for a, b in zip(at["feedforward_on_lugre"], at["feedforward_on"])]
+        known = [r for r in ratio if r is not None]
+        result["lugre_vs_stribeck_at_reversals"] = {"per_joint": ratio,
+                                                    "median": float(np.median(known)) if known else None}
     result["gate"] = {"bad_parameters_rejected": bool(rejected)}
     if args.payload_kg > 0:
         from frictionid_core.loop import payload_figures

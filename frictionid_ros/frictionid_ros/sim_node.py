@@ -45,9 +45,10 @@ class SimNode(LoopNode):
         p = {name: self.declare_parameter(name, default).value for name, default in (
             ("robot", "tx40"), ("rate_hz", 1000.0), ("drift_fraction", 0.3), ("drift_s", 60.0),
             ("drift_start", False), ("payload_kg", 0.0), ("joint_states_topic", "joint_states"),
-            ("command_topic", "/effort_controller/commands"))}
+            ("command_topic", "/effort_controller/commands"), ("hidden_friction", "stribeck"))}
         self.robot = robot = load_robot(p["robot"])
-        self.sim = SimArm(robot, hidden_friction(p["robot"], robot.joints), q0=default_trajectory(robot).q0)
+        self.sim = SimArm(robot, hidden_friction(p["robot"], robot.joints), q0=default_trajectory(robot).q0,
+                          law=p["hidden_friction"])
         self.period = 1.0 / float(p["rate_hz"])
         if abs(self.period - self.sim.model.opt.timestep) > 1e-12:
             raise FrictionIdError(f"rate_hz must be {1.0 / self.sim.model.opt.timestep:g} (the simulation step)")

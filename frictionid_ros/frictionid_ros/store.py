@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from frictionid_core import YAML_SUFFIXES, FrictionIdError, IdentifyResult, get_model, read_json, write_json
+from frictionid_core.friction import elements_of
 from frictionid_core.robots import Payload
 from frictionid_core.safety import (
     Limit,
@@ -67,7 +68,7 @@ class JointParams:
 
     def friction_vector(self):
         """(model, parameter vector in the model's order) for the feed-forward."""
-        model = get_model(self.friction, self.asymmetric)
+        model = get_model(self.friction, self.asymmetric, elements_of(self.friction, self.params))
         missing = [n for n in model.names if n not in self.params]
         if missing:
             raise FrictionIdError(f"joint '{self.joint}': {model.label} parameter(s) {missing} missing")

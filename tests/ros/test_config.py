@@ -27,8 +27,8 @@ PATHS_AND_LIMITS = ("system", "results_file", "results_dir", "max_budget", "max_
 
 def test_parameters_share_the_validation_and_name_the_parameter(tmp_path):
     assert node_config(tmp_path, friction_model="stribeck", seed=4).solve.friction == "stribeck"
-    with pytest.raises(FrictionIdError, match=r"^parameter 'friction_model': unknown friction model 'lugre'; choose"):
-        node_config(tmp_path, friction_model="lugre")
+    with pytest.raises(FrictionIdError, match=r"^parameter 'friction_model': unknown friction model 'dahl'; choose"):
+        node_config(tmp_path, friction_model="dahl")
     with pytest.raises(FrictionIdError, match=r"^parameter 'solver': unknown solver 'x'"):
         node_config(tmp_path, solver="x")
     with pytest.raises(FrictionIdError, match=r"^parameter 'window_seconds' = 90.0 s is over the limit "

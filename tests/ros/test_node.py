@@ -237,7 +237,7 @@ def test_bad_requests_fail_with_a_clear_message(identified, ros, node):
     cases = [
         (dict(joints=["nope"]), "nope"),
         (dict(solver="simplex"), "simplex"),
-        (dict(friction_model="lugre"), "lugre"),
+        (dict(friction_model="dahl"), "dahl"),
         (dict(window_seconds=2.0, window_start=Time(sec=1)), "window"),
         (dict(window_seconds=-1.0), "window_seconds"),
         (dict(solver="ls", friction_model="tustin"), "ls"),  # ls cannot fit a nonlinear model

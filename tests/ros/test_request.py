@@ -41,7 +41,7 @@ def test_request_defaults_and_overrides(tmp_path):
 @pytest.mark.parametrize("fields, needle", [
     (dict(joints=["nope"]), r"unknown joint\(s\) \['nope'\]; buffered joints: \['a', 'b'\]"),
     (dict(joints=["a", "a"]), r"duplicated joint names"),
-    (dict(friction_model="lugre"), r"request field 'friction_model': unknown friction model 'lugre'"),
+    (dict(friction_model="dahl"), r"request field 'friction_model': unknown friction model 'dahl'"),
     (dict(solver="simplex"), r"request field 'solver': unknown solver 'simplex'"),
     (dict(population=-1), r"request field 'population' must be an integer >= 0, got -1"),
     (dict(budget=-5), r"request field 'budget' must be an integer >= 0, got -5"),

@@ -34,6 +34,39 @@ def emps_like(n: int = 3000, dt: float = 1e-3, M: float = 95.0, Fv: float = 200.
     return JointSeries(t, [joint], q, tau, source="synthetic")
 
 
+def reversal_motion(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(q, q̇, q̈) of 5 s segments: 4 s of whole sine cycles at one of six amplitudes (0.02 to 0.8
+    rad/s) and rates, smoothly windowed, then 1 s at rest: fast and slow reversals and dwells."""
+    seg, local = (t // 5.0).astype(int) % 6, t % 5.0
+    amp = np.array([0.4, 0.05, 0.8, 0.02, 0.3, 0.1])[seg]
+    w = 2 * np.pi * np.array([0.5, 0.25, 0.75, 0.5, 1.0, 0.25])[seg]
+    moving = local < 4.0
+    c = np.pi / 4.0
+    window, dwindow = np.sin(c * local) ** 2, 2 * c * np.sin(c * local) * np.cos(c * local)
+    qd = np.where(moving, amp * np.sin(w * local) * window, 0.0)
+    qdd = np.where(moving, amp * (w * np.cos(w * local) * window + np.sin(w * local) * dwindow), 0.0)
+    q = np.concatenate([[0.0], np.cumsum(0.5 * (qd[1:] + qd[:-1]) * np.diff(t))])
+    return q, qd, qdd
+
+
+def dynamic_friction_log(params: dict[str, float], friction: str = "lugre", *, seed: int = 0, seconds: float = 30.0,
+                         rate: float = 1000.0, inertia: float = 0.05, torque_noise: float = 0.02,
+                         position_noise: float = 1e-6, elements: int | None = None,
+                         joint: str = "j") -> JointSeries:
+    """One joint τ = J·q̈ + F(q̇ history) + noise of a dynamic law with ``params`` along
+    :func:`reversal_motion` (the states integrated at the log's rate from rest), noisy position."""
+    from frictionid_core.friction import get_model
+
+    t = np.arange(0.0, seconds, 1.0 / rate)
+    q, qd, qdd = reversal_motion(t)
+    law = get_model(friction, False, elements)
+    friction_torque = law.torque(np.array([params[n] for n in law.names]), qd, t=t)
+    rng = np.random.default_rng(seed)
+    tau = inertia * qdd + friction_torque + torque_noise * rng.standard_normal(t.size)
+    return JointSeries(t, [joint], (q + position_noise * rng.standard_normal(t.size))[:, None], tau[:, None],
+                       source=f"synthetic {friction} (seed {seed})")
+
+
 # ------------------------------------------------------------------------ bag writing
 def _ros2_typestore():
     from rosbags.typesys import Stores, get_typestore

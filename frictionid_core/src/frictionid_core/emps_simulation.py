@@ -299,6 +299,9 @@ class EmpsSimulator:
                  saturation: float = SATURATION_V) -> None:
         self.data = d = _as_data(data)
         self.friction = friction if isinstance(friction, FrictionModel) else get_model(friction, asymmetric)
+        if self.friction.is_dynamic:
+            raise FrictionIdError(f"the EMPS simulator takes a static friction law, not {self.friction.label} (its "
+                                  "states are not carried through the simulator's stages)")
         if clock not in CLOCKS:
             raise FrictionIdError(f"unknown clock '{clock}'; choose one of {', '.join(CLOCKS)}")
         if int(substeps) < 1:

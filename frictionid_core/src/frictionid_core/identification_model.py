@@ -2,7 +2,8 @@
 
 The parameter vector is: rigid-body parameters, then per joint the friction parameters (in
 the friction model's order), then per joint the constant ``offset`` (symmetric models only:
-with an asymmetric model the offset is collinear with the two Coulomb columns).
+with an asymmetric model the offset is collinear with the two Coulomb columns), then with
+``load_rigid`` per joint its load-dependent Coulomb level ``Fc_load``.
 With more than one joint, per-joint names are prefixed ``<joint>/``.
 
 Every parameter except the nonlinear friction shape parameters (vs, v0, delta) enters the
@@ -25,62 +26,11 @@ import numpy as np
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import FrictionModel
+from frictionid_core.identification_terms import ActiveDip, Dip, Term, place
 from frictionid_core.linear import box_quadratic, least_squares
+from frictionid_core.load_dependence import LOAD_BOUNDS, LOAD_NAME, load_columns, load_names
 from frictionid_core.observation import Observation
 from frictionid_core.parameter_names import cannot_be_negative, parameter_keys
-
-
-@dataclass
-class _Term:
-    """A linear parameter's column: a fixed column (rows) plus, optionally, ∓ a dip column."""
-
-    name: str
-    index: int  # position in the full parameter vector
-    joint: int
-    fixed: np.ndarray | None  # (R,) rows, or None for the pure dip column (Fs)
-    dip_branch: int | None = None  # which dip this term carries
-    dip_sign: float = 0.0  # +1 (Fs), −1 (Fc of tustin/stribeck/threlfall)
-
-
-@dataclass
-class _Dip:
-    """One branch of one joint whose shape depends on nonlinear parameters."""
-
-    joint: int
-    nl_index: list[int]  # indices of (vs[, delta]) or (v0) in the full parameter vector
-    mask: np.ndarray  # (Nd,) branch selector × sign(v) at the decimated velocity
-    speed: np.ndarray  # (Nd,) |v|
-
-
-@dataclass
-class _ActiveDip:
-    """A dip restricted to its active rows, with the constant pieces the cost needs."""
-
-    nl_index: list[int]
-    speed: np.ndarray  # |v| on the active rows
-    log_speed: np.ndarray  # log|v| (the rows are active only where v ≠ 0)
-    mask: np.ndarray  # signed branch mask on the active rows
-    F_rows: np.ndarray  # fixed design rows (n, L)
-    y_rows: np.ndarray  # measured torque rows (n,)
-    sign: np.ndarray  # (L,) ±1 for the linear terms the dip enters, 0 elsewhere
-    sign2: np.ndarray  # outer(sign, sign)
-    F_cols: np.ndarray = field(init=False)  # columns of F_rows not all zero (the others add nothing to dᵀF)
-    Ft_nz: np.ndarray = field(init=False)  # F_rows[:, F_cols]ᵀ (L', n), contiguous
-
-    def __post_init__(self):
-        self.F_cols = np.flatnonzero(np.any(self.F_rows != 0.0, axis=0))
-        self.Ft_nz = np.ascontiguousarray(self.F_rows[:, self.F_cols].T)
-
-    def sums(self, friction: FrictionModel, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """For parameters (P, k), the signed dip column d on the active rows reduced to
-        (dᵀd (P,), dᵀy (P,), dᵀF (P, L)) — see :mod:`frictionid_core.friction.kernels`."""
-        from frictionid_core.friction.kernels import dip_sums  # numba: only models with a dip need it
-
-        dd, dy, dF_nz = dip_sums(friction.name, p[:, self.nl_index], self.speed, self.log_speed, self.mask,
-                                 self.Ft_nz, self.y_rows)
-        dF = np.zeros((p.shape[0], self.F_rows.shape[1]))
-        dF[:, self.F_cols] = dF_nz
-        return dd, dy, dF
 
 
 @dataclass
@@ -105,6 +55,9 @@ class IdentificationModel:
             the user's.
         physical: hold the parameters that cannot be negative at ≥ 0 in every solver path (the
             user's bounds of a parameter replace its sign constraint).
+        load_rigid: rigid-body parameters (R,) whose torque sets the load-dependent Coulomb
+            columns (``<joint>/Fc_load`` after the offsets: :mod:`frictionid_core.load_dependence`);
+            None: no load dependence.
     """
 
     obs: Observation
@@ -115,6 +68,7 @@ class IdentificationModel:
     fixed: dict[str, float] = field(default_factory=dict)
     data_bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
     physical: bool = True
+    load_rigid: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.offset is None:
@@ -123,10 +77,11 @@ class IdentificationModel:
         nd, nj = obs.n_samples, len(obs.joints)
         rows = nj * nd
         names = list(obs.rigid_names)
-        terms: list[_Term] = [_Term(n, i, -1, obs.rigid[:, i]) for i, n in enumerate(obs.rigid_names)]
-        dips: list[_Dip] = []
+        terms: list[Term] = [Term(n, i, -1, obs.rigid[:, i]) for i, n in enumerate(obs.rigid_names)]
+        dips: list[Dip] = []
         fnames = self.friction.names
         law = self.friction.law
+        dynamic = law.is_dynamic  # its level and states are not linear: only Fv is (DynamicIdentificationModel)
         nb = len(self.friction.branch_names)
         for j in range(nj):
             prefix = f"{obs.joints[j]}/" if nj > 1 else ""
@@ -144,24 +99,29 @@ class IdentificationModel:
                 else:  # the decimated sign column (weighted like the others): the dip's sign step
                     mask = scol  # anti-aliased as the effort's is
                 dip_id = None
-                nl = [base + off + k for k, n in enumerate(self.friction.branch_names) if n in law.nonlinear]
+                nl = [base + off + k for k, n in enumerate(self.friction.branch_names)
+                      if n in law.nonlinear and not dynamic]
                 if nl:
                     dip_id = len(dips)
-                    dips.append(_Dip(j, nl, mask, np.abs(v)))
+                    dips.append(Dip(j, nl, mask, np.abs(v)))
                 for k, n in enumerate(self.friction.branch_names):
                     idx = base + off + k
                     if n == "Fv":
-                        terms.append(_Term(names[idx], idx, j, _place(vcol, j, nj, nd)))
-                    elif n == "Fc":
-                        terms.append(_Term(names[idx], idx, j, _place(scol, j, nj, nd), dip_id,
+                        terms.append(Term(names[idx], idx, j, place(vcol, j, nj, nd)))
+                    elif n == "Fc" and not dynamic:
+                        terms.append(Term(names[idx], idx, j, place(scol, j, nj, nd), dip_id,
                                            -1.0 if dip_id is not None else 0.0))
-                    elif n == "Fs":
-                        terms.append(_Term(names[idx], idx, j, None, dip_id, 1.0))
+                    elif n == "Fs" and not dynamic:
+                        terms.append(Term(names[idx], idx, j, None, dip_id, 1.0))
         if self.offset:
             for j in range(nj):
                 prefix = f"{obs.joints[j]}/" if nj > 1 else ""
                 names.append(prefix + "offset")
-                terms.append(_Term(names[-1], len(names) - 1, j, _place(obs.columns[j]["one"], j, nj, nd)))
+                terms.append(Term(names[-1], len(names) - 1, j, place(obs.columns[j]["one"], j, nj, nd)))
+        if self.load_rigid is not None:
+            for j, (name, col) in enumerate(zip(load_names(obs.joints), load_columns(obs, self.load_rigid))):
+                names.append(name)
+                terms.append(Term(name, len(names) - 1, j, place(col, j, nj, nd)))
         self.names = names
         self._terms = terms
         self._dips = dips
@@ -184,7 +144,7 @@ class IdentificationModel:
             rows = d.joint * nd + active
             speed = d.speed[active]
             sign = np.array([t.dip_sign if t.dip_branch == k else 0.0 for t in self._terms])
-            dips.append(_ActiveDip(d.nl_index, speed, np.log(np.maximum(speed, 1e-300)), d.mask[active],
+            dips.append(ActiveDip(d.nl_index, speed, np.log(np.maximum(speed, 1e-300)), d.mask[active],
                                    np.ascontiguousarray(F[rows]), y[rows], sign, np.outer(sign, sign)))
         return F.T @ F, F.T @ y, float(y @ y), dips
 
@@ -254,8 +214,8 @@ class IdentificationModel:
         y[rows], rigid[rows], used[rows] = 0.0, 0.0, False
         part = replace(obs, y=y, rigid=rigid, used=used, velocity=np.where(drop[:, None], 0.0, obs.velocity),
                        columns=[{k: np.where(drop, 0.0, v) for k, v in c.items()} for c in obs.columns], sampled=None)
-        return IdentificationModel(part, self.friction, self.offset, self.rigid_bounds, self.bound_overrides,
-                                   self.fixed, self.data_bounds, self.physical)
+        return type(self)(part, self.friction, self.offset, self.rigid_bounds, self.bound_overrides, self.fixed,
+                          self.data_bounds, self.physical, self.load_rigid)
 
     # ----------------------------------------------------------------- structure
     @property
@@ -318,9 +278,10 @@ class IdentificationModel:
         r = len(self.obs.rigid_names)
         for j in range(len(self.obs.joints)):
             lo[r + j * nf : r + (j + 1) * nf], hi[r + j * nf : r + (j + 1) * nf] = flo, fhi
-        if self.offset:
-            scale = float(np.max(np.abs(self.obs.y))) if self.obs.y.size else 1.0
-            lo[-len(self.obs.joints):], hi[-len(self.obs.joints):] = -0.5 * scale, 0.5 * scale
+        kinds = np.array([n.rsplit("/", 1)[-1] for n in self.names])
+        scale = float(np.max(np.abs(self.obs.y))) if self.obs.y.size else 1.0
+        lo[kinds == "offset"], hi[kinds == "offset"] = -0.5 * scale, 0.5 * scale
+        lo[kinds == LOAD_NAME], hi[kinds == LOAD_NAME] = LOAD_BOUNDS
         for i, (low, high) in self.grounded_bounds.items():
             lo[i], hi[i] = low, high
         if self.physical:
@@ -341,13 +302,18 @@ class IdentificationModel:
             out.append(shape * d.mask[None, :])
         return out
 
-    def predict(self, params: np.ndarray) -> np.ndarray:
-        """Torque rows for parameters (P, k) → (P, R), or (k,) → (R,)."""
+    def population(self, params: np.ndarray) -> tuple[np.ndarray, bool]:
+        """(parameters as (P, k), whether one vector (k,) was given); FrictionIdError for another k."""
         p = np.asarray(params, dtype=float)
         single = p.ndim == 1
         p = np.atleast_2d(p)
         if p.shape[1] != self.k:
             raise FrictionIdError(f"model takes {self.k} parameters {self.names}, got {p.shape[1]}")
+        return p, single
+
+    def predict(self, params: np.ndarray) -> np.ndarray:
+        """Torque rows for parameters (P, k) → (P, R), or (k,) → (R,)."""
+        p, single = self.population(params)
         coef = p[:, self.linear_index]
         pred = coef @ self._fixed.T
         if self._dips:
@@ -478,9 +444,3 @@ class IdentificationModel:
             sd[free], cond = fit.std, fit.cond
         x[self.linear_index] = coef
         return x, {**dict(zip(names, map(float, sd))), **std}, cond
-
-
-def _place(col: np.ndarray, j: int, nj: int, nd: int) -> np.ndarray:
-    out = np.zeros(nj * nd)
-    out[j * nd : (j + 1) * nd] = col
-    return out

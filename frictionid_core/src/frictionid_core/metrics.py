@@ -43,15 +43,15 @@ def noise_sigma(residual: np.ndarray, used: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(d2)) / np.sqrt(6.0)) if d2.size >= 10 else NAN
 
 
-def observation_metrics(obs, y_hat: np.ndarray) -> dict:
+def observation_metrics(obs, y_hat: np.ndarray, rows: np.ndarray | None = None) -> dict:
     """Metrics of the prediction ``y_hat`` (J·Nd,) on the used rows of the observation ``obs``
     (its ``metric`` observation: the recorded effort at the analysis instants, or the filtered
     one under the EMPS protocol; motor rows are mapped to joint torques first, a joint's row
     used when every motor turning with it is): :func:`fit_metrics`, ``samples``, ``noise_floor_pct`` (the
     relative error the effort's noise alone would leave, its σ from the residual by
     :func:`noise_sigma`), ``against`` (which effort) and ``per_joint`` {joint: {relerr_pct,
-    rmse, r2, noise_floor_pct}}."""
-    y, used, nd = obs.y, obs.used, obs.n_samples
+    rmse, r2, noise_floor_pct}}. ``rows`` (J·Nd,): only those of the used rows (default all)."""
+    y, used, nd = obs.y, obs.used if rows is None else obs.used & rows, obs.n_samples
     y_hat = np.ravel(y_hat)
     joints = obs.joints
     if obs.coupling is not None:  # motor rows: metrics on the joint torques τ = Cᵀ·u
@@ -79,6 +79,18 @@ def observation_metrics(obs, y_hat: np.ndarray) -> dict:
     out["against"] = ("effort low-passed by the decimation filter (the EMPS benchmark's metric)"
                       if obs.preprocessing.metric == "filtered" else "recorded effort at the analysis instants")
     out["per_joint"] = per_joint
+    return out
+
+
+ALL_ROWS_KEYS = ("relerr_pct", "rmse", "r2", "samples")
+
+
+def all_rows_metrics(obs, y_hat: np.ndarray) -> dict:
+    """The ``all_rows`` metrics of a prediction on every row of a full observation (standstill
+    and reversals included): relerr_pct, rmse, r2, samples and per joint relerr_pct, rmse, r2."""
+    m = observation_metrics(obs, y_hat)
+    out = {k: m[k] for k in ALL_ROWS_KEYS}
+    out["per_joint"] = {j: {k: v[k] for k in ("relerr_pct", "rmse", "r2")} for j, v in m["per_joint"].items()}
     return out
 
 

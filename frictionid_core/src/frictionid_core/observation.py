@@ -12,7 +12,7 @@ Rows are stacked joint-major: rows ``j·Nd … (j+1)·Nd − 1`` belong to joint
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -55,6 +55,11 @@ class Observation:
         weight: (Nd,) the weight of each instant when the pre-processing thins the rows
             (:func:`~frictionid_core.preprocess.thinned_rows`): ``y``, ``rigid`` and ``columns``
             hold weighted rows, a dip term multiplies its column by it; None: every weight 1.
+        full: the same instants with every row, the slow ones too (:func:`keep_all_rows`: what
+            the all-rows metrics and the dynamic friction laws use); None when not kept (the fit
+            rows of a static law's observation with sampled rows).
+        moving: in a ``full`` observation, (J·Nd,) the rows the observation it was kept from
+            uses (the moving rows); None elsewhere.
     """
 
     joints: list[str]
@@ -72,6 +77,8 @@ class Observation:
     coupling: np.ndarray | None = None
     data_joints: list[str] | None = None
     weight: np.ndarray | None = None
+    full: Observation | None = None
+    moving: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.used is None:
@@ -100,6 +107,23 @@ class Observation:
             return rows
         u = rows.reshape(rows.shape[:-1] + (len(self.joints), self.n_samples))
         return np.einsum("mj,...mn->...jn", self.coupling, u).reshape(rows.shape)
+
+
+def keep_all_rows(obs: Observation, fit_rows: bool = False) -> None:
+    """Keep a copy of the rows of ``obs``'s metric observation (:attr:`Observation.metric`: its
+    sampled one, or itself without) as they are now in its ``full`` — and with ``fit_rows`` of
+    ``obs`` itself too (``obs.full``, whose ``sampled`` is ``obs.sampled.full``) — every row used,
+    ``moving`` holding the used rows (the same array: rows left out later are not moving). Only
+    the metric rows' by default: the all-rows metrics need them, a dynamic law every fit row."""
+    def copy(o: Observation, sampled: Observation | None) -> Observation:
+        return replace(o, y=o.y.copy(), rigid=o.rigid.copy(), velocity=o.velocity.copy(),
+                       columns=[{k: c.copy() for k, c in cols.items()} for cols in o.columns],
+                       used=np.ones(o.y.size, dtype=bool), sampled=sampled, full=None, moving=o.used)
+
+    if obs.sampled is not None:
+        obs.sampled.full = copy(obs.sampled, None)
+    if fit_rows or obs.sampled is None:
+        obs.full = copy(obs, obs.sampled.full if obs.sampled is not None else None)
 
 
 def velocity_columns(qd: np.ndarray) -> np.ndarray:
@@ -205,7 +229,7 @@ def concat_observations(observations: list[Observation]) -> Observation:
             parts[f.name] = values[0]
         elif f.name == "notes":
             parts[f.name] = [note for v in values for note in v]
-        elif f.name == "sampled":
+        elif f.name in ("sampled", "full"):
             parts[f.name] = None if any(v is None for v in values) else concat_observations(values)
         elif isinstance(values[0], np.ndarray) and all(v.shape[0] == nj * n for v, n in zip(values, sizes)):
             parts[f.name] = np.concatenate([v[j * n : (j + 1) * n] for j in range(nj) for v, n in zip(values, sizes)])

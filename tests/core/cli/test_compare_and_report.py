@@ -205,7 +205,7 @@ def test_report_measured_friction_is_the_identified_law_on_noise_free_data(tmp_p
     settings = PreprocessingOverrides(cutoff_hz=100.0, decimate=1, trim_start_s=0.05, trim_end_s=0.05, min_speed=0.0,
                                       metric="recorded")
     result = identify(est, IdentifyRequest(system="emps", preprocessing=settings)).to_dict()
-    (trace,), friction = joint_traces(val, result)
+    (trace,), _, friction = joint_traces(val, result)
     law = friction.torque(trace.friction_params, trace.velocity)
     assert np.max(np.abs(trace.friction - law)) < 0.05
     assert trace.t[0] == pytest.approx(50e-3) and trace.excluded == 0
@@ -216,8 +216,10 @@ def test_report_measured_friction_is_the_identified_law_on_noise_free_data(tmp_p
     assert rep["sources"][1]["per_joint"]["emps"]["relerr_pct"] < 0.01
     for s in rep["sources"]:
         assert _png_is_drawn(tmp_path / "out" / s["figures"]["emps"])
+        assert _png_is_drawn(tmp_path / "out" / s["reversal_figures"]["emps"])  # a reversal, every row
+        assert s["all_rows"]["samples"] == s["metrics"]["samples"]  # min speed 0: every row is fitted
     page = (tmp_path / "out" / "report.html").read_text()
-    assert page.count("<img ") == 2 and "r.json" in page and "Fc" in page
+    assert page.count("<img ") == 4 and "r.json" in page and "Fc" in page
 
 
 def test_report_rows_left_out_by_the_system_are_not_shown(tmp_path):
@@ -226,7 +228,7 @@ def test_report_rows_left_out_by_the_system_are_not_shown(tmp_path):
 
     series = load(BAGS / "tx40_j2_validation", joints=["joint_2"])
     result = identify(series, IdentifyRequest(system="tx40-j2", friction="coulomb", solver="ls")).to_dict()
-    (trace,), _ = joint_traces(series, result)
+    (trace,), _, _ = joint_traces(series, result)
     assert trace.excluded > 0
     assert np.min(np.abs(trace.velocity)) >= result["preprocessing"]["min_speed"]["joint_2"]
     assert trace.t.size == result["metrics"]["samples"]

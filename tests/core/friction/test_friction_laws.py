@@ -20,6 +20,10 @@ NAMES = {
     "tustin": ("Fv", "Fc", "Fs", "vs"),
     "stribeck": ("Fv", "Fc", "Fs", "vs", "delta"),
 }
+DYNAMIC_NAMES = {
+    "lugre": ("Fv", "Fc", "Fs", "vs", "sigma0", "sigma1"),
+    "gms": ("Fv", "Fc", "Fs", "vs", "k1", "k2", "k3", "k4"),
+}
 
 
 def sgn(v: float) -> float:
@@ -103,7 +107,8 @@ def test_parameter_names(model):
 def test_all_models_are_the_eight_combinations():
     labels = [m.label for m in all_models()]
     assert len(labels) == 8 and len(set(labels)) == 8
-    assert set(FRICTIONS) == {"coulomb", "threlfall", "tustin", "stribeck"}
+    assert set(FRICTIONS) == {"coulomb", "threlfall", "tustin", "stribeck", "lugre", "gms"}
+    assert all(not m.law.is_dynamic for m in all_models())
     assert [m.is_linear for m in all_models()] == [True, True] + [False] * 6
 
 
@@ -112,10 +117,11 @@ def test_the_registry_is_the_one_description_of_each_law():
     nonlinear parameters (the compiled kernels' agreement with the numpy law: test_law_agreement)."""
     assert FRICTIONS == tuple(LAWS) and all(law.name == name for name, law in LAWS.items())
     for name, law in LAWS.items():
-        assert law.params == NAMES[name] == law.linear + law.nonlinear
+        assert law.params == {**NAMES, **DYNAMIC_NAMES}[name] == law.linear + law.nonlinear + law.params[
+            len(law.linear) + len(law.nonlinear):]
         assert set(law.linear) <= {"Fv", "Fc", "Fs"} and not set(law.nonlinear) & {"Fv", "Fc", "Fs"}
         assert (law.dip is None) == (law.dip_end is None) == (not law.nonlinear)
-        assert law.states == ()
+        assert law.is_dynamic == (name in DYNAMIC_NAMES)
     with pytest.raises(FrictionIdError, match="coulomb model has no nonlinear part"):
         get_model("coulomb").dip(np.ones((1, 1)), np.ones(3))
 

@@ -112,12 +112,15 @@ def test_vectorised_exponential_of_the_dip_sums_matches_libm():
     assert np.isnan(kernels.exp(np.array([np.nan]))[0])
 
 
-def test_a_law_with_states_or_other_linear_parameters_is_refused():
-    """The registry's checks: internal states are not carried by the kernels yet, and the compiled
-    branch reads Fv, Fc[, Fs] by position."""
-    stribeck = LAWS["stribeck"]
-    with pytest.raises(FrictionIdError, match="internal states"):
-        FrictionLaw("lugre", ("Fv", "Fc", "Fs"), ("vs", "sigma0"), stribeck.dip, stribeck.dip_end, states=("z",))
+def test_an_incomplete_dynamic_law_or_other_linear_parameters_is_refused():
+    """The registry's checks: a dynamic law comes with everything its states need, and the compiled
+    branch reads Fv, Fc[, Fs] (and a dynamic law's vs, then its pre-sliding parameters) by position."""
+    stribeck, lugre = LAWS["stribeck"], LAWS["lugre"]
+    with pytest.raises(FrictionIdError, match="a dynamic law has"):
+        FrictionLaw("lugre", ("Fv", "Fc", "Fs"), ("vs",), stribeck.dip, stribeck.dip_end, ("sigma0",), elements=1)
+    with pytest.raises(FrictionIdError, match="a dynamic law has"):
+        FrictionLaw("lugre", ("Fv", "Fc"), ("vs",), stribeck.dip, stribeck.dip_end, ("sigma0",), elements=1,
+                    stiffness=lugre.stiffness, damping=lugre.damping)
     with pytest.raises(FrictionIdError, match="linear parameters"):
         FrictionLaw("odd", ("Fc", "Fv"))
     with pytest.raises(FrictionIdError, match="a dip and its end"):

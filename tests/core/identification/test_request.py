@@ -55,7 +55,7 @@ def test_a_short_request_is_the_default_and_values_are_normalised():
 
 
 @pytest.mark.parametrize("fields, message", [
-    (dict(friction="lugre"), r"^request field 'friction': unknown friction model 'lugre'; choose one of coulomb"),
+    (dict(friction="dahl"), r"^request field 'friction': unknown friction model 'dahl'; choose one of coulomb"),
     (dict(solver="simplex"), r"^request field 'solver.method': unknown solver 'simplex'"),
     (dict(solver={"method": "de", "pop": -1}), r"^request field 'solver.pop' must be an integer >= 0, got -1"),
     (dict(solver={"method": "de", "popsize": 5}), r"^request field 'solver.popsize': unknown; known: method, seed"),

@@ -154,18 +154,35 @@ def metrics_line(metrics: dict) -> str:
 
 
 def joint_lines(metrics: dict) -> list[str]:
-    """One line per joint of ``metrics["per_joint"]`` (none without it)."""
+    """One line per joint of ``metrics["per_joint"]`` (none without it), with its ``all_rows``
+    metrics after a ``|`` when given (:func:`print_metrics`)."""
     rows = metrics.get("per_joint") or {}
+    every = (metrics.get("all_rows") or {}).get("per_joint") or {}
     width = max(map(len, rows), default=0)
-    return [f"  {joint:<{width}}  relerr {fmt(m.get('relerr_pct'), 4)} %, rmse {fmt(m.get('rmse'), 4)}, "
-            f"r2 {fmt(m.get('r2'), 4)}, noise floor {fmt(m.get('noise_floor_pct'), 3)} %" for joint, m in rows.items()]
+    def numbers(m: dict) -> str:
+        return f"relerr {fmt(m.get('relerr_pct'), 4)} %, rmse {fmt(m.get('rmse'), 4)}, r2 {fmt(m.get('r2'), 4)}"
+
+    return [f"  {joint:<{width}}  {numbers(m)}, noise floor {fmt(m.get('noise_floor_pct'), 3)} %"
+            + (f" | all rows: {numbers(every[joint])}" if joint in every else "") for joint, m in rows.items()]
 
 
 def print_metrics(metrics: dict, out=None) -> None:
-    """The metrics line, then (with per-joint metrics) what they are taken against and one line per joint."""
+    """The metrics line, then (with per-joint metrics) what they are taken against and one line per
+    joint. When some rows were left out of them (slower than the min speed): which rows they are
+    (the moving ones), a line of the metrics on every row (``all_rows``: standstill and reversals
+    too), and each joint's after its moving-row metrics."""
     out = sys.stdout if out is None else out
-    print(metrics_line(metrics), file=out)
-    lines = joint_lines(metrics)
+    every = metrics.get("all_rows")
+    split = every is not None and every.get("samples") != metrics.get("samples")
+    line = metrics_line({k: v for k, v in metrics.items() if k != "all_rows"})
+    if split:
+        line = line.replace("metrics:", f"metrics on the moving rows ({fmt(metrics.get('samples'))} of "
+                                         f"{fmt(every.get('samples'))}):", 1)
+    print(line, file=out)
+    if split:
+        print(metrics_line(every).replace("metrics:", "metrics on all rows (standstill and reversals too):", 1),
+              file=out)
+    lines = joint_lines(metrics if split else {k: v for k, v in metrics.items() if k != "all_rows"})
     if lines:
         print(f"per joint, against the {metrics.get('against', 'effort')}:", file=out)
         for line in lines:

@@ -44,11 +44,11 @@ def run(args) -> int:
         print("frictionid: warning: exporting an inconsistent or implausible result (--force): "
               + "; ".join(data.problems))
     for joint, m in data.match.items():
-        if m["loss_pct"] > 0.0:
+        if m["loss_pct"] > 0.0 or m.get("lost"):
             f = data.friction[joint]
             print(f"{joint}: {m['law']} friction exported as damping {f['Fv']:.6g}, frictionloss {f['Fc']:.6g} "
                   f"(least squares over |v| {m['speeds'][0]:.3g}…{m['speeds'][1]:.3g}, {m['speeds_from']}): loses "
-                  f"{m['loss_pct']:.3g} % (RMS) of the law")
+                  f"{m['loss_pct']:.3g} % (RMS) of the law" + (f"; lost: {m['lost']}" if m.get("lost") else ""))
     urdf = urdf_text(data) if (args.urdf or args.mujoco) else None
     texts = []  # every text before any file is written
     if args.urdf:

@@ -44,7 +44,8 @@ FLAGS = {"system": "--system", "joints": "--joints", "joint_map": "--joint-map",
          "preprocessing.velocity": "--velocity", "window": "--start/--end", "window.start_s": "--start",
          "window.end_s": "--end", "consistent": "--consistent", "prior": "--prior", "prior_weight": "--prior-weight",
          "stribeck_order": "--stribeck-order", "hold": "--hold", "hold_missing": "--hold-missing",
-         "gravity": "--gravity", "known_rigid_body": "--known-rigid-body", "effort_sign": "--effort-sign"}
+         "gravity": "--gravity", "known_rigid_body": "--known-rigid-body", "effort_sign": "--effort-sign",
+         "elements": "--elements", "load_dependent": "--load-dependent"}
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -64,6 +65,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_drive_argument(p)
     p.add_argument("--friction", choices=FRICTIONS, help="friction model (default coulomb)")
     p.add_argument("--asymmetric", action="store_true", default=None, help="separate parameters for v > 0 and v < 0")
+    p.add_argument("--elements", type=int, metavar="N",
+                   help="--friction gms: number of Maxwell-slip elements (default 4; 1: Dahl's law with Fs = Fc)")
     p.add_argument("--solver", choices=SOLVERS, help="optimiser (default ls: linear least squares)")
     p.add_argument("--seed", type=int, help="random seed of stochastic solvers (default 0)")
     p.add_argument("--budget", type=int, help="generations (population solvers) or calls (bo, dt)")
@@ -101,6 +104,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--known-rigid-body", action="store_true", default=None,
                    help="tx40, urdf:PATH: hold the model's rigid body (its links) and identify each joint's rotor "
                         "inertia (armature, ≥ 0: its base parameters and <joint>.Ia), friction and offsets")
+    p.add_argument("--load-dependent", action="store_true", default=None,
+                   help="tx40, urdf:PATH: Coulomb friction rising with the transmitted torque: Fc + Fc_load·|τ_rigid| "
+                        "per joint (τ_rigid its rigid-body torque), <joint>/Fc_load identified with the rest")
     p.add_argument("--effort-sign", choices=("auto", "as-logged"),
                    help="joints whose friction ends ≤ 0 are fitted again with their efforts negated; auto (default): "
                         "the negated fit when it is clearly better (a driver's sign opposite to the model's joint "
@@ -160,7 +166,7 @@ def given_fields(args) -> dict:
            "prior_weight": args.prior_weight, "stribeck_order": args.stribeck_order,
            "hold": hold_option(args),
            "hold_missing": args.hold_missing, "gravity": args.gravity, "known_rigid_body": args.known_rigid_body,
-           "effort_sign": args.effort_sign,
+           "effort_sign": args.effort_sign, "elements": args.elements, "load_dependent": args.load_dependent,
            "joint_map": None if args.joint_map is None else parse_joint_map(args.joint_map),
            "fixed": None if args.fix is None else parse_fixed(args.fix),
            "bounds": None if args.bounds is None else parse_bounds(args.bounds)}

@@ -38,7 +38,7 @@ def _progress_bar(n: int, total: int, elapsed: float) -> None:
 
 
 def run(args) -> int:
-    from frictionid_core.friction import FRICTIONS
+    from frictionid_core.friction.laws import STATIC_FRICTIONS as FRICTIONS  # the EMPS simulator's laws
     from frictionid_core.optim import METHODS
     from frictionid_core.study import analyse, format_summary, plan, run_study
 

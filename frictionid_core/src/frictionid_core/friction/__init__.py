@@ -10,21 +10,22 @@
   functions into the identification's dip sums (with a vectorised exp) and the friction of the
   EMPS simulator's members (libm's exp), one cached kernel per law.
 
-A law with internal state (LuGre's bristle deflection z, the generalized Maxwell-slip elements)
-is not a dip law: its force is not Fv·v + level(|v|)·sign(v) with a dip linear in Fc, Fs. It
-would declare ``states`` (refused today) and, instead of ``dip``, a scalar ``force(v, sign, p,
-o, z, z_rate, exp, ratio_power, where)`` that reads one member's state ``z`` (its column of a
-state table), writes its time derivative into ``z_rate`` and returns the force. LuGre:
-ż = v − σ0·|v|·z/g(|v|), F = σ0·z + σ1·ż + σ2·v, with g the level of a dip law above (called,
-not copied). The kernels keep their shape: ``members_friction`` calls ``force`` for each member
-where it now composes the dip, with (ns, m) state tables that the EMPS simulator carries
-through its RK4 stages beside the velocity; ``FrictionModel.torque`` integrates z along the
-samples (it then needs their times); the identification fits such a law through the simulator
-(output error), since the dip sums and the variable projection exist for dip laws only.
+A law with internal states (LuGre's bristle deflection, the generalized Maxwell-slip elements)
+is a *dynamic* law: its level is a dip law's (the Stribeck level with δ = 2, called from
+``stribeck_dip``), and its element states, driven by the motion, give the friction through the
+scalar functions ``substeps``, ``bristle_advance`` and ``bristle_force`` of
+:mod:`~frictionid_core.friction.laws` (each law adds only its elements' ``stiffness`` and its
+``damping``). :mod:`~frictionid_core.friction.kernels` compiles them into ``state_rows`` (the
+states along a log); :mod:`~frictionid_core.friction.states` runs them under numpy, one sample at
+a time (:class:`StateFriction`: the node's feed-forward). ``FrictionModel.torque`` of a dynamic
+law takes the samples' times; the identification fits its static part first, then every
+parameter on every row (:mod:`frictionid_core.identification.dynamic_fit`). The EMPS simulator
+and the dip sums take static laws only.
 """
 
 from frictionid_core.friction.laws import DEFAULT_BOUNDS, FRICTIONS, LAWS, UNITS, FrictionLaw
-from frictionid_core.friction.model import FrictionModel, all_models, get_model, smooth_sign
+from frictionid_core.friction.model import FrictionModel, all_models, elements_of, get_model, smooth_sign
+from frictionid_core.friction.states import StateFriction
 
-__all__ = ["DEFAULT_BOUNDS", "FRICTIONS", "LAWS", "UNITS", "FrictionLaw", "FrictionModel", "all_models", "get_model",
-           "smooth_sign"]
+__all__ = ["DEFAULT_BOUNDS", "FRICTIONS", "LAWS", "UNITS", "FrictionLaw", "FrictionModel", "StateFriction",
+           "all_models", "elements_of", "get_model", "smooth_sign"]

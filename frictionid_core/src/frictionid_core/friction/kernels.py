@@ -36,6 +36,10 @@ Simulator friction. :func:`members_friction` is the friction of a population's m
 at its own velocity (members innermost, so that the EMPS simulator vectorises across them),
 with numba's ``math.exp`` (libm); beyond :func:`dip_ends` a member's dip is taken as
 0 and not computed. :func:`friction_batch` evaluates it on a grid, for checks.
+
+States of a dynamic law. :func:`state_rows` integrates a LuGre or Maxwell-slip law's element
+states along sampled velocities (exact sub-steps of :func:`~frictionid_core.friction.laws.bristle_advance`)
+and returns its friction at every sample, one item (a candidate, a joint) per thread chunk.
 """
 
 from __future__ import annotations
@@ -50,13 +54,24 @@ from numba import njit, types
 from numba.extending import intrinsic, register_jitable
 from numba.np.unsafe.ndarray import to_fixed_tuple
 
-from frictionid_core.friction.laws import LAWS, branch_force, dip_level
+from frictionid_core.friction.laws import (
+    LAWS,
+    branch_force,
+    bristle_advance,
+    bristle_force,
+    dip_level,
+    state_level,
+    substeps,
+)
 from frictionid_core.parallel import run_chunks
 
 SOURCE_DIGEST = hashlib.sha256(b"".join(p.read_bytes() for p in sorted(Path(__file__).parent.glob("*.py")))).hexdigest()
 
-for _fn in (dip_level, branch_force, *(f for law in LAWS.values() for f in (law.dip, law.dip_end) if f is not None)):
+for _fn in (dip_level, branch_force,
+            *(f for law in LAWS.values() for f in (law.dip, law.dip_end, law.stiffness, law.damping) if f is not None)):
     register_jitable(inline="always")(_fn)
+for _fn in (state_level, substeps, bristle_advance, bristle_force):  # compiled once each, called (fast to compile)
+    register_jitable(_fn)
 
 # Dip rows per thread below which a second thread costs more than it saves (≈ 0.5 ms of work;
 # the EMPS populations of 50 stay on one thread, see bench/contention.py).
@@ -137,6 +152,12 @@ def exp(x: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------- the laws' elementary functions
 @register_jitable(inline="always")
 def _select(condition, a, b):
+    return a if condition else b
+
+
+@register_jitable
+def _pick(condition, a, b):
+    """The select of the state functions (called, not inlined: inlining it there trips numba's IR checks)."""
     return a if condition else b
 
 
@@ -296,3 +317,59 @@ def friction_batch(friction: str, asymmetric: bool, eps: float, theta: np.ndarra
     (N,) → (P, N), for checks against :meth:`~frictionid_core.friction.FrictionModel.torque`."""
     return _friction_batch_kernel(friction)(bool(asymmetric), float(eps), np.asarray(theta, dtype=float),
                                             np.asarray(v, dtype=float))
+
+
+# ------------------------------------------------------------- dynamic laws' states
+@functools.cache
+def _state_rows_kernel(friction: str):
+    law = LAWS[friction]
+    dip, stiffness, damping = law.dip, law.stiffness, law.damping
+    digest = SOURCE_DIGEST
+
+    @njit(cache=True, nogil=True)
+    def rows(asym, n, theta, v, which, t, reset, lo, hi, out):  # pragma: no cover - compiled
+        """Items lo..hi−1 of :func:`state_rows`, written into out (M, N)."""
+        digest  # noqa: B018 - a cell of the closure: part of the cache key (module docstring)
+        nb = theta.shape[1] // 2 if asym else 0
+        z = np.zeros(n)
+        for m in range(lo, hi):
+            p = theta[m]
+            vel = v[which[m]]
+            for r in range(vel.size):
+                vr = vel[r]
+                if reset[r]:  # the sliding states of this velocity (0 at rest)
+                    z[:] = 0.0
+                    direction = (1.0 if vr > 0.0 else 0.0) - (1.0 if vr < 0.0 else 0.0)
+                    bristle_advance(z, n, math.inf, direction, abs(vr), abs(vr), p, nb if vr < 0.0 else 0, dip,
+                                    stiffness, math.exp, _exact_ratio_power, _pick)
+                else:
+                    d1, s1, a1, e1, d2, s2, a2, e2 = substeps(vel[r - 1], vr, t[r] - t[r - 1], _pick)
+                    bristle_advance(z, n, d1, s1, a1, e1, p, nb if s1 < 0.0 else 0, dip, stiffness, math.exp,
+                                    _exact_ratio_power, _pick)
+                    if d2 > 0.0:
+                        bristle_advance(z, n, d2, s2, a2, e2, p, nb if s2 < 0.0 else 0, dip, stiffness, math.exp,
+                                        _exact_ratio_power, _pick)
+                out[m, r] = bristle_force(vr, z, n, p, nb if vr < 0.0 else 0, dip, stiffness, damping, math.exp,
+                                          _exact_ratio_power, _pick)
+
+    return rows
+
+
+def state_rows(friction: str, asymmetric: bool, elements: int, theta: np.ndarray, v: np.ndarray,
+               which: np.ndarray, t: np.ndarray, reset: np.ndarray) -> np.ndarray:
+    """The friction (M, N) of M items of a dynamic law, item m with parameters ``theta[m]`` (M, k)
+    at the velocities ``v[which[m]]`` ((V, N), rad/s or m/s) sampled at ``t`` (N,) (s), its
+    states reset to their sliding values where ``reset`` (N,) (the first sample, gaps)."""
+    kernel = _state_rows_kernel(friction)
+    theta = np.ascontiguousarray(theta, dtype=float)
+    v = np.ascontiguousarray(v, dtype=float)
+    which = np.ascontiguousarray(which, dtype=np.int64)
+    t = np.ascontiguousarray(t, dtype=float)
+    reset = np.ascontiguousarray(reset, dtype=np.bool_)
+    out = np.empty((theta.shape[0], v.shape[1]))
+
+    def chunk(lo: int, hi: int) -> None:
+        kernel(bool(asymmetric), int(elements), theta, v, which, t, reset, lo, hi, out)
+
+    run_chunks(chunk, theta.shape[0], min_items=max(1, -(-MIN_CHUNK_ROWS // max(v.shape[1], 1))))
+    return out

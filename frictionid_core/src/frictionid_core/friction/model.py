@@ -1,5 +1,5 @@
-"""The 8 friction models under numpy: each law of :data:`~frictionid_core.friction.laws.LAWS`,
-symmetric or asymmetric.
+"""The friction models under numpy: each law of :data:`~frictionid_core.friction.laws.LAWS`,
+symmetric or asymmetric (a Maxwell-slip law also with its number of elements).
 
 The asymmetric variant has one parameter set for v > 0 (suffix ``_pos``) and one for v < 0
 (suffix ``_neg``); the negative branch uses magnitudes: τ(v<0) = −[Fc_neg + …] − Fv_neg·|v|.
@@ -8,6 +8,11 @@ Parameter arrays are (P, k) for a population of P candidates (or (k,) for one); 
 are (N,); :meth:`FrictionModel.torque` returns (P, N) (or (N,)) with no Python loop: it runs
 the laws' own functions (:mod:`~frictionid_core.friction.laws`) on numpy arrays.
 A smoothed sign tanh(v/ε) replaces sign(v) when ``eps > 0`` (feed-forward without chatter).
+
+A dynamic law's friction depends on the motion's history: :meth:`FrictionModel.torque` then
+needs the samples' times and integrates the states along them in the compiled kernel
+(:mod:`~frictionid_core.friction.states`); :class:`~frictionid_core.friction.states.StateFriction`
+steps them sample by sample under numpy (the node's feed-forward, the kernel's reference).
 """
 
 from __future__ import annotations
@@ -21,11 +26,15 @@ from frictionid_core.friction.laws import (
     DEFAULT_BOUNDS,
     FRICTIONS,
     LAWS,
+    LUGRE_DELTA,
+    MAX_ELEMENTS,
     NUMPY_OPS,
+    STATIC_FRICTIONS,
     UNITS,
     FrictionLaw,
     branch_force,
     dip_level,
+    parameter_base,
 )
 
 
@@ -38,14 +47,28 @@ def smooth_sign(v: np.ndarray, eps: float = 0.0) -> np.ndarray:
 
 @dataclass(frozen=True)
 class FrictionModel:
-    """One of the 8 friction models: law ``name`` × {symmetric, asymmetric}."""
+    """A friction model: law ``name`` × {symmetric, asymmetric}; a dynamic law's ``elements``
+    (None: the law's default; only a Maxwell-slip law takes another)."""
 
     name: str
     asymmetric: bool = False
+    elements: int | None = None
 
     def __post_init__(self) -> None:
         if self.name not in LAWS:
             raise FrictionIdError(f"unknown friction model '{self.name}'; choose one of {', '.join(FRICTIONS)}")
+        law = LAWS[self.name]
+        if self.elements is None:
+            object.__setattr__(self, "elements", law.elements or None)
+        elif not law.per_element or isinstance(self.elements, bool) or not isinstance(self.elements, int) \
+                or not 1 <= self.elements <= MAX_ELEMENTS:
+            raise FrictionIdError(f"elements {self.elements!r}: only the gms law takes a number of elements, "
+                                  f"1 to {MAX_ELEMENTS}" + ("" if law.per_element else f" ({self.name} has none)"))
+
+    @property
+    def is_dynamic(self) -> bool:
+        """True for a law with internal states (its friction depends on the motion's history)."""
+        return self.law.is_dynamic
 
     @property
     def law(self) -> FrictionLaw:
@@ -54,7 +77,7 @@ class FrictionModel:
     @property
     def branch_names(self) -> tuple[str, ...]:
         """Parameter names of one velocity branch (no suffix)."""
-        return self.law.params
+        return self.law.branch_params(self.elements)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -66,12 +89,13 @@ class FrictionModel:
 
     @property
     def label(self) -> str:
-        return f"{self.name}{'-asym' if self.asymmetric else ''}"
+        n = f"-{self.elements}" if self.law.per_element else ""
+        return f"{self.name}{n}{'-asym' if self.asymmetric else ''}"
 
     @property
     def is_linear(self) -> bool:
         """True when every parameter enters linearly (Coulomb + viscous)."""
-        return not self.law.nonlinear
+        return not self.law.nonlinear and not self.is_dynamic
 
     def units(self) -> dict[str, str]:
         return {n: UNITS[_base(n)] for n in self.names}
@@ -82,11 +106,21 @@ class FrictionModel:
         hi = np.array([DEFAULT_BOUNDS[_base(n)][1] for n in self.names])
         return lo, hi
 
-    def torque(self, params: np.ndarray, v: np.ndarray, eps: float = 0.0) -> np.ndarray:
+    def torque(self, params: np.ndarray, v: np.ndarray, eps: float = 0.0, t: np.ndarray | None = None
+               ) -> np.ndarray:
         """Friction force/torque for parameters (P, k) or (k,) at velocities v (N,).
 
-        Returns (P, N), or (N,) when ``params`` is 1-D. ``eps`` > 0 smooths the sign.
+        Returns (P, N), or (N,) when ``params`` is 1-D. ``eps`` > 0 smooths the sign of a static
+        law. A dynamic law needs the samples' times ``t`` (N,) (s): its states start at their
+        sliding values of the first sample and are reset so at a gap
+        (:func:`~frictionid_core.friction.states.resets`).
         """
+        if self.is_dynamic:
+            from frictionid_core.friction.states import state_torque
+
+            if t is None:
+                raise FrictionIdError(f"{self.label} has internal states: its torque needs the samples' times")
+            return state_torque(self, params, v, t)
         p = np.asarray(params, dtype=float)
         single = p.ndim == 1
         p = np.atleast_2d(p)
@@ -104,9 +138,23 @@ class FrictionModel:
             out = np.where(v >= 0.0, out, self._branch(table, nb, v, s, a))
         return out[0] if single else out
 
+    def static_equivalent(self, params: np.ndarray) -> tuple[FrictionModel, np.ndarray]:
+        """(the static law of this law's sliding limit, its parameters (…, k′) from ``params``
+        (…, k)): the law itself for a static law; for a dynamic one the Stribeck law with δ = 2
+        (Fv, Fc, Fs, vs, 2 per branch): what it predicts at constant speed, without its states."""
+        p = np.asarray(params, dtype=float)
+        if not self.is_dynamic:
+            return self, p
+        nb = len(self.branch_names)
+        branches = [np.concatenate([p[..., o : o + 4], np.full(p.shape[:-1] + (1,), LUGRE_DELTA)], axis=-1)
+                    for o in ((0, nb) if self.asymmetric else (0,))]
+        return FrictionModel("stribeck", self.asymmetric), np.concatenate(branches, axis=-1)
+
     def torque_each(self, params: np.ndarray, v: np.ndarray, eps: float = 0.0) -> np.ndarray:
         """Friction (J,) of J joints, each with its own parameters ``params`` (J, k) at its own
-        velocity v (J,) (the diagonal of :meth:`torque`; for a handful of joints)."""
+        velocity v (J,) (the diagonal of :meth:`torque`; for a handful of joints; a static law's)."""
+        if self.is_dynamic:
+            raise FrictionIdError(f"{self.label} has internal states: step them with StateFriction")
         return np.diagonal(self.torque(params, v, eps)).copy()
 
     def _branch(self, table: np.ndarray, o: int, v, s, a) -> np.ndarray:
@@ -140,14 +188,24 @@ def _numpy_dip(law: FrictionLaw, a: np.ndarray, table: np.ndarray, o: int) -> np
 
 
 def _base(name: str) -> str:
-    return name.removesuffix("_pos").removesuffix("_neg")
+    return parameter_base(name)
 
 
-def get_model(friction: str, asymmetric: bool = False) -> FrictionModel:
-    """The model of friction law ``friction`` (one of FRICTIONS), symmetric or asymmetric."""
-    return FrictionModel(friction, asymmetric)
+def get_model(friction: str, asymmetric: bool = False, elements: int | None = None) -> FrictionModel:
+    """The model of friction law ``friction`` (one of FRICTIONS), symmetric or asymmetric; a
+    Maxwell-slip law's ``elements`` (default 4)."""
+    return FrictionModel(friction, asymmetric, elements)
+
+
+def elements_of(friction: str, names) -> int | None:
+    """The number of elements of a Maxwell-slip law's parameters ``names`` (their ``k1``, ``k2``, …,
+    with or without a ``<joint>/`` prefix and a branch suffix); None for another law."""
+    if friction not in LAWS or not LAWS[friction].per_element:
+        return None
+    stems = {n.rsplit("/", 1)[-1].removesuffix("_pos").removesuffix("_neg") for n in names}
+    return max(1, sum(1 for stem in stems if parameter_base(stem) == "k"))
 
 
 def all_models() -> list[FrictionModel]:
-    """The 8 models: each law, symmetric then asymmetric."""
-    return [FrictionModel(f, a) for f in FRICTIONS for a in (False, True)]
+    """The 8 static models: each static law, symmetric then asymmetric."""
+    return [FrictionModel(f, a) for f in STATIC_FRICTIONS for a in (False, True)]

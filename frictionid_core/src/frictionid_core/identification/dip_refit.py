@@ -91,7 +91,10 @@ def dip_changes(model: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:
     A decimation chosen from the data goes down to what the dip needs; the rows are then thinned
     (``thin``, ``dip_scale``: see :func:`frictionid_core.preprocess.thinned_rows`) back to the
     rule's rate for the cut-off wherever the dip is not crossed fast: the fine rate there only
-    adds rows (and seconds and GBs on long logs)."""
+    adds rows (and seconds and GBs on long logs). A dynamic law keeps the rule's rates: its states
+    travel with the filtered position, which a raised cut-off fills with noise (and q̈ with it)."""
+    if model.friction.is_dynamic:
+        return {}, ""
     n, needs, why, scales = model_dip_needs(model, x)
     pre, chosen = model.obs.preprocessing, model.obs.report["from_data"]
     changes = {}
@@ -109,7 +112,9 @@ def dip_changes(model: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:
 
 
 def dip_warnings(model: IdentificationModel, x: np.ndarray) -> list[str]:
-    """A warning when the settings the user gave are too coarse for the dip of ``x``."""
+    """A warning when the settings the user gave are too coarse for the dip of ``x`` (a static law's)."""
+    if model.friction.is_dynamic:
+        return []
     n, needs, why, _ = model_dip_needs(model, x)
     pre = model.obs.preprocessing
     if n >= pre.decimate and not cutoff_shortfall(pre.cutoff_hz, needs):

@@ -63,7 +63,7 @@ def data_bounds(model: IdentificationModel) -> dict[str, tuple[float, float]]:
     range (:data:`~frictionid_core.friction.DEFAULT_BOUNDS`: a search over decades of speed needs
     a cap) where the two overlap; Fs ≤ FS_FACTOR × the Coulomb
     special case's Fc of its joint and branch (at least FS_FACTOR × FS_FLOOR_SHARE × the joint's
-    largest |torque|). {} for a linear law."""
+    largest |torque|; not for a dynamic law, whose pre-sliding rows bias that Fc). {} for a linear law."""
     if model.is_linear:
         return {}
     obs = model.obs
@@ -82,7 +82,7 @@ def data_bounds(model: IdentificationModel) -> dict[str, tuple[float, float]]:
                 out[prefix + name] = (max(float(speed.min()), lo), min(float(speed.max()), hi))
                 if not out[prefix + name][0] < out[prefix + name][1]:  # the law's range misses the data's
                     out[prefix + name] = (float(speed.min()), float(speed.max()))
-            elif base == "Fs":
+            elif base == "Fs" and not model.friction.is_dynamic:  # a static fit misjudges a dynamic law's Fc
                 if special is None:
                     special, x_special = linear_special_case(model)
                 fc = float(x_special[special.names.index(prefix + "Fc" + name[2:])])
@@ -96,8 +96,8 @@ def with_data_bounds(model: IdentificationModel) -> IdentificationModel:
     bounds = data_bounds(model)
     if not bounds:
         return model
-    return IdentificationModel(model.obs, model.friction, model.offset, model.rigid_bounds, model.bound_overrides,
-                               model.fixed, bounds, model.physical)
+    return type(model)(model.obs, model.friction, model.offset, model.rigid_bounds, model.bound_overrides,
+                       model.fixed, bounds, model.physical)
 
 
 def holdout_comparison(model: IdentificationModel, x: np.ndarray, solver: SolverOptions) -> dict:

@@ -11,7 +11,7 @@ from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import get_model
 from frictionid_core.identification.plan import FitPlan, SourcePlan, plan_fit
 from frictionid_core.identification_model import IdentificationModel
-from frictionid_core.metrics import observation_metrics
+from frictionid_core.metrics import all_rows_metrics, observation_metrics
 from frictionid_core.observation import VELOCITY_COLUMNS, Observation, concat_observations
 from frictionid_core.preprocess import Preprocessing, choose_preprocessing, cutoff_range, resample_uniform
 from frictionid_core.systems import System, as_system, observe
@@ -24,19 +24,27 @@ Sources = JointSeries | Sequence[JointSeries]
 def build_model(series: Sources | FitPlan, system: str | System, friction: str, asymmetric: bool,
                 preprocessing: Preprocessing | None = None,
                 bounds: dict[str, tuple[float, float]] | None = None, *,
-                joint_map: dict[str, str] | None = None, fixed: dict[str, float] | None = None) -> IdentificationModel:
+                joint_map: dict[str, str] | None = None, fixed: dict[str, float] | None = None,
+                elements: int | None = None) -> IdentificationModel:
     """The identification model of ``system`` (a name, with ``joint_map``, or a System) +
-    ``friction`` on the data of ``series`` (one source or several: :func:`observe_sources`; or
-    the :class:`FitPlan` of sources, whose own system is then the one fitted).
+    ``friction`` (a Maxwell-slip law's ``elements``) on the data of ``series`` (one source or
+    several: :func:`observe_sources`; or the :class:`FitPlan` of sources, whose own system is then
+    the one fitted).
 
     ``preprocessing`` overrides the system's default; ``bounds`` are the user's bounds and
-    ``fixed`` the parameters held at a value (see ``IdentificationModel``).
+    ``fixed`` the parameters held at a value (see ``IdentificationModel``). A dynamic law's model
+    (:class:`~frictionid_core.dynamic_model.DynamicIdentificationModel`) is on every row.
     """
     plan = series if isinstance(series, FitPlan) else plan_fit(as_sources(series), as_system(system, joint_map))
-    obs = observe_plan(plan, preprocessing)
-    return IdentificationModel(obs, get_model(friction, asymmetric),
-                               rigid_bounds=plan.system.parameter_bounds(plan.rows),
-                               bound_overrides=dict(bounds or {}), fixed=dict(fixed or {}))
+    law = get_model(friction, asymmetric, elements)
+    obs = observe_plan(plan, preprocessing, all_rows=law.is_dynamic)
+    cls = IdentificationModel
+    if law.is_dynamic:
+        from frictionid_core.dynamic_model import DynamicIdentificationModel
+
+        obs, cls = obs.full, DynamicIdentificationModel
+    return cls(obs, law, rigid_bounds=plan.system.parameter_bounds(plan.rows), bound_overrides=dict(bounds or {}),
+               fixed=dict(fixed or {}))
 
 
 def observe_sources(series: Sources, system: System, settings: Preprocessing | None = None) -> Observation:
@@ -45,7 +53,7 @@ def observe_sources(series: Sources, system: System, settings: Preprocessing | N
     return observe_plan(plan_fit(as_sources(series), system), settings)
 
 
-def observe_plan(plan: FitPlan, settings: Preprocessing | None = None) -> Observation:
+def observe_plan(plan: FitPlan, settings: Preprocessing | None = None, *, all_rows: bool = False) -> Observation:
     """The observation of the sources of ``plan``: each pre-processed alone (no filter runs across
     the seam between two recordings), then their rows stacked per joint (a joint a source does not
     fit has no rows there).
@@ -53,7 +61,7 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None) -> Observ
     One pre-processing describes the fit: the first source resolves the settings left to the
     data, its cut-off (one for every joint) the largest that any source's motion asks for; a joint
     the first source lacks takes its min speed from the first source that has it and the highest of
-    its cut-offs."""
+    its cut-offs. ``all_rows``: keep the fit rows with every row too (a dynamic law's model)."""
     system = plan.system
     requested = settings or system.preprocessing
     first, rest = plan.sources[0], plan.sources[1:]
@@ -61,7 +69,7 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None) -> Observ
         fastest = max(cutoff_range(choose_preprocessing(resample_uniform(_preprocessed(sp, system)), requested)[0]
                                    .cutoff_hz)[1] for sp in plan.sources)  # one for every joint of every source
         requested = replace(requested, cutoff_hz=fastest)
-    observations = [observe(first.series, system, requested, held=first.held, rows=first.rows)]
+    observations = [observe(first.series, system, requested, held=first.held, rows=first.rows, all_rows=all_rows)]
     resolved = observations[0].preprocessing
     if requested is not (settings or system.preprocessing):
         observations[0].report["from_data"].insert(0, "cutoff_hz")
@@ -75,7 +83,7 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None) -> Observ
                 j: cutoffs.get(j, max(cutoffs.values())) for j in series.joints}))[0].min_speed
             speeds.update((j, own[j]) for j in missing)
         observations.append(observe(sp.series, system, replace(resolved, min_speed=dict(speeds), cutoff_hz=cutoffs),
-                                    held=sp.held, rows=sp.rows))
+                                    held=sp.held, rows=sp.rows, all_rows=all_rows))
     if not rest:
         return observations[0]
     merged = replace(resolved, min_speed=speeds)
@@ -84,8 +92,9 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None) -> Observ
     stacked = [_on_rows(o, joints, names, system.per_joint, merged) for o in observations]
     out = concat_observations(stacked)
     out.report = _merged_report([o.report for o in observations])
-    if out.sampled is not None:
-        out.sampled.report = out.report
+    for o in (out.sampled, out.full, out.full and out.full.sampled):
+        if o is not None:
+            o.report = out.report
     return out
 
 
@@ -106,14 +115,18 @@ def _on_rows(obs: Observation, joints: list[str], names: list[str], per_joint: b
     y, used = np.zeros(nj * nd), np.zeros(nj * nd, dtype=bool)
     rigid, velocity = np.zeros((nj * nd, len(names))), np.zeros((nd, nj))
     columns = [{k: np.zeros(nd) for k in VELOCITY_COLUMNS} for _ in joints]
+    moving = None if obs.moving is None else np.zeros(nj * nd, dtype=bool)
     for j, joint in enumerate(obs.joints):
         k = joints.index(joint)
         src, dst = slice(j * nd, (j + 1) * nd), slice(k * nd, (k + 1) * nd)
         y[dst], used[dst], velocity[:, k], columns[k] = obs.y[src], obs.used[src], obs.velocity[:, j], obs.columns[j]
         rigid[dst, cols] = obs.rigid[src]
-    sampled = None if obs.sampled is None else _on_rows(obs.sampled, joints, names, per_joint, settings)
+        if moving is not None:
+            moving[dst] = obs.moving[src]
+    sampled, full = (None if o is None else _on_rows(o, joints, names, per_joint, settings)
+                     for o in (obs.sampled, obs.full))
     return Observation(list(joints), y, rigid, list(names), velocity, columns, obs.t, settings, obs.report,
-                       list(obs.notes), used, sampled, obs.coupling, obs.data_joints, obs.weight)
+                       list(obs.notes), used, sampled, obs.coupling, obs.data_joints, obs.weight, full, moving)
 
 
 def _merged_report(reports: list[dict]) -> dict:
@@ -148,14 +161,23 @@ def model_metrics(model: IdentificationModel, x) -> dict:
     model's metric observation (the recorded effort at the analysis instants, predicted from
     the unfiltered columns there; or the model's own filtered rows under the EMPS protocol)."""
     on = metric_model(model)
-    return observation_metrics(on.obs, on.predict(x))
+    obs, predicted = on.obs, on.predict(x)
+    if obs.moving is not None:  # a dynamic law's model: every row, the moving ones among them
+        out = observation_metrics(obs, predicted, obs.moving)
+        out["all_rows"] = all_rows_metrics(obs, predicted)
+        return out
+    out = observation_metrics(obs, predicted)
+    if obs.full is not None:
+        full = type(on)(obs.full, on.friction, on.offset, load_rigid=on.load_rigid)
+        out["all_rows"] = all_rows_metrics(obs.full, full.predict(x))
+    return out
 
 
 def metric_model(model: IdentificationModel) -> IdentificationModel:
     """``model`` on its metric observation (:attr:`Observation.metric`: the recorded effort at the
     analysis instants with the unfiltered columns there, or its own rows under the EMPS protocol)."""
     obs = model.obs.metric
-    return model if obs is model.obs else IdentificationModel(obs, model.friction, model.offset)
+    return model if obs is model.obs else type(model)(obs, model.friction, model.offset, load_rigid=model.load_rigid)
 
 
 def preprocessing_record(obs: Observation, metrics: dict, default: Preprocessing, requested: Preprocessing) -> dict:

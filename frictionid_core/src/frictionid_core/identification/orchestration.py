@@ -16,6 +16,7 @@ from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_ra
 from frictionid_core.identification.effort_sign import checked_effort_sign
 from frictionid_core.identification.identifiability import identifiability
 from frictionid_core.identification.linear_case import holdout_comparison, linear_fallback, with_data_bounds
+from frictionid_core.identification.load import fit_with_load
 from frictionid_core.identification.model_building import (
     Sources,
     as_sources,
@@ -110,7 +111,7 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
 
     def rebuild(pre) -> IdentificationModel:
         return with_data_bounds(build_model(fit_plan, fit_plan.system, request.friction, request.asymmetric, pre,
-                                            request.bounds, fixed={**fixed_request, **held}))
+                                            request.bounds, fixed={**fixed_request, **held}, elements=request.elements))
 
     model, fit_settings = exclude_stick_phases(rebuild(settings), settings)
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
@@ -122,15 +123,20 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
         held.update(resolved.held)
         model = replace(model, fixed={**fixed_request, **held})
     at_rule_rates = model
-    model, (x, std, cond, res) = fit_at_dip_rates(
-        model, fit_settings, rebuild, lambda m, previous=None: fit_model(m, solver, progress, previous))
+
+    def fit(m: IdentificationModel, previous=None):
+        return fit_model(m, solver, progress, previous)
+
+    model, (x, std, cond, res) = fit_at_dip_rates(model, fit_settings, rebuild, fit)
+    if request.load_dependent:  # Fc_load: the closed form alternated with the rigid-body torque
+        model, (x, std, cond, res) = fit_with_load(model, (x, std, cond, res), warnings, fit)
     inertia_warnings = list(sys_.robot.model.inertia_warnings) if sys_.robot is not None else []
     warnings = inertia_warnings + plan.warnings() + resolved.warning() + warnings + dip_warnings(model, x)
     if res is not None:
         std, design = jacobian_std(model, x, model.held_at_box(x))
         cond = float(np.linalg.cond(design))
     holdout = None
-    if not model.is_linear and solver.warm_start:
+    if not model.is_linear and solver.warm_start and not model.friction.is_dynamic and not request.load_dependent:
         model, x, std, cond, holdout = against_linear_case(model, at_rule_rates, x, (std, cond), solver, warnings)
     std = {**std, **dict.fromkeys(held, float("nan"))}
     undetermined = {n for n, v in std.items() if not np.isfinite(v)}

@@ -11,11 +11,13 @@ import numpy as np
 
 from frictionid_core.drive import result_drive
 from frictionid_core.errors import FrictionIdError, InputError
+from frictionid_core.friction import elements_of
 from frictionid_core.identification.model_building import Sources, as_sources, build_model, metric_model, model_metrics
 from frictionid_core.identification.plan import Holds, plan_fit
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.settings import PreprocessingOverrides
 from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.load_dependence import LOAD_NAME
 from frictionid_core.preprocess import Preprocessing, cutoff_interval, resample_uniform
 from frictionid_core.systems import System, as_system, result_system
 from frictionid_core.timeseries import JointSeries
@@ -135,6 +137,7 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         else:
             sys_ = result_system(result)
         friction, asymmetric = result["friction"], bool(result["asymmetric"])
+        elements = elements_of(friction, result["params"])  # a Maxwell-slip law's, from its k1 … kn
         joints = joints or result.get("joints")  # None (a hand-written file): the data's joints
         values = result["params"]
         asked = result.get("request") or {}
@@ -156,7 +159,7 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         plan = replace(plan, system=with_payload(plan.system, payload.link))
         values = {**values, **payload.parameters()}
     try:
-        model = build_model(plan, plan.system, friction, asymmetric, settings)
+        model = build_model(plan, plan.system, friction, asymmetric, settings, elements=elements)
     except InputError as exc:  # these data cannot choose (nothing moves): the result's own settings
         if which is None or not which["rechosen"] or "cannot be chosen from the data" not in str(exc):
             raise
@@ -164,7 +167,9 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         settings = replace(Preprocessing.from_dict(result["preprocessing"], 1.0 / sources[0].dt), **given)
         why = {**which["kept_why"], **dict.fromkeys(which["rechosen"], "these data cannot choose it")}
         which = {"rechosen": [], "kept": list(why), "kept_why": why, "set": which["set"]}
-        model = build_model(plan, plan.system, friction, asymmetric, settings)
+        model = build_model(plan, plan.system, friction, asymmetric, settings, elements=elements)
+    if any(n.rsplit("/", 1)[-1] == LOAD_NAME for n in values):  # load-dependent: τ_rigid of its rigid body
+        model = replace(model, load_rigid=np.array([values.get(n, 0.0) for n in model.obs.rigid_names], dtype=float))
     if which is not None:
         model.obs.report.update(which)
     missing = [n for n in model.names if n not in values]

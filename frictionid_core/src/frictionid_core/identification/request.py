@@ -81,6 +81,9 @@ class IdentifyRequest:
             negated, and the negated fit is returned when it is clearly better (its drive then
             holds the signs: :mod:`~frictionid_core.identification.effort_sign`); ``as-logged``:
             the log's signs, with a warning when negating would fit clearly better.
+        elements: the ``gms`` law's number of Maxwell-slip elements (None: 4).
+        load_dependent: robot systems: each row joint's Coulomb level rises with its rigid-body
+            torque, Fc + Fc_load·|τ_rigid| (``<joint>/Fc_load``, identified with the rest).
     """
 
     system: str = "emps"
@@ -103,6 +106,8 @@ class IdentifyRequest:
     gravity: bool = False
     known_rigid_body: bool = False
     effort_sign: str = "auto"
+    elements: int | None = None
+    load_dependent: bool = False
 
     def __post_init__(self) -> None:
         from frictionid_core.friction import FRICTIONS
@@ -123,11 +128,18 @@ class IdentifyRequest:
         set_(self, "window", window_value(self.window))
         set_(self, "fixed", {k: number(f"fixed.{k}", v) for k, v in mapping("fixed", self.fixed).items()})
         set_(self, "bounds", {k: bound_value(f"bounds.{k}", v) for k, v in mapping("bounds", self.bounds).items()})
+        if self.elements is not None:
+            from frictionid_core.friction import get_model
+
+            try:
+                get_model(self.friction, self.asymmetric, self.elements)
+            except FrictionIdError as exc:
+                raise FieldError("elements", f": {exc}") from None
         self._check_consistency()
 
     def _check_consistency(self) -> None:
         set_ = object.__setattr__
-        for name in ("consistent", "stribeck_order", "hold_missing", "gravity", "known_rigid_body"):
+        for name in ("consistent", "stribeck_order", "hold_missing", "gravity", "known_rigid_body", "load_dependent"):
             set_(self, name, flag(name, getattr(self, name)))
         hold = {k: number(f"hold.{k}", v) for k, v in mapping("hold", self.hold).items()}
         bad = [k for k, v in hold.items() if not math.isfinite(v)]
@@ -144,7 +156,8 @@ class IdentifyRequest:
         set_(self, "prior_weight", weight)
         robot = self.system == "tx40" or self.system.startswith("urdf:")
         for name, used in (("consistent", self.consistent), ("prior", self.prior is not None),
-                           ("hold", bool(self.hold)), ("hold_missing", self.hold_missing)):
+                           ("hold", bool(self.hold)), ("hold_missing", self.hold_missing),
+                           ("load_dependent", self.load_dependent)):
             if used and not robot:
                 raise FieldError(name, f": needs a robot system ({ROBOT_SYSTEMS}) with body parameters; "
                                        f"system '{self.system}' has none")

@@ -30,7 +30,11 @@ def fit_model(model: IdentificationModel, solver: SolverOptions, progress=None,
     """``solver`` (its ``varpro`` resolved) on ``model``: closed form (with σ and the condition
     number) or an optimiser. With ``previous`` (the point and result of a coarser round of the
     dip refit), a local solver (lm, hybrid's polish) only polishes from that point: the finer
-    rates move the optimum, not its basin."""
+    rates move the optimum, not its basin. A dynamic law: :func:`~.dynamic_fit.fit_dynamic`."""
+    if model.friction.is_dynamic:
+        from frictionid_core.identification.dynamic_fit import fit_dynamic
+
+        return fit_dynamic(model, solver, progress, previous)
     if is_closed_form(model, solver):
         return (*model.fit_linear(), None)
     if previous is not None and solver.method in ("lm", "hybrid"):

@@ -5,6 +5,8 @@ feed-forward messages, ``joints``. Phases are (start, end) stamps [ns]; every ph
 ``settle_s`` is left out of its RMS (the transient of a switch).
 
 * ratio per joint = RMS(feed-forward on) / RMS(off); the acceptance figure is its median.
+* ``rms_at_reversals``: per phase and joint, the RMS tracking error within ±REVERSAL_WINDOW_S of
+  each reversal of the desired velocity (where static friction laws have no answer).
 * gain = 1 − median over joints of RMS(window) / RMS(off, same friction). The drift's
   ``recovered_fraction`` = gain over the last ``tail_s`` of the ``after_s`` after the drift
   ÷ gain before the drift, against the feed-forward-off RMS measured under the drifted friction
@@ -22,6 +24,7 @@ import numpy as np
 from frictionid_core.errors import FrictionIdError
 
 NS = 1_000_000_000
+REVERSAL_WINDOW_S = 0.3  # rms_at_reversals: the error within this of each reversal [s]
 
 
 def rms(record: dict, start_ns: int, end_ns: int, settle_s: float = 0.0) -> np.ndarray:
@@ -34,6 +37,23 @@ def rms(record: dict, start_ns: int, end_ns: int, settle_s: float = 0.0) -> np.n
     return np.sqrt(np.mean(record["error"][keep] ** 2, axis=0))
 
 
+def rms_at_reversals(record: dict, start_ns: int, end_ns: int, settle_s: float = 0.0) -> list[float | None]:
+    """Per joint, the RMS tracking error [rad | m] within ±REVERSAL_WINDOW_S of each reversal (a sign
+    change of the record's ``desired_velocity``) between two stamps (after ``settle_s``); None for
+    a joint without a reversal there."""
+    t, v = record["stamp_ns"], record["desired_velocity"]
+    keep = (t >= start_ns + int(settle_s * NS)) & (t < end_ns)
+    out = []
+    for j in range(v.shape[1]):
+        flips = t[1:][(np.sign(v[1:, j]) != np.sign(v[:-1, j])) & keep[1:]]
+        near = np.zeros(t.size, dtype=bool)
+        for at in flips:
+            near |= np.abs(t - at) <= int(REVERSAL_WINDOW_S * NS)
+        near &= keep
+        out.append(float(np.sqrt(np.mean(record["error"][near, j] ** 2))) if near.any() else None)
+    return out
+
+
 def summarize(record: dict, phases: dict[str, tuple[int, int]], *, settle_s: float = 2.0, after_s: float = 20.0,
               window_s: float = 2.0, tail_s: float = 5.0, target: float = 0.8) -> dict:
     """The JSON of ``frictionid loop`` (module docstring); ``phases`` has ``feedforward_off``,
@@ -42,6 +62,9 @@ def summarize(record: dict, phases: dict[str, tuple[int, int]], *, settle_s: flo
     off = rms(record, *phases["feedforward_off"], settle_s)
     on = rms(record, *phases["feedforward_on"], settle_s)
     out = {"rms_tracking_error": {"joints": joints, "feedforward_off": off.tolist(), "feedforward_on": on.tolist()}}
+    if "desired_velocity" in record:
+        out["rms_at_reversals"] = {"joints": joints, **{name: rms_at_reversals(record, *span, settle_s)
+                                                       for name, span in phases.items()}}
     gain0 = 1.0 - float(np.median(on / off))
     if "drift" in phases and "drift_off" in phases:
         ref = rms(record, *phases["drift_off"], settle_s)

@@ -10,6 +10,13 @@ so it is integrated semi-implicitly: f(v₀) goes to ``qfrc_applied`` and its sl
 f(v₀) + c·(v₁ − v₀), stable at 1 kHz for any eps. The Coulomb level (Fc and Fs) may drift:
 it is scaled by 1 + drift·min(1, (t − t_start)/duration).
 
+With ``law="lugre"`` the hidden friction is the core's LuGre law (its states stepped with the
+arm, :class:`~frictionid_core.friction.StateFriction`): the Stribeck table's Fv, Fc, Fs, vs, a
+bristle stiffness σ0 = Fc / :data:`BREAKAWAY_DEFLECTION` and the damping σ1 = 2·√(σ0·m) critical
+for the joint's inertia m at the start. It is integrated alike: the friction at the step's end
+for v₁ = v₀ and its slope in v₁ (the bristles' stiffness over the step included) go to
+``qfrc_applied`` and ``dof_damping``, then the states advance with the v₁ MuJoCo found.
+
 MuJoCo's own joint friction can be the hidden truth instead of (or beside) the core's law:
 ``damping`` (viscous, implicit) and ``frictionloss`` (dry friction as a soft constraint of
 MuJoCo's solver: below its level at low speed, where the arm sticks or creeps — up to a speed that
@@ -21,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.friction import get_model
+from frictionid_core.friction import StateFriction, get_model
 
 DT = 1e-3  # simulation step [s]
 SIM_EPS = 1e-3  # sign smoothing of the hidden friction [rad/s | m/s]
@@ -29,6 +36,9 @@ _SLOPE_H = 1e-6  # step of the numerical slope ∂f/∂v [rad/s | m/s]
 
 # Default hidden friction of a URDF arm (per joint, Stribeck): Fv [N·m·s/rad], Fc, Fs [N·m], vs [rad/s], δ.
 URDF_FRICTION = {"Fv": 0.8, "Fc": 1.5, "Fs": 2.0, "vs": 0.04, "delta": 2.0}
+# The hidden laws (SimArm's ``law``), and the LuGre law's break-away deflection Fc/σ0 [rad | m].
+HIDDEN_LAWS = ("stribeck", "lugre")
+BREAKAWAY_DEFLECTION = 5e-4
 # The payload ``frictionid loop --payload-kg`` attaches to the last link: a solid cube of this edge
 # [m] whose centre lies this far out along the link's z axis and a little off it [m].
 PAYLOAD_EDGE_M = 0.08
@@ -121,7 +131,8 @@ def mjcf(robot) -> str:
 
 class SimArm:
     """The arm of ``robot`` in MuJoCo at :data:`DT` with hidden friction ``friction`` (J, 5)
-    Stribeck parameters of the core's law (None: none); ``q0`` start position (J,) [rad | m].
+    Stribeck parameters of the core's law (None: none; ``law`` lugre: the LuGre law built from
+    them, module docstring); ``q0`` start position (J,) [rad | m].
     MuJoCo's own joint friction (module docstring), each (J,) or None (none): ``damping``
     [N·m·s/rad | N·s/m], ``frictionloss`` [N·m | N]. The rotor inertias are the robot model's armature.
 
@@ -131,7 +142,7 @@ class SimArm:
     """
 
     def __init__(self, robot, friction: np.ndarray | None, q0: np.ndarray | None = None, eps: float = SIM_EPS, *,
-                 damping: np.ndarray | None = None, frictionloss: np.ndarray | None = None):
+                 damping: np.ndarray | None = None, frictionloss: np.ndarray | None = None, law: str = "stribeck"):
         import mujoco
 
         self._mj = mujoco
@@ -141,8 +152,10 @@ class SimArm:
         nv = self.model.nv
         if nv != robot.nv:
             raise FrictionIdError(f"MuJoCo model of {robot.name} has {nv} DOF, Pinocchio {robot.nv}")
-        self.law = get_model("stribeck")
-        self.params = None if friction is None else np.array(friction, dtype=float).reshape(nv, len(self.law.names))
+        if law not in HIDDEN_LAWS:
+            raise FrictionIdError(f"hidden friction '{law}': choose one of {', '.join(HIDDEN_LAWS)}")
+        self.law = get_model(law)
+        self.params = None if friction is None else np.array(friction, dtype=float).reshape(nv, 5)
         self.eps = float(eps)
         self.own_friction = damping is not None or frictionloss is not None  # MuJoCo's own as well
         self.damping = np.zeros(nv) if damping is None else np.array(damping, dtype=float).reshape(nv)
@@ -152,9 +165,20 @@ class SimArm:
         if q0 is not None:
             self.data.qpos[:] = np.asarray(q0, dtype=float)  # MuJoCo hinges and slides: one coordinate each
         mujoco.mj_forward(self.model, self.data)
+        if self.law.is_dynamic and self.params is not None:
+            self.params = self._lugre_params(self.params)
+            self.states = StateFriction(self.law, self.params)
+            self.states.reset(np.zeros(nv))
+            self._trial = StateFriction(self.law, np.tile(self.params, (3, 1)))
         self.drift, self.drift_s, self._drift_t0 = 0.0, 60.0, None
         self.tau = np.zeros(nv)
         self.tau_friction = np.zeros(nv)
+
+    def _lugre_params(self, stribeck: np.ndarray) -> np.ndarray:
+        """LuGre parameters (J, 6) from Stribeck ones (J, 5) (module docstring)."""
+        sigma0 = stribeck[:, 1] / BREAKAWAY_DEFLECTION
+        inertia = np.diag(self.robot.mass_matrix(self.q))
+        return np.column_stack([stribeck[:, :4], sigma0, 2.0 * np.sqrt(sigma0 * inertia)])
 
     @property
     def t(self) -> float:
@@ -195,7 +219,7 @@ class SimArm:
         return 1.0 + self.drift * min(1.0, (self.t - self._drift_t0) / self.drift_s)
 
     def current_params(self) -> np.ndarray:
-        """Hidden Stribeck parameters (J, 5) of the core's law now, with the drift (zeros: none)."""
+        """Hidden parameters (J, k) of the core's law now, with the drift (zeros: none)."""
         if self.params is None:
             return np.zeros((self.model.nv, len(self.law.names)))
         p = self.params.copy()
@@ -203,8 +227,11 @@ class SimArm:
         return p
 
     def friction(self, v: np.ndarray, params: np.ndarray | None = None) -> np.ndarray:
-        """Hidden friction f(v) (J,) [N·m | N] of the core's Stribeck law, joint k at v[k] (not MuJoCo's own)."""
+        """Hidden friction f(v) (J,) [N·m | N] of the core's Stribeck law, joint k at v[k] (not MuJoCo's own;
+        a LuGre law's: of its current states)."""
         p = self.current_params() if params is None else params
+        if self.law.is_dynamic:
+            return StateFriction(self.law, p).reset(v) if params is not None else self.states.force(v)
         return self.law.torque_each(p, np.asarray(v, dtype=float), self.eps)
 
     def step(self, tau: np.ndarray) -> None:
@@ -219,12 +246,21 @@ class SimArm:
             return
         n = len(v0)
         p = np.tile(self.current_params(), (3, 1))  # one law call: f(v0), f(v0 + h), f(v0 − h)
-        f = self.law.torque_each(p, np.concatenate([v0, v0 + _SLOPE_H, v0 - _SLOPE_H]), self.eps)
+        guesses = np.concatenate([v0, v0 + _SLOPE_H, v0 - _SLOPE_H])
+        if self.law.is_dynamic:  # the friction at the step's end for each guess of v1, states advanced
+            self.states.table[:] = p[:n].T
+            self._trial.table[:] = p.T
+            self._trial.z, self._trial.v = np.tile(self.states.z, (1, 3)), np.tile(self.states.v, 3)
+            f = self._trial.step(guesses, self.model.opt.timestep)
+        else:
+            f = self.law.torque_each(p, guesses, self.eps)
         f0, c = f[:n], (f[n:2 * n] - f[2 * n:]) / (2.0 * _SLOPE_H)
         np.maximum(c, 0.0, out=c)
         self.model.dof_damping[:] = self.damping + c if self.own_friction else c
         d.qfrc_applied[:] = self.tau - f0 + c * v0
         self._mj.mj_step(self.model, d)
         self.tau_friction[:] = f0 + c * (np.asarray(d.qvel) - v0)
+        if self.law.is_dynamic:
+            self.states.step(np.array(d.qvel), self.model.opt.timestep)
         if self.own_friction:
             self.tau_friction += self.damping * d.qvel - d.qfrc_constraint

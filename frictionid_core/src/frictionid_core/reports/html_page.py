@@ -47,6 +47,8 @@ def friction_axes(ax, velocity: np.ndarray, measured: np.ndarray, friction, para
     means = np.bincount(idx, measured, VELOCITY_BINS)[filled] / count[filled]
     ax.plot(centres, means, "o", ms=4, color="C0", label="measured, binned by velocity")
     vv = np.linspace(velocity.min(), velocity.max(), 800)
-    ax.plot(vv, friction.torque(params, vv), "C3", lw=1.8, label=f"identified {friction.label}")
+    law, sliding = friction.static_equivalent(params)  # a dynamic law: its sliding limit
+    ax.plot(vv, law.torque(sliding, vv), "C3", lw=1.8,
+            label=f"identified {friction.label}" + (" (sliding limit)" if friction.is_dynamic else ""))
     ax.set(xlabel=f"velocity ({units[1]})", ylabel=f"friction ({units[0]})")
     ax.legend(fontsize=8)

@@ -8,7 +8,10 @@ analysis instants (after the result's filtering, trimming and decimation):
 * the recorded effort and the model's one-step-ahead prediction over time;
 * the residual (recorded − predicted) over time and its histogram;
 * friction vs velocity: the identified law over the measured friction, i.e. the recorded effort
-  minus the model's rigid-body part and constant offset (scatter and velocity-binned means).
+  minus the model's rigid-body part and constant offset (scatter and velocity-binned means);
+* through a reversal, on every row (standstill and the slow rows too): recorded vs predicted
+  effort, and the hysteresis loop of friction vs position (measured, and the model's) — where a
+  dynamic law's states show and a static law jumps.
 
 Metrics are taken against the recorded effort on the rows shown; rows the system leaves out
 (slower than its ``min_speed``: the sign of the velocity is noise there) are neither shown nor
@@ -36,6 +39,8 @@ UNITS = {"emps": ("N", "m/s")}
 ROTARY_UNITS = ("N·m", "rad/s")
 # Result keys shown as settings (beside system, friction, solver, source and joints).
 SETTING_KEYS = ("joint_map", "preprocessing", "drive", "layout", "window", "fixed", "bounds", "varpro")
+REVERSAL_PLOT_S = 0.5  # the reversal figure shows this either side of the reversal [s]
+REVERSAL_SPEED_SHARE = 0.1  # … a reversal reaching this share of the top speed on both sides
 
 
 @dataclass
@@ -51,6 +56,7 @@ class JointTrace:
         friction: measured friction: recorded − rigid-body part − offset.
         friction_params: this joint's friction-law parameters (the law's order).
         excluded: analysis rows left out (slower than the system's min_speed).
+        model_friction: the model's friction: predicted − rigid-body part − offset.
     """
 
     joint: str
@@ -61,31 +67,44 @@ class JointTrace:
     friction: np.ndarray
     friction_params: np.ndarray
     excluded: int
+    model_friction: np.ndarray | None = None
 
 
-def joint_traces(series: JointSeries, result: dict) -> tuple[list[JointTrace], object]:
-    """Per joint of ``series``: what the report plots and measures (see :class:`JointTrace`);
-    also the model's friction law (a FrictionModel)."""
+def joint_traces(series: JointSeries, result: dict) -> tuple[list[JointTrace], list[JointTrace], object]:
+    """Per joint of ``series``: what the report plots and measures (see :class:`JointTrace`) on the
+    rows its system keeps, and on every analysis row; also the model's friction law (a FrictionModel)."""
     from frictionid_core.identification import metric_model, model_from_result
 
     fitted, x = model_from_result(series, result)
     model = metric_model(fitted)  # the recorded effort at the analysis instants
+    every = model if model.obs.full is None else type(model)(model.obs.full, model.friction, model.offset,
+                                                               load_rigid=model.load_rigid)
+    return _traces(model, x, series, False), _traces(every, x, series, True), model.friction
+
+
+def _traces(model, x: np.ndarray, series: JointSeries, every_row: bool) -> list[JointTrace]:
+    """The traces of ``model`` (on its metric observation) at ``x``: its moving rows or every row."""
     obs = model.obs
+    kinds = {n.removesuffix("_pos").removesuffix("_neg") for n in model.friction.names} | {"Fc_load"}
     no_friction = x.copy()  # rigid-body part + offset: friction levels at zero (shape parameters kept)
-    no_friction[[i for i in model.linear_index if model.names[i].rsplit("/", 1)[-1] in model.friction.names]] = 0.0
+    no_friction[[i for i in model.linear_index if model.names[i].rsplit("/", 1)[-1].removesuffix("_pos")
+                 .removesuffix("_neg") in kinds]] = 0.0
     predicted, rigid = model.predict(np.vstack([x, no_friction]))
+    if model.friction.is_dynamic:  # its states' friction is no column: taken off the rigid-body part
+        rigid = rigid - model.state_part(no_friction)
+    moving = obs.used if obs.moving is None or every_row else obs.used & obs.moving
     nd, nj = obs.n_samples, len(obs.joints)
     traces = []
     for j, joint in enumerate(obs.joints):  # the fit rows: joints, or the motors of a motor-side drive
         rows = slice(j * nd, (j + 1) * nd)
-        kept = obs.used[rows]
+        kept = moving[rows]
         recorded = obs.y[rows]
         prefix = f"{joint}/" if nj > 1 else ""
         fparams = x[[model.names.index(prefix + n) for n in model.friction.names]]
         traces.append(JointTrace(joint, (obs.t - series.t[0])[kept], obs.velocity[kept, j], recorded[kept],
                                  predicted[rows][kept], (recorded - rigid[rows])[kept], fparams,
-                                 int(nd - kept.sum())))
-    return traces, model.friction
+                                 int(nd - kept.sum()), (predicted[rows] - rigid[rows])[kept]))
+    return traces
 
 
 def trace_metrics(traces: list[JointTrace]) -> tuple[dict, dict]:
@@ -130,6 +149,58 @@ def joint_figure(trace: JointTrace, friction, units: tuple, title: str) -> bytes
     return data
 
 
+def reversal_span(trace: JointTrace) -> slice | None:
+    """The rows within ±REVERSAL_PLOT_S of a reversal of ``trace`` (every row): a sign change of the
+    velocity with REVERSAL_SPEED_SHARE of the top speed reached on both sides within that window (not
+    the noise of a standstill), the slowest such (the most rows below 5 % of the top speed: where
+    pre-sliding shows); None without one."""
+    v, t = trace.velocity, trace.t
+    top = float(np.max(np.abs(v), initial=0.0))
+    flips = np.flatnonzero(np.sign(v[1:]) * np.sign(v[:-1]) < 0) + 1
+
+    def near(k: int) -> np.ndarray:
+        return (t >= t[k] - REVERSAL_PLOT_S) & (t <= t[k] + REVERSAL_PLOT_S)
+
+    real = [k for k in flips if min(np.max(np.abs(v[near(k) & (t < t[k])]), initial=0.0),
+                                    np.max(np.abs(v[near(k) & (t >= t[k])]), initial=0.0))
+            >= REVERSAL_SPEED_SHARE * top]
+    if not real or top <= 0.0:
+        return None
+    slow = np.abs(v) < 0.05 * top
+    keep = np.flatnonzero(near(max(real, key=lambda k: int(slow[near(k)].sum()))))
+    return slice(int(keep[0]), int(keep[-1]) + 1)
+
+
+def reversal_figure(trace: JointTrace, units: tuple, title: str) -> bytes | None:
+    """PNG of a reversal on every row (:func:`reversal_span`): recorded vs predicted effort over time,
+    and friction vs position (travel from the window's start, the velocity integrated): the measured
+    friction and the model's. None without a reversal."""
+    span = reversal_span(trace)
+    if span is None:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t, v = trace.t[span], trace.velocity[span]
+    travel = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+    fig, (a_t, a_x) = plt.subplots(1, 2, figsize=(10, 4))
+    a_t.plot(t, trace.recorded[span], lw=0.8, label="recorded effort")
+    a_t.plot(t, trace.predicted[span], lw=0.9, label="model (one step ahead)")
+    a_t.set(xlabel="time (s)", ylabel=f"effort ({units[0]})", title=title)
+    a_t.legend(fontsize=8)
+    a_x.plot(travel, trace.friction[span], ".", ms=2, color="0.6", label="measured friction")
+    a_x.plot(travel, trace.model_friction[span], "C3", lw=1.5, label="model friction")
+    a_x.set(xlabel=f"position from the window's start ({units[1].split('/')[0]})", ylabel=f"friction ({units[0]})",
+            title="hysteresis through the reversal")
+    a_x.legend(fontsize=8)
+    fig.tight_layout()
+    data = png_bytes(fig)
+    plt.close(fig)
+    return data
+
+
 # ----------------------------------------------------------------------------- report
 def build_fit_report(result: dict, sources: list[tuple[str, JointSeries]], out_dir: Path,
                      result_file: str = "") -> dict:
@@ -151,24 +222,29 @@ def build_fit_report(result: dict, sources: list[tuple[str, JointSeries]], out_d
     units = UNITS.get(result["system"], ROTARY_UNITS)
     computed = []  # every source first: nothing is written when one of them fails
     for role, series in sources:
-        traces, friction = joint_traces(series, result)
+        traces, every, friction = joint_traces(series, result)
         overall, per_joint = trace_metrics(traces)
         if overall["samples"] > 1:  # else no row to measure on: the page says so
             check_finite(overall, f"the result on {role} source {series.source}")
-        computed.append((role, series, traces, friction, overall, per_joint))
+        all_rows, every_joint = trace_metrics(every)
+        computed.append((role, series, traces, friction, overall, per_joint, every, all_rows, every_joint))
     out_dir.mkdir(parents=True, exist_ok=True)
     shown = []
-    for k, (role, series, traces, friction, overall, per_joint) in enumerate(computed, 1):
-        figures = {}
-        for tr in traces:
-            if tr.t.size < 2:  # every row slower than the system's min_speed: nothing to draw
-                continue
-            name = f"{role}{k}_{_slug(tr.joint)}.png"
+    for k, (role, series, traces, friction, overall, per_joint, every, all_rows, every_joint) in enumerate(
+            computed, 1):
+        figures, reversals = {}, {}
+        for tr, full in zip(traces, every):
             title = f"{tr.joint} · {role}: {series.source}"
-            write_bytes(out_dir / name, joint_figure(tr, friction, units, title))
-            figures[tr.joint] = name
+            if tr.t.size >= 2:  # else every row slower than the system's min_speed: nothing to draw
+                figures[tr.joint] = f"{role}{k}_{_slug(tr.joint)}.png"
+                write_bytes(out_dir / figures[tr.joint], joint_figure(tr, friction, units, title))
+            png = reversal_figure(full, units, f"{tr.joint}: a reversal, every row")
+            if png is not None:
+                reversals[tr.joint] = f"{role}{k}_{_slug(tr.joint)}_reversal.png"
+                write_bytes(out_dir / reversals[tr.joint], png)
         shown.append({"role": role, "source": series.source, "metrics": overall, "per_joint": per_joint,
-                      "figures": figures, "notes": list(series.notes)})
+                      "all_rows": dict(all_rows, per_joint=every_joint), "figures": figures,
+                      "reversal_figures": reversals, "notes": list(series.notes)})
     report = {"result_file": result_file, "units": {"effort": units[0], "velocity": units[1]},
               **{k: result.get(k) for k in ("system", "friction", "asymmetric", "solver", "source", "joints",
                                             "params", "std", "metrics")},
@@ -221,12 +297,20 @@ def _html(rep: dict) -> str:
                                m["excluded"]] for j, m in s["per_joint"].items()]
                              + [["all joints", s["metrics"].get("relerr_pct", ""), s["metrics"].get("rmse", ""),
                                  s["metrics"].get("r2", ""), s["metrics"]["samples"], ""]])]
+        every = s["all_rows"]
+        parts += ["<p>Every row (standstill and reversals too):</p>",
+                  html_table(["joint", "relerr %", "RMSE " + rep["units"]["effort"], "R²", "rows"],
+                             [[j, m.get("relerr_pct", ""), m.get("rmse", ""), m.get("r2", ""), m["samples"]]
+                              for j, m in every["per_joint"].items()]
+                             + [["all joints", every.get("relerr_pct", ""), every.get("rmse", ""),
+                                 every.get("r2", ""), every["samples"]]])]
         if s["notes"]:
             parts.append("<ul>" + "".join(f"<li>{esc(n)}</li>" for n in s["notes"]) + "</ul>")
         for joint in s["per_joint"]:
-            name = s["figures"].get(joint)
+            name, reversal = s["figures"].get(joint), s["reversal_figures"].get(joint)
             parts.append(f"<h3>{esc(joint)}</h3>" + (f"<img alt='{esc(joint)}' src='{esc(name)}'>" if name else
-                                                     "<p>No row faster than the system's minimum speed.</p>"))
+                                                     "<p>No row faster than the system's minimum speed.</p>")
+                         + (f"<img alt='{esc(joint)} reversal' src='{esc(reversal)}'>" if reversal else ""))
     parts.append("</body></html>")
     return "\n".join(parts)
 

@@ -88,6 +88,8 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
         raise FrictionIdError(f"prior weight must be finite and ≥ 0, got {prior_weight}")
     X = model.design() if model.is_linear else model.design(np.asarray(x0, dtype=float)[None])[0]
     y = model.obs.y
+    if model.friction.is_dynamic:  # its state-dependent friction held at the unconstrained fit's
+        y = y - model.state_part(x0)
     L = X.shape[1]
     Q, R = np.linalg.qr(X)
     b = Q.T @ y

@@ -19,7 +19,9 @@ a Stribeck, Tustin or Threlfall law (or an asymmetric one) exports the damping a
 ≥ 0 that match it best in least squares over the speeds of its data (the result's
 ``velocity_range``, both branches alike), and the export says how much of the law that loses
 (the RMS difference over those speeds relative to the law's RMS, %); a symmetric Coulomb law
-exports its Fv and Fc as they are.
+exports its Fv and Fc as they are. A dynamic law (LuGre, Maxwell-slip) exports the match of its
+sliding limit (the Stribeck law with δ = 2) and its pre-sliding states are lost (``lost``: MuJoCo
+and URDF hold no friction state), as is a load-dependent Coulomb level (``Fc_load``).
 
 Links far from the robot model's (:func:`~frictionid_core.robots.consistency_check.link_plausibility`)
 are refused like inconsistent ones unless forced.
@@ -109,12 +111,12 @@ def _joint_friction(result: dict, info) -> tuple[dict, dict]:
     """({joint: {Fv, Fc}} of a result: per joint, or per motor mapped to each motor's own joint;
     {joint: {law, speeds, loss_pct, fitted: the law's own Fv and Fc}}): see the module doc."""
     from frictionid_core.drive import friction_rows
-    from frictionid_core.friction import get_model
+    from frictionid_core.friction import elements_of, get_model
 
     params = result["params"]
     rows = friction_rows(result)
     owner = dict(zip(info.rows.motors, info.model.joints)) if info.rows is not None else {}
-    law = get_model(result["friction"], bool(result["asymmetric"]))
+    law = get_model(result["friction"], bool(result["asymmetric"]), elements_of(result["friction"], result["params"]))
     ranges = result.get("velocity_range") or {}
     out, match = {}, {}
     for row in rows:
@@ -126,7 +128,16 @@ def _joint_friction(result: dict, info) -> tuple[dict, dict]:
         speeds = [float(v) for v in ranges.get(row, DEFAULT_SPEEDS)]
         entry = {"law": law.label, "speeds": speeds, "speeds_from": "data" if row in ranges else "assumed",
                  "fitted": fitted}
-        if law.name == "coulomb" and not law.asymmetric:
+        lost = [f"{law.label}'s pre-sliding states ({', '.join(law.branch_names[4:])}): the sliding limit is "
+                "matched"] if law.is_dynamic else []
+        if prefix + "Fc_load" in params:
+            lost.append(f"its load-dependent Coulomb level (Fc_load {params[prefix + 'Fc_load']:.6g})")
+        if lost:
+            entry["lost"] = "; ".join(lost)
+        if law.is_dynamic:
+            out[joint] = _match(*law.static_equivalent(values), speeds)
+            entry["loss_pct"] = _loss(*law.static_equivalent(values), speeds, out[joint])
+        elif law.name == "coulomb" and not law.asymmetric:
             out[joint] = {"Fv": max(fitted["Fv"], 0.0), "Fc": max(fitted["Fc"], 0.0)}
             entry["loss_pct"] = 0.0 if min(fitted.values()) >= 0 else _loss(law, values, speeds, out[joint])
         else:

@@ -1,6 +1,7 @@
 """Synthetic joint-state data of a robot following a trajectory.
 
-τ = rnea(q, q̇, q̈) (Pinocchio, rigid bodies + armature Ia·q̈) + τ_f(q̇) + offset + noise,
+τ = rnea(q, q̇, q̈) (Pinocchio, rigid bodies + armature Ia·q̈) + τ_f(q̇) + offset + noise (a joint's
+``Fc_load`` in its friction parameters adds Fc_load·|rnea|·sign(q̇): load-dependent Coulomb friction),
 sampled at ``rate`` Hz; the recorded position is q + noise. The ground truth (standard and
 base parameters, friction, offsets, noise, the thesis joint-2 equivalents for the TX40) is
 returned beside the data so identification results can be compared with it.
@@ -20,8 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.friction import FRICTIONS, get_model
+from frictionid_core.friction import FRICTIONS, elements_of, get_model
 from frictionid_core.jsonfile import read_json
+from frictionid_core.load_dependence import LOAD_NAME
 from frictionid_core.timeseries import JointSeries
 
 DEFAULT_POSITION_NOISE = 1e-6  # rad, robots without a noise table (≈ 0.057e-3 deg)
@@ -34,8 +36,8 @@ def tx40_friction(friction: str, asymmetric: bool) -> dict[str, dict[str, float]
     the published model is symmetric)."""
     from frictionid_core.robots.tx40 import FRICTION, JOINTS
 
-    if friction == "threlfall":
-        raise FrictionIdError("the published TX40 model has no Threlfall parameters; pass --friction-params")
+    if friction == "threlfall" or get_model(friction).is_dynamic:
+        raise FrictionIdError(f"the published TX40 model has no {friction} parameters; pass --friction-params")
     names = get_model(friction, False).names
     out = {}
     for k, j in enumerate(JOINTS):
@@ -49,9 +51,10 @@ def tx40_friction(friction: str, asymmetric: bool) -> dict[str, dict[str, float]
 
 
 def friction_torques(friction: str, asymmetric: bool, params: dict[str, dict[str, float]], joints: list[str],
-                     qd: np.ndarray) -> np.ndarray:
-    """τ_f for velocities (N, J) of ``joints`` with per-joint parameters {joint: {name: value}}."""
-    model = get_model(friction, asymmetric)
+                     qd: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
+    """τ_f for velocities (N, J) of ``joints`` with per-joint parameters {joint: {name: value}};
+    a dynamic law's states integrated along the sample times ``t`` (N,) (s)."""
+    model = get_model(friction, asymmetric, elements_of(friction, next(iter(params.values()), {})))
     out = np.empty_like(qd)
     for k, j in enumerate(joints):
         if j not in params:
@@ -60,7 +63,8 @@ def friction_torques(friction: str, asymmetric: bool, params: dict[str, dict[str
         if missing:
             raise InputError(f"friction parameters of joint '{j}' lack {missing} for {model.label} "
                              f"({list(model.names)})")
-        out[:, k] = model.torque(np.array([params[j][n] for n in model.names]), qd[:, k])
+        out[:, k] = model.torque(np.array([params[j][n] for n in model.names]), qd[:, k],
+                                 t=t if model.is_dynamic else None)
     return out
 
 
@@ -109,11 +113,16 @@ def synthesize(robot, trajectory, *, friction: str = "stribeck", asymmetric: boo
     order = [trajectory.joints.index(j) for j in robot.joints]
     q, qd, qdd = q[:, order], qd[:, order], qdd[:, order]
     tau = robot.inverse_dynamics(q, qd, qdd)
+    load = np.array([float(friction_params.get(j, {}).get(LOAD_NAME, 0.0)) for j in robot.joints])
+    if load.any() and motors is not None:
+        raise InputError(f"{LOAD_NAME}: load-dependent friction is synthesised on the joints, not under a drive with "
+                         "friction on the motors")
+    tau += load * np.abs(tau) * np.sign(qd)  # Fc + Fc_load·|τ_rigid| (frictionid_core.load_dependence)
     if motors is None:
-        tau += friction_torques(friction, asymmetric, friction_params, robot.joints, qd)
+        tau += friction_torques(friction, asymmetric, friction_params, robot.joints, qd, t)
     else:  # rotor inertias and friction on the motors: τ = Cᵀ·(Ia ⊙ ẇ + f(w))
         tau += motors.rotor_torques(qdd, robot.armature) - qdd * robot.armature
-        tau += friction_torques(friction, asymmetric, friction_params, motors.motors, qd @ motors.C.T) @ motors.C
+        tau += friction_torques(friction, asymmetric, friction_params, motors.motors, qd @ motors.C.T, t) @ motors.C
     tau += np.array([offsets[j] for j in robot.joints])
     rng = np.random.default_rng(seed)
     position = q + rng.standard_normal(q.shape) * sigma_q

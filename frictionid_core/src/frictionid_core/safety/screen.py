@@ -6,16 +6,18 @@ candidate — is screened by :func:`screen_parameters` first; a refused set is n
 saved or exported. Each refusal is one line naming the parameter and the limit:
 
 * **finite**: every parameter is a finite number;
-* **sign**: the friction laws' parameters (``Fv``, ``Fc``, ``Fs``, ``vs``, ``v0``, ``delta`` and
-  their ``_pos``/``_neg`` branches), the masses and inertias of the one-joint systems (``M``, ``J``,
-  ``ZZ``) and the rotor inertias of a robot (``<joint>.Ia``) are ≥ 0 — unless the set's own
-  ``bounds`` allow a negative value for that name (a user's explicit choice), or the value is
-  within :data:`NEGATIVE_SIGMAS` standard errors of 0 (its ``std``: an unconstrained least-squares
-  estimate of a friction that is about 0 comes out a little negative as often as not);
-* **magnitude**: |value| ≤ ``max_abs`` for every parameter; per joint (or motor) with a
-  :class:`Limit`: the torque parameters |``Fc``|, |``Fs``|, |``offset``| ≤ its effort limit, and the
-  viscous torque at its speed, |``Fv``|·speed, ≤ :data:`VISCOUS_MARGIN` × its effort limit (when the
-  speed is known).
+* **sign**: the friction laws' parameters (``Fv``, ``Fc``, ``Fs``, ``vs``, ``v0``, ``delta``, the
+  dynamic laws' ``sigma0``, ``sigma1``, ``k1`` … and their ``_pos``/``_neg`` branches), the
+  masses and inertias of the one-joint systems (``M``, ``J``, ``ZZ``) and the rotor inertias of a
+  robot (``<joint>.Ia``) are ≥ 0 — unless the set's own ``bounds`` allow a negative value for
+  that name (a user's explicit choice), or the value is within :data:`NEGATIVE_SIGMAS` standard
+  errors of 0 (its ``std``: an unconstrained least-squares estimate of a friction that is about 0
+  comes out a little negative as often as not);
+* **magnitude**: |value| ≤ ``max_abs`` for every parameter but the dynamic laws' stiffnesses
+  (``sigma0``, ``k1`` …: within their default bounds, :data:`STIFFNESS_PARAMETERS`); per joint
+  (or motor) with a :class:`Limit`: the torque parameters |``Fc``|, |``Fs``|, |``offset``| ≤ its
+  effort limit, and the viscous torque at its speed, |``Fv``|·speed, ≤ :data:`VISCOUS_MARGIN` ×
+  its effort limit (when the speed is known).
 
 Limits per joint (:class:`Limit`) come from the robot: its model's effort and velocity limits
 (:func:`robot_limits`: a URDF's ``<limit effort velocity>``, the built-in ``tx40`` table), else
@@ -34,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from frictionid_core.friction import DEFAULT_BOUNDS
+from frictionid_core.friction.laws import parameter_base
 
 # Largest |effort| and |velocity| of the identification data × this = the limits of a joint without
 # a robot model: a friction that alone needs twice the largest effort the data holds is not that
@@ -48,6 +51,9 @@ ROTOR_SUFFIX = ".Ia"
 # A negative physical magnitude within this many of its standard errors of 0 is 0 within its uncertainty.
 NEGATIVE_SIGMAS = 3.0
 TORQUE_PARAMETERS = ("Fc", "Fs", "offset")  # in effort units [N·m | N]
+# Stiffnesses of the dynamic laws [N·m/rad | N/m]: micrometre break-away deflections make them large;
+# held within their default bounds instead of max_abs (the clamp holds the feed-forward's torque).
+STIFFNESS_PARAMETERS = {"sigma0": DEFAULT_BOUNDS["sigma0"][1], "k": DEFAULT_BOUNDS["k"][1]}
 VISCOUS_PARAMETER = "Fv"  # [N·m·s/rad | N·s/m]: times a speed, an effort
 # The viscous torque at a joint's speed limit may reach this × its effort limit: identification data
 # rarely come near the speed limit, so Fv is extrapolated there (a poorly excited TX40 wrist joint gave
@@ -128,7 +134,7 @@ def screen_parameters(params: Mapping[str, float], limits: Mapping[str, Limit] |
             continue
         owner, base = _split(name)
         law = _law_name(base)
-        if value < 0 and (law in NONNEGATIVE or base.endswith(ROTOR_SUFFIX)):
+        if value < 0 and (parameter_base(law) in NONNEGATIVE or base.endswith(ROTOR_SUFFIX)):
             low = bounds.get(name, (0.0, 0.0))[0]
             sigma = _number(std.get(name))
             within = math.isfinite(sigma) and sigma > 0 and value >= -NEGATIVE_SIGMAS * sigma
@@ -139,8 +145,9 @@ def screen_parameters(params: Mapping[str, float], limits: Mapping[str, Limit] |
         key = owner or only or ""
         limit = limits.get(key, default) if owner or law in TORQUE_PARAMETERS + (VISCOUS_PARAMETER,) else None
         refusal = _over_limit(name, law, value, limit, key) if limit is not None else ""
-        if not refusal and abs(value) > max_abs:
-            refusal = f"parameter '{name}' = {value:.6g} is over the limit |value| <= {max_abs:g}"
+        cap = STIFFNESS_PARAMETERS.get(parameter_base(law), max_abs)
+        if not refusal and abs(value) > cap:
+            refusal = f"parameter '{name}' = {value:.6g} is over the limit |value| <= {cap:g}"
         if refusal:
             refusals.append(refusal)
     return refusals

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from frictionid_core.errors import InputError
-from frictionid_core.observation import Observation, build_observation, concat_observations
+from frictionid_core.observation import Observation, build_observation, concat_observations, keep_all_rows
 from frictionid_core.preprocess import (
     TRIM_PERIODS,
     Prepared,
@@ -179,7 +179,8 @@ def parse_joint_map(text: str | None) -> dict[str, str]:
 
 
 def observe(series: JointSeries, system: System, settings: Preprocessing | None = None, *,
-            held: dict[str, float] | None = None, rows: list[str] | None = None) -> Observation:
+            held: dict[str, float] | None = None, rows: list[str] | None = None, all_rows: bool = False
+            ) -> Observation:
     """Pre-process ``series`` (unset settings chosen from its data) and build the decimated
     observation of ``system`` (``settings`` overrides the system's pre-processing), without its
     slow rows (see :func:`exclude_rows`).
@@ -187,6 +188,8 @@ def observe(series: JointSeries, system: System, settings: Preprocessing | None 
     ``rows``: the data joints whose efforts are fitted (default: every data joint); a robot
     system's columns still see the motion of the others. ``held``: {model joint: position (rad
     or m)} of a robot system's joints the data lack, held still (q̇ = q̈ = 0) in its columns.
+    ``all_rows``: keep the fit rows' copy with every row too
+    (:func:`~frictionid_core.observation.keep_all_rows`: a dynamic law's model).
 
     A system with a drive first takes the log to the joint side (:meth:`Drive.to_joint_side`).
     With friction on the motors the rows are the referred motor torques u = C⁻ᵀ·τ, named after
@@ -214,12 +217,13 @@ def observe(series: JointSeries, system: System, settings: Preprocessing | None 
         series = series.select(rows)
     segments = series.segments()
     if len(segments) == 1:
-        return _observe_segment(series, system, settings, held, rows)
-    return _observe_segments(series, segments, system, settings, held, rows)
+        return _observe_segment(series, system, settings, held, rows, all_rows)
+    return _observe_segments(series, segments, system, settings, held, rows, all_rows)
 
 
 def _observe_segments(series: JointSeries, segments: list[JointSeries], system: System,
-                      settings: Preprocessing | None, held: dict[str, float], rows: list[str]) -> Observation:
+                      settings: Preprocessing | None, held: dict[str, float], rows: list[str],
+                      all_rows: bool = False) -> Observation:
     """The observation of a series cut at the gaps of its stamps: each segment pre-processed
     alone (no filter runs across a gap) with the settings resolved on the longest, trimmed by
     TRIM_PERIODS / cut-off at each gap (the filters' transients, as the rule trims a record's
@@ -233,15 +237,14 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
         trims = {"trim_start_s": seam if k > 0 else resolved.trim_start_s,  # the log's ends: its own trims
                  "trim_end_s": seam if k < len(segments) - 1 else resolved.trim_end_s}
         try:
-            observed[k] = _observe_segment(segment, system, replace(resolved, **trims), held, rows)
+            observed[k] = _observe_segment(segment, system, replace(resolved, **trims), held, rows, all_rows)
         except TooFewSamples:
             if k == longest:
                 raise
             dropped.append(segment)
             continue
-        for o in (observed[k], observed[k].sampled):
-            if o is not None:
-                o.preprocessing = resolved  # stacked under one setting; the seams' trims are noted
+        for o in _with_all_rows(observed[k]):
+            o.preprocessing = resolved  # stacked under one setting; the seams' trims are noted
     obs = concat_observations([observed[k] for k in sorted(observed)])
     # the longest segment's report, with what the rule chose and the counts and extremes of them all
     report = dict(observed[longest].report)
@@ -254,9 +257,8 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
                   reversal_acceleration={j: max(r["reversal_acceleration"][j] or 0.0 for r in over)
                                          for j in report["reversal_acceleration"]},
                   segments={"used": len(observed), "left_out": len(dropped), "trim_at_gaps_s": seam})
-    for o in (obs, obs.sampled):
-        if o is not None:
-            o.report = report
+    for o in _with_all_rows(obs):
+        o.report = report
     t0 = series.t[0]
     gaps = [(a.t[-1], b.t[0]) for a, b in zip(segments[:-1], segments[1:])]
     listed = ", ".join(f"{end - start:.4g} s after {start - t0:.6g} s" for start, end in gaps[:3])
@@ -271,11 +273,17 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
     return obs
 
 
+def _with_all_rows(obs: Observation) -> list[Observation]:
+    """``obs``, its sampled observation and their copies with every row (those there are)."""
+    out = [o for o in (obs, obs.sampled) if o is not None]
+    return out + [o.full for o in out if o.full is not None]
+
+
 def _observe_segment(series: JointSeries, system: System, settings: Preprocessing | None,
-                     held: dict[str, float], rows: list[str]) -> Observation:
+                     held: dict[str, float], rows: list[str], all_rows: bool = False) -> Observation:
     """:func:`observe` of a series without gaps, on the joint side; TooFewSamples names its source."""
     try:
-        return _observe_gapless(series, system, settings, held, rows)
+        return _observe_gapless(series, system, settings, held, rows, all_rows)
     except TooFewSamples as exc:
         if str(exc).startswith(f"{series.source}:"):
             raise
@@ -283,7 +291,7 @@ def _observe_segment(series: JointSeries, system: System, settings: Preprocessin
 
 
 def _observe_gapless(series: JointSeries, system: System, settings: Preprocessing | None,
-                     held: dict[str, float], rows: list[str]) -> Observation:
+                     held: dict[str, float], rows: list[str], all_rows: bool = False) -> Observation:
     drive = system.drive
     joints = list(series.joints)
     prepared, resolved, report, notes = preprocess(series, settings or system.preprocessing)
@@ -325,8 +333,10 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
         if system.motor_rows:
             o.coupling, o.data_joints = drive.C, joints
         o.report = report
-        # the sampled rows are instants of the fit's (all of them, or one in ``thin``)
-        exclude_rows(o, slow if o is obs else slow[np.searchsorted(obs.t, o.t)])
+    keep_all_rows(obs, all_rows)
+    for o in (obs, obs.sampled):
+        if o is not None:  # the sampled rows are instants of the fit's (all of them, or one in ``thin``)
+            exclude_rows(o, slow if o is obs else slow[np.searchsorted(obs.t, o.t)])
     report["min_speed_rows"] = dict(zip(row_names, map(float, min_speed)))
     report["slow_rows_excluded"] = dict(zip(row_names, map(int, slow.sum(axis=0))))  # stick rows included
     report["stick_rows"] = dict(zip(row_names, map(int, stick.sum(axis=0))))
