@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import functools
 import sys
-import time
 import traceback
 import warnings
 
@@ -57,9 +56,7 @@ with warnings.catch_warnings():
     from geometry_msgs.msg import Inertia
     from rcl_interfaces.msg import SetParametersResult
     from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.lifecycle import LifecycleNode, TransitionCallbackReturn
-    from rclpy.node import Node
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray, MultiArrayDimension
@@ -75,7 +72,7 @@ from frictionid_ros.online import Online
 from frictionid_ros.parameters import changed_config, declare_parameters
 from frictionid_ros.payload import PayloadService
 from frictionid_ros.realtime import schedule_this_thread
-from frictionid_ros.runner import check_unique_name, make_input_executor, run
+from frictionid_ros.runner import check_unique_name, make_input_executor, make_input_node, run
 from frictionid_ros.service import IdentifyService
 from frictionid_ros.store import ActiveParameters, Results, Screen
 from frictionid_ros.worker import WorkerProcess, rss_kb
@@ -175,32 +172,9 @@ class FrictionIdNode(LifecycleNode):
 
         # Inputs on a hidden helper node with its own single-threaded executor (module docstring):
         # rclpy's MultiThreadedExecutor tops out below ~2 kHz; one thread writes every buffer.
-        self.input_node = inp = Node(f"_{self.get_name()}_input", namespace=self.get_namespace(),
-                                     context=self.context, use_global_arguments=False,
-                                     start_parameter_services=False)
-        qos_in = QoSProfile(
-            history=HistoryPolicy.KEEP_LAST, depth=cfg.qos_depth,
-            reliability=ReliabilityPolicy.BEST_EFFORT if cfg.qos == "sensor_data" else ReliabilityPolicy.RELIABLE,
-            durability=DurabilityPolicy.VOLATILE)
-        events = not isinstance(self.input_executor, SingleThreadedExecutor)
-
-        def sub(typ, topic, callback):  # callback(message, receipt time [ns, system clock])
-            # The SingleThreadedExecutor passes MessageInfo (middleware receipt time); the
-            # EventsExecutor passes the message only: receipt = callback entry then.
-            inp.create_subscription(typ, topic, (lambda m: callback(m, time.time_ns())) if events
-                                    else (lambda m, info: callback(m, info["received_timestamp"])), qos_in)
-
-        self.topics = {"joint_states": self.resolve_topic_name(cfg.joint_states_topic)}
-        sub(JointState, self.topics["joint_states"], self._on_joint_state)
-        if cfg.effort_topic:
-            self.topics["effort"] = self.resolve_topic_name(cfg.effort_topic)
-            sub(JointState if cfg.effort_topic_type == "joint_state" else Float64MultiArray, self.topics["effort"],
-                self._on_effort)
-        if cfg.velocity_source == "reference":
-            self.topics["reference"] = self.resolve_topic_name(cfg.reference_topic)
-            sub(JointState, self.topics["reference"], self._on_reference)
-        if cfg.feedforward_rate_hz > 0.0:
-            inp.create_timer(1.0 / cfg.feedforward_rate_hz, self._on_ff_timer)
+        self.input_node, self.topics = make_input_node(self, cfg, self.input_executor, {
+            "joint_states": self._on_joint_state, "effort": self._on_effort, "reference": self._on_reference,
+            "feedforward": self._on_ff_timer})
 
         qos_out = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
         latched = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -251,7 +225,7 @@ class FrictionIdNode(LifecycleNode):
             self._pub_params.publish(parameters_msg(self.active.results, self.inputs.joints))
         if self.active.results.payload is not None:
             self._pub_payload.publish(inertia_msg(self.active.results.payload))
-        self.input_executor.add_node(inp)
+        self.input_executor.add_node(self.input_node)
         self._log.info(
             f"configured: system {cfg.system}, joints {list(cfg.joints) or '(from the first message)'}, buffer "
             f"{cfg.buffer_seconds:g} s ({cfg.capacity} samples), input QoS {cfg.qos}, results {cfg.results_file}"

@@ -76,6 +76,41 @@ def make_input_executor(kind: str, log, context=None):
     return SingleThreadedExecutor(context=context)
 
 
+def make_input_node(node, cfg, executor, callbacks: dict):
+    """(the hidden helper node ``_<name>_input`` that takes ``node``'s inputs, {input: resolved topic}):
+    subscriptions to the joint states, the effort topic and the reference topic of ``cfg`` (those it
+    names) and the feed-forward timer, each calling ``callbacks[input](message, receipt time [ns,
+    system clock])`` (``callbacks["feedforward"]()`` for the timer); ``executor`` spins it."""
+    from rclpy.node import Node
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+
+    inp = Node(f"_{node.get_name()}_input", namespace=node.get_namespace(), context=node.context,
+               use_global_arguments=False, start_parameter_services=False)
+    reliability = ReliabilityPolicy.BEST_EFFORT if cfg.qos == "sensor_data" else ReliabilityPolicy.RELIABLE
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=cfg.qos_depth, durability=DurabilityPolicy.VOLATILE,
+                     reliability=reliability)
+    # The SingleThreadedExecutor passes MessageInfo (middleware receipt time); the EventsExecutor
+    # passes the message only: receipt = callback entry then.
+    events = not isinstance(executor, SingleThreadedExecutor)
+    inputs = [("joint_states", JointState, cfg.joint_states_topic)]
+    if cfg.effort_topic:
+        inputs.append(("effort", JointState if cfg.effort_topic_type == "joint_state" else Float64MultiArray,
+                       cfg.effort_topic))
+    if cfg.velocity_source == "reference":
+        inputs.append(("reference", JointState, cfg.reference_topic))
+    topics = {}
+    for name, typ, topic in inputs:
+        topics[name] = node.resolve_topic_name(topic)
+        callback = callbacks[name]
+        inp.create_subscription(typ, topics[name], (lambda m, f=callback: f(m, time.time_ns())) if events
+                                else (lambda m, info, f=callback: f(m, info["received_timestamp"])), qos)
+    if cfg.feedforward_rate_hz > 0.0:
+        inp.create_timer(1.0 / cfg.feedforward_rate_hz, callbacks["feedforward"])
+    return inp, topics
+
+
 def spin(executor, node) -> None:
     """Spin until shutdown. SIGINT/SIGTERM shut the context down, and an executor caught between
     two waits then raises RCLError ("context is not valid"): that is a normal end too."""
