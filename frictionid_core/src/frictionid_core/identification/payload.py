@@ -195,7 +195,8 @@ def identify_payload(series: Sources, base: IdentifyResult | Mapping, request: P
     residual = model.obs.y - X[:, others] @ c[others]
     nonnegative = np.array([parameter_kind(linear[k]) in FRICTION_LEVELS for k in friction_cols], dtype=bool)
     fit = fit_payload(X[:, payload_cols], X[:, friction_cols], residual - X[:, friction_cols] @ c[friction_cols],
-                      model.obs.used, model.obs.n_samples, nonnegative, c[friction_cols])
+                      model.obs.used, model.obs.n_samples, nonnegative, c[friction_cols],
+                      base_columns(X[:, others], [linear[k] for k in others], base))
     payload = Payload.from_standard(link, fit.z, sigma=sigma_block(fit.sigma), resolved=tuple(fit.resolved))
     x_loaded = x.copy()
     x_loaded[model.linear_index[payload_cols]] = fit.z
@@ -210,6 +211,16 @@ def identify_payload(series: Sources, base: IdentifyResult | Mapping, request: P
     return PayloadResult(payload, system.name, names[0] if len(names) == 1 else names, list(model.obs.joints),
                          base_file, friction, model_metrics(model, x_loaded), model_metrics(model, x),
                          fit.held, fit.record, validation_record(model), _warnings(fit), time.perf_counter() - t0)
+
+
+def base_columns(X: np.ndarray, names: list[str], base: Mapping) -> tuple[np.ndarray, np.ndarray] | None:
+    """(the base's held columns ``X`` (R, L), their σ (L,): the base's robust σ, else its white σ, 0
+    where it has none (fixed, undetermined)), or None when the base has no σ."""
+    sd = base.get("std_robust") or base.get("std")
+    if not sd:
+        return None
+    sigma = np.array([float(sd.get(n) or 0.0) for n in names])
+    return X, np.where(np.isfinite(sigma), sigma, 0.0)
 
 
 def _warnings(fit) -> list[str]:

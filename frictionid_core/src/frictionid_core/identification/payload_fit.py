@@ -18,7 +18,8 @@ r ≈ A·z + F·f. In order:
 σ: the delta method on the Jacobian of the held-completed parameters at the solution, from the
 HAC covariance robust to coloured residuals (:func:`~frictionid_core.identification.uncertainty.hac_covariance`;
 the base result's model errors leave correlated residuals) and the white one (kept in ``fit``);
-the larger of the two per quantity.
+the larger of the two per quantity; each with what the base's own σ (its robust σ, its parameters'
+errors taken as independent) moves the payload by, since the base is held, not known.
 """
 
 from __future__ import annotations
@@ -124,10 +125,11 @@ class _Problem:
         robust, _ = hac_covariance(J, e, self.instants)
         return white, robust
 
-    def quantity_sigma(self, theta: np.ndarray, f: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, np.ndarray,
-                                                                                          np.ndarray]:
+    def quantity_sigma(self, theta: np.ndarray, f: np.ndarray, free: np.ndarray, base: tuple | None = None
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(σ of the quantities (10,), σ of the friction levels, white σ of the quantities): the
-        larger of the white and the robust σ, by the delta method."""
+        larger of the white and the robust σ, by the delta method; with ``base`` (the base's held
+        columns B (R, L), their σ (L,)) also what the base's own errors move the fit by."""
         k = theta.size
         D = np.zeros((10, k))
         for i in range(k):
@@ -137,6 +139,10 @@ class _Problem:
             D[:, i] = (body_quantities(self.complete(theta + d, free))
                        - body_quantities(self.complete(theta - d, free))) / (2 * step)
         white, robust = self.covariances(theta, f, free)
+        if base is not None:  # the base's errors δβ move the fit by −(JᵀJ)⁻¹Jᵀ·B·δβ (independent errors assumed)
+            J = self.design(theta, free)
+            M = np.linalg.lstsq(J, base[0] * self.used[:, None], rcond=None)[0] * base[1]
+            white, robust = white + M @ M.T, robust + M @ M.T
         sw = np.sqrt(np.clip(np.diag(D @ white[:k, :k] @ D.T), 0, None))
         sr = np.sqrt(np.clip(np.diag(D @ robust[:k, :k] @ D.T), 0, None))
         fs = np.sqrt(np.clip(np.maximum(np.diag(white)[k:], np.diag(robust)[k:]), 0, None))
@@ -144,12 +150,14 @@ class _Problem:
 
 
 def fit_payload(A: np.ndarray, F: np.ndarray, r: np.ndarray, used: np.ndarray, instants: int,
-                nonnegative: np.ndarray, f0: np.ndarray) -> PayloadFit:
+                nonnegative: np.ndarray, f0: np.ndarray, base: tuple[np.ndarray, np.ndarray] | None = None
+                ) -> PayloadFit:
     """The payload (and, with columns F, friction level) fit of the module doc: A (R, 10) the
     payload's columns, F (R, nf) the friction levels' (nf may be 0), r (R,) the torque left by the
     base with friction levels ``f0`` (nf,) — the columns' fit is of r + F·f0 —, ``used`` (R,) the
     rows fitted, ``instants`` the samples per joint (rows are joint-major), ``nonnegative`` (nf,)
-    the levels held ≥ 0."""
+    the levels held ≥ 0; ``base``: the base's held columns (R, L) and their σ (L,), whose errors the
+    reported σ carries (what the loaded log resolves is judged on its own σ)."""
     p = _Problem(A, F, r + F @ f0, used, instants)
     free = np.ones(10, dtype=bool)
     theta, f = p.newton(np.zeros(10), np.asarray(f0, dtype=float).copy(), free)
@@ -175,7 +183,7 @@ def fit_payload(A: np.ndarray, F: np.ndarray, r: np.ndarray, used: np.ndarray, i
     cost_unc = float(np.sum(p.residual(z_unc, f) ** 2))
     z, f, record, iterations = _consistent(p, z_unc, f, free, nonnegative)
     theta = z[free]
-    sigma, fsigma, white = p.quantity_sigma(theta, f, free)
+    sigma, fsigma, white = p.quantity_sigma(theta, f, free, base)
     resolved = [name for name, k in zip(QUANTITIES, _quantity_free(free)) if k]
     quantities = body_quantities(z)
     sigma[~_quantity_free(free)] = np.nan
