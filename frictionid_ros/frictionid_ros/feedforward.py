@@ -12,6 +12,13 @@ Rate limit and clamp: new parameters blend in linearly over ``ramp_s`` (τ = (1 
 α from 0 to 1; 0: at once), and every joint's torque is clamped to ±``limit`` (one value, or one per
 joint; the node's is always finite: :meth:`frictionid_ros.store.Screen.clamp`).
 
+Load-dependent Coulomb friction (``Fc_load``, joint-side parameters): the Coulomb level is
+Fc + Fc_load·|τ_rigid|, τ_rigid the joint's rigid-body torque. The node has no rigid-body model
+online; it takes the joint's latest measured effort less the friction it feeds forward for that
+(:attr:`FeedForward.effort`, set by the inputs), so τ_rigid includes the offset and the effort's
+noise; without a measured effort (NaN) the level is Fc alone. Under a drive the term is not fed
+forward (a warning says so).
+
 Dynamic laws (LuGre, Maxwell-slip): their states (:class:`frictionid_core.friction.StateFriction`)
 advance with each input sample (:meth:`FeedForward.advance`, at the input rate, whatever the
 publication rate; with ``velocity_source: reference`` the reference velocity drives them), and
@@ -28,7 +35,7 @@ import time
 import numpy as np
 
 from frictionid_core import FrictionIdError, FrictionModel
-from frictionid_core.friction import StateFriction
+from frictionid_core.friction import StateFriction, smooth_sign
 from frictionid_ros.store import JointParams
 
 # A dynamic law's states restart after an input gap longer than this [s].
@@ -54,6 +61,8 @@ class FeedForward:
         self._state: tuple[tuple, tuple | None] = ((), None)
         self.active: tuple[str, ...] = ()
         self._t0_ns: int | None = None  # the first stamp of advance()
+        self.effort = np.full(len(self.joints), np.nan)  # the latest measured effort (J,) [N·m | N]; NaN: none
+        self._load: np.ndarray | None = None  # Fc_load of each joint (J,), None: no joint has one
 
     @property
     def limit(self) -> np.ndarray:
@@ -72,6 +81,7 @@ class FeedForward:
         owners, maps = self._owners(per_joint, problems)
         groups: dict[FrictionModel, tuple[list[int], list[list[float]]]] = {}
         active = []
+        load = np.zeros(len(owners))
         for i, j in enumerate(owners):
             p = per_joint.get(j)
             if p is None:
@@ -82,8 +92,11 @@ class FeedForward:
                 problems.append(str(exc))
                 continue
             if p.params.get("Fc_load"):
-                problems.append(f"joint '{j}': its load-dependent Coulomb level (Fc_load {p.params['Fc_load']:.6g}) "
-                                "is not fed forward (the node has no rigid-body torque): Fc alone")
+                if maps is None:
+                    load[i] = p.params["Fc_load"]
+                else:
+                    problems.append(f"joint '{j}': its load-dependent Coulomb level (Fc_load "
+                                    f"{p.params['Fc_load']:.6g}) is not fed forward under a drive: Fc alone")
             idx, rows = groups.setdefault(model, ([], []))
             idx.append(i)
             rows.append(vec)
@@ -95,6 +108,7 @@ class FeedForward:
                               StateFriction(m, np.array(rows, dtype=float)) if m.is_dynamic else None)
                              for m, (idx, rows) in groups.items()), maps)
         self.active = tuple(active)
+        self._load = load if load.any() else None
         return problems
 
     def _owners(self, per_joint: dict, problems: list[str]) -> tuple[list[str], tuple | None]:
@@ -146,6 +160,10 @@ class FeedForward:
         """Friction torque (J,) at velocities v (J,); non-finite velocities give 0 (under a drive,
         0 from every owner whose velocity they enter)."""
         out = self._torque(self._state, v, out)
+        load = self._load
+        if load is not None:  # Fc_load·|τ_rigid|·sign(v), τ_rigid ≈ the measured effort less the friction
+            rigid = np.abs(self.effort - out)
+            out += np.where(np.isfinite(rigid), load * rigid, 0.0) * smooth_sign(np.nan_to_num(v), self.eps)
         old, t_change = self._ramp
         if old is not None:
             alpha = (time.monotonic() - t_change) / self.ramp_s

@@ -140,6 +140,8 @@ class Inputs:
                 flags |= NO_EFFORT
             ring.flags[k] = flags
             ring.commit()
+        if self.effort_ring is None:  # the feed-forward's measured effort (a load-dependent Coulomb level)
+            self.ff.effort[:] = np.nan if flags & NO_EFFORT else ring.effort[k]
         self.received += 1
         if self._ref_map is not None:
             return False
@@ -183,6 +185,7 @@ class Inputs:
             ring.t_ns[k] = t_ns
             ring.flags[k] = 0 if put(ring.effort[k], src, idx, n) else NO_EFFORT
             ring.commit()
+        self.ff.effort[:] = ring.effort[k] if ring.flags[k] == 0 else np.nan
         self.effort_received += 1
 
     def reference(self, msg) -> bool:

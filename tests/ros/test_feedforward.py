@@ -64,9 +64,30 @@ def test_a_dynamic_law_is_fed_forward_with_its_states_at_the_input_rate():
     assert ff.torque(np.array([0.0, 0.0]))[0] == 0.0
 
 
-def test_a_load_dependent_level_is_named_as_not_fed_forward():
-    ff = FeedForward(["a"])
-    problems = ff.set_params({"a": JointParams("a", "tx40", "coulomb", False, "ls",
-                                               {"Fv": 1.0, "Fc": 0.5, "Fc_load": 0.04})})
-    assert len(problems) == 1 and "Fc_load 0.04" in problems[0] and "not fed forward" in problems[0]
-    assert ff.torque(np.array([1.0]))[0] == pytest.approx(1.5)  # Fv·v + Fc
+def test_a_load_dependent_level_rises_with_the_measured_load():
+    """Fc_load fed forward on the joint side: the Coulomb level Fc + Fc_load·|τ_rigid|, τ_rigid the
+    measured effort less the friction fed forward; Fc alone without a measured effort; not under a
+    drive (named)."""
+    ff = FeedForward(["a", "b"])
+    params = {"a": JointParams("a", "tx40", "coulomb", False, "ls", {"Fv": 1.0, "Fc": 0.5, "Fc_load": 0.04}),
+              "b": JointParams("b", "tx40", "coulomb", False, "ls", {"Fv": 2.0, "Fc": 1.0})}
+    assert ff.set_params(params) == []
+    v = np.array([1.0, -0.5])
+    np.testing.assert_allclose(ff.torque(v), [1.5, -2.0])  # no effort measured yet: Fc alone
+    ff.effort[:] = [21.5, -7.0]  # joint a: 20 N·m of rigid-body torque beside its 1.5 of friction
+    np.testing.assert_allclose(ff.torque(v), [1.5 + 0.04 * 20.0, -2.0], rtol=1e-12)
+    np.testing.assert_allclose(ff.torque(-v), [-1.5 - 0.04 * 23.0, 2.0], rtol=1e-12)  # |21.5 − (−1.5)|
+    ff.effort[:] = np.nan
+    np.testing.assert_allclose(ff.torque(v), [1.5, -2.0])
+
+
+def test_under_a_drive_a_load_dependent_level_is_named_as_not_fed_forward():
+    from frictionid_core import load_drive
+
+    drive = load_drive("tx40")
+    ff = FeedForward(list(drive.joints), drive=drive)
+    per_joint = {j: JointParams(j, "tx40", "coulomb", False, "ls", {"Fv": 1.0, "Fc": 0.5}) for j in drive.joints}
+    per_joint["joint_1"] = JointParams("joint_1", "tx40", "coulomb", False, "ls", {"Fv": 1.0, "Fc": 0.5,
+                                                                                  "Fc_load": 0.04})
+    problems = ff.set_params(per_joint)
+    assert len(problems) == 1 and "Fc_load 0.04" in problems[0] and "not fed forward under a drive" in problems[0]

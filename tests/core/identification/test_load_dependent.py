@@ -52,3 +52,27 @@ def test_fc_load_found_with_the_rigid_body_and_used_by_validate(loaded_tx40):
 def test_load_dependence_needs_a_robot_system():
     with pytest.raises(FrictionIdError, match="'load_dependent': needs a robot system"):
         IdentifyRequest.from_dict({"system": "joint", "load_dependent": True})
+
+
+@pytest.mark.slow
+def test_a_payload_on_a_load_dependent_base_raises_its_coulomb_levels(loaded_tx40, monkeypatch):
+    """The payload's torque raises the load-dependent Coulomb levels too: the payload fit refits those
+    levels with it until the payload settles; holding them at the base's rigid torque biases the mass."""
+    from frictionid_core.identification import payload as payload_module
+    from frictionid_core.identification.payload import PayloadRequest, identify_payload
+    from frictionid_core.robots.payload import Payload, robot_with_payload
+
+    estimation, _ = loaded_tx40
+    tx40 = build_tx40()
+    truth = Payload("link_6", 2.8, (0.01, 0.02, 0.06), ((0.01, 0.0, 0.0), (0.0, 0.012, 0.0), (0.0, 0.0, 0.008)))
+    rng = np.random.default_rng(12)
+    traj = fit_to_limits(tx40, FourierTrajectory(list(tx40.joints), np.zeros(6), rng.uniform(-1, 1, (6, 4)),
+                                                 rng.uniform(-1, 1, (6, 4)), 2 * np.pi / 8, 16.0))
+    fric = {j: {"Fv": 2.0 + k, "Fc": 1.0 + 0.5 * k, "Fc_load": LOAD[j]} for k, j in enumerate(tx40.joints)}
+    loaded, _ = synthesize(robot_with_payload(tx40, truth), traj, friction="coulomb", friction_params=fric, seed=3)
+    base = identify(estimation, IdentifyRequest(system="tx40", friction="coulomb", load_dependent=True)).to_dict()
+    found = identify_payload(loaded, base, PayloadRequest()).payload
+    assert found.mass == pytest.approx(2.8, rel=0.01) and np.max(np.abs(np.subtract(found.com, truth.com))) < 0.005
+    monkeypatch.setattr(payload_module, "LOAD_ROUNDS", 1)
+    held = identify_payload(loaded, base, PayloadRequest()).payload
+    assert abs(held.mass - 2.8) > 2 * abs(found.mass - 2.8), (held.mass, found.mass)

@@ -14,14 +14,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.identification.model_building import Sources, as_sources, model_metrics
-from frictionid_core.identification.payload_fit import fit_payload, sigma_block
+from frictionid_core.identification.payload_fit import base_columns, fit_payload, sigma_block
 from frictionid_core.identification.reload import model_from_result, validation_record
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.settings import PreprocessingOverrides
@@ -169,6 +169,9 @@ def _with_holds(base: dict, request: PayloadRequest) -> dict:
     return {**base, "request": asked}
 
 
+LOAD_ROUNDS = 20  # refits of a load-dependent base's levels with the payload's torque in them, at most
+
+
 def identify_payload(series: Sources, base: IdentifyResult | Mapping, request: PayloadRequest = PayloadRequest(),
                      base_file: str | None = None) -> PayloadResult:
     """The payload of ``request`` on the loaded log ``series`` (one source or several) with the
@@ -185,18 +188,25 @@ def identify_payload(series: Sources, base: IdentifyResult | Mapping, request: P
     empty = Payload(link, 0.0, (0.0, 0.0, 0.0), ((0.0,) * 3,) * 3)
     model, x = model_from_result(series, base, joints=request.joints, preprocessing=request.preprocessing,
                                  window=request.window, payload=empty)
-    X = model.design() if model.is_linear else model.design(x[None])[0]
     linear = [model.names[i] for i in model.linear_index]
     payload_cols = [linear.index(n) for n in PAYLOAD_NAMES]
     friction_cols = [k for k, n in enumerate(linear) if request.refit_friction and parameter_kind(n) in FRICTION_LEVELS
                      and model.linear_index[k] not in model.fixed_values]
     c = x[model.linear_index]
     others = [k for k in range(len(linear)) if k not in payload_cols and k not in friction_cols]
-    residual = model.obs.y - X[:, others] @ c[others]
     nonnegative = np.array([parameter_kind(linear[k]) in FRICTION_LEVELS for k in friction_cols], dtype=bool)
-    fit = fit_payload(X[:, payload_cols], X[:, friction_cols], residual - X[:, friction_cols] @ c[friction_cols],
-                      model.obs.used, model.obs.n_samples, nonnegative, c[friction_cols],
-                      base_columns(X[:, others], [linear[k] for k in others], base))
+    fit, previous = None, np.zeros(len(PAYLOAD_NAMES))
+    for _ in range(LOAD_ROUNDS):  # a load-dependent base: the payload's torque raises the Coulomb levels too
+        X = model.design() if model.is_linear else model.design(x[None])[0]
+        fit = fit_payload(X[:, payload_cols], X[:, friction_cols],
+                          model.obs.y - X[:, others] @ c[others] - X[:, friction_cols] @ c[friction_cols],
+                          model.obs.used, model.obs.n_samples, nonnegative, c[friction_cols],
+                          base_columns(X[:, others], [linear[k] for k in others], base))
+        if model.load_rigid is None or np.max(np.abs(fit.z - previous)) <= 1e-9 * np.max(np.abs(fit.z)):
+            break
+        previous, rigid = fit.z, model.load_rigid.copy()
+        rigid[[model.obs.rigid_names.index(n) for n in PAYLOAD_NAMES]] = fit.z
+        model = replace(model, load_rigid=rigid)
     payload = Payload.from_standard(link, fit.z, sigma=sigma_block(fit.sigma), resolved=tuple(fit.resolved))
     x_loaded = x.copy()
     x_loaded[model.linear_index[payload_cols]] = fit.z
@@ -211,16 +221,6 @@ def identify_payload(series: Sources, base: IdentifyResult | Mapping, request: P
     return PayloadResult(payload, system.name, names[0] if len(names) == 1 else names, list(model.obs.joints),
                          base_file, friction, model_metrics(model, x_loaded), model_metrics(model, x),
                          fit.held, fit.record, validation_record(model), _warnings(fit), time.perf_counter() - t0)
-
-
-def base_columns(X: np.ndarray, names: list[str], base: Mapping) -> tuple[np.ndarray, np.ndarray] | None:
-    """(the base's held columns ``X`` (R, L), their σ (L,): the base's robust σ, else its white σ, 0
-    where it has none (fixed, undetermined)), or None when the base has no σ."""
-    sd = base.get("std_robust") or base.get("std")
-    if not sd:
-        return None
-    sigma = np.array([float(sd.get(n) or 0.0) for n in names])
-    return X, np.where(np.isfinite(sigma), sigma, 0.0)
 
 
 def _warnings(fit) -> list[str]:

@@ -24,6 +24,7 @@ errors taken as independent) moves the payload by, since the base is held, not k
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -177,7 +178,7 @@ def fit_payload(A: np.ndarray, F: np.ndarray, r: np.ndarray, used: np.ndarray, i
         if sigma[1 + i] > COM_TOLERANCE_M:
             free[1 + i] = False
     if not free[1:4].all():
-        z = p.complete(theta, _with(free, 1, 4, True))
+        z = p.complete(theta, np.concatenate([free[:1], [True] * 3, free[4:]]))
         theta, f = p.newton(z[free], f, free)
     z_unc = p.complete(theta, free)
     cost_unc = float(np.sum(p.residual(z_unc, f) ** 2))
@@ -197,12 +198,6 @@ def fit_payload(A: np.ndarray, F: np.ndarray, r: np.ndarray, used: np.ndarray, i
                   unconstrained=dict(zip(QUANTITIES, map(float, body_quantities(z_unc)))))
     held = {name: float(v) for name, v, k in zip(QUANTITIES, quantities, _quantity_free(free)) if not k}
     return PayloadFit(z, f, quantities, sigma, fsigma, resolved, held, record)
-
-
-def _with(mask: np.ndarray, lo: int, hi: int, value: bool) -> np.ndarray:
-    out = mask.copy()
-    out[lo:hi] = value
-    return out
 
 
 def _quantity_free(free: np.ndarray) -> np.ndarray:
@@ -242,3 +237,10 @@ def sigma_block(sigma: np.ndarray) -> dict:
         inertia[a][b] = inertia[b][a] = value
     return {"mass": values[0], "com": values[1:4], "inertia": inertia}
 
+
+def base_columns(X: np.ndarray, names: list[str], base: Mapping) -> tuple[np.ndarray, np.ndarray] | None:
+    """(the base's held columns ``X`` (R, L), their σ (L,): the base's robust σ, else its white σ, 0
+    where it has none (fixed, undetermined)), or None when the base has no σ."""
+    sd = base.get("std_robust") or base.get("std")
+    sigma = np.array([float(sd.get(n) or 0.0) for n in names]) if sd else None
+    return None if sigma is None else (X, np.where(np.isfinite(sigma), sigma, 0.0))
