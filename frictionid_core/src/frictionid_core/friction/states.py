@@ -59,15 +59,19 @@ def state_torque(model, params: np.ndarray, v: np.ndarray, t: np.ndarray) -> np.
 
 def joint_state_rows(model, params: np.ndarray, velocity: np.ndarray, t: np.ndarray) -> np.ndarray:
     """The friction (P, J, N) of J joints for P parameter sets: ``params`` (P, J, k) (joint j's
-    parameters of set p), ``velocity`` (N, J) (an observation's), sampled at ``t`` (N,)."""
+    parameters of set p), ``velocity`` (N, J) (an observation's), sampled at ``t`` (N,). A joint's
+    states are integrated once per distinct parameter set of it: a finite-difference Jacobian's sets
+    differ from their centre in one joint each."""
     from frictionid_core.friction.kernels import state_rows
 
     p = np.asarray(params, dtype=float)
     n_pop, nj, k = p.shape
-    which = np.tile(np.arange(nj), n_pop)
-    out = state_rows(model.name, model.asymmetric, model.elements, p.reshape(n_pop * nj, k),
-                     np.asarray(velocity, dtype=float).T, which, t, resets(t))
-    return out.reshape(n_pop, nj, -1)
+    items = p.reshape(n_pop * nj, k)
+    keyed = np.hstack([np.tile(np.arange(nj, dtype=float), n_pop)[:, None], items])
+    distinct, where = np.unique(keyed, axis=0, return_inverse=True)
+    out = state_rows(model.name, model.asymmetric, model.elements, distinct[:, 1:],
+                     np.asarray(velocity, dtype=float).T, distinct[:, 0].astype(np.int64), t, resets(t))
+    return out[where.ravel()].reshape(n_pop, nj, -1)
 
 
 class StateFriction:
