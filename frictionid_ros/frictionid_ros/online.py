@@ -6,8 +6,10 @@ worker, with the node's friction model, solver and ``known_rigid_body``) and the
 held back; :func:`frictionid_core.loop.gate.review`, run in the worker too (its predictions
 would otherwise take the GIL from the 1 kHz inputs), decides whether the candidate replaces the
 active parameters (it must predict the held-back slice better). ``~/load`` goes through the
-same gate while online re-identification is on (:meth:`Online.offer`). Every decision is kept
-for ``/diagnostics`` (:meth:`Online.status`) and logged.
+same gate while online re-identification is on (:meth:`Online.offer`). A re-identification yields
+to a requested one (``~/identify``, ``~/identify_payload``): it holds the slot as a background job,
+which the request cancels (:meth:`~frictionid_ros.service.IdentifyService.slot`). Every decision is
+kept for ``/diagnostics`` (:meth:`Online.status`) and logged.
 """
 
 from __future__ import annotations
@@ -51,7 +53,8 @@ class Online:
     def tick(self) -> Decision | None:
         """One re-identification and its review; None when skipped (busy, too little data, failed)."""
         cfg = self._settings()
-        with self._service.slot() as free:
+        control = JobControl(cfg.max_wall_s)
+        with self._service.slot(background=control) as free:  # a requested identification cancels it
             if not free:
                 return self._skip("an identification is running")
             try:
@@ -59,7 +62,7 @@ class Online:
                 sel = self._service.window(job)
                 fit, held = split(sel.series, cfg.online_holdout)
                 gate = Gate(self._active.results.last, held, cfg.gate_max_abs)
-                result, decision, _ = self._service.run_job(job, JobControl(cfg.max_wall_s),
+                result, decision, _ = self._service.run_job(job, control,
                                                             Selection(fit, sel.start_ns, sel.end_ns, sel.notes), gate)
             except (FrictionIdError, Cancelled) as exc:
                 return self._skip(str(exc))

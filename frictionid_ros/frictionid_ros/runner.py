@@ -156,9 +156,10 @@ def run(node_class, argv: list[str] | None = None) -> int:
 def serve(make_node, make_executors, prog: str, input_setup=None) -> int:
     """Spin the node ``make_node()`` until SIGINT/SIGTERM: ``make_executors(node)`` gives (the input
     executor, spun in a thread of its own; the main one, spun here), both with their nodes added.
-    Then ``node.close()``, the executors shut down, the node destroyed; exit code 0, or 2 with one
-    line for a FrictionIdError (a bad configuration). ``input_setup(node)``, if given, runs first in the
-    input thread (the node's real-time scheduling: :mod:`.realtime`)."""
+    Then ``node.close()``, the executors shut down, the node destroyed; exit code 0 (also when a
+    signal stopped it while it started), or 2 with one line for a FrictionIdError (a bad
+    configuration). ``input_setup(node)``, if given, runs first in the input thread (the node's
+    real-time scheduling: :mod:`.realtime`)."""
     node, executors, input_thread = None, [], None
     try:
         node = make_node()
@@ -178,6 +179,8 @@ def serve(make_node, make_executors, prog: str, input_setup=None) -> int:
         input_thread.start()
         spin(executors[1], node)
     except FrictionIdError as exc:
+        if not rclpy.ok():  # SIGINT/SIGTERM while it started (ROS shut down under it): a stop, not an error
+            return 0
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     from frictionid_core.loop import Decision
 
 WAIT_PERIOD_S = 0.05  # how often a waiting request checks the wall time and calls on_wait [s]
+PREEMPT_WAIT_S = 2.0  # how long a request waits for a cancelled background job to let the slot go [s]
 
 
 @dataclass
@@ -48,7 +49,9 @@ class Answer:
 class IdentifyService:
     """Answers Identify requests on the data of ``inputs``.
 
-    A request arriving while an identification runs is answered "busy" at once. The
+    A request arriving while an identification runs is answered "busy" at once, unless what runs
+    is a background job (online re-identification, :meth:`slot` with ``background``): that one is
+    cancelled and the request runs once it has let the slot go (within :data:`PREEMPT_WAIT_S`). The
     identification runs in ``worker`` (a child process) or, without one, a thread, while the
     caller's thread waits; it is stopped by :meth:`cancel_running`, by the wall-time limit
     ``max_wall_s`` and when :attr:`stopping` is set. ``settings()`` returns the node's current
@@ -69,6 +72,7 @@ class IdentifyService:
         self.stopping = threading.Event()
         self._busy = threading.Lock()
         self._running: JobControl | None = None
+        self._background: JobControl | None = None  # the job in the slot a request may cancel
         self.last_ok, self.last_status = True, "no identification yet"
         self.last_consistency = ""  # consistency_text of the last successful identification
         self.last_cancel_ms = float("nan")
@@ -91,13 +95,17 @@ class IdentifyService:
             "running_s": f"{time.monotonic() - running.t_start:.1f}" if running is not None else "", **values}
 
     @contextlib.contextmanager
-    def slot(self):
-        """Hold the one identification slot if it is free: yields True, or False when busy."""
+    def slot(self, background: JobControl | None = None):
+        """Hold the one identification slot if it is free: yields True, or False when busy.
+        ``background``: the control of a job that yields the slot to a request (cancelled by it)."""
         got = self._busy.acquire(blocking=False)
         try:
+            if got:
+                self._background = background
             yield got
         finally:
             if got:
+                self._background = None
                 self._busy.release()
 
     def cancel_running(self, reason: str) -> bool:
@@ -123,8 +131,8 @@ class IdentifyService:
         thread while this one waits: stopped by a cancel, the wall-time limit or :attr:`stopping`
         (answered so); a FrictionIdError answered with its message; else ``done(its value)``
         answers. ``on_wait(control)`` as in :meth:`handle`."""
-        if not self._busy.acquire(blocking=False):  # not recorded: the running one is the news
-            running = self._running
+        if not self._busy.acquire(blocking=False) and not self._preempt():
+            running = self._running  # not recorded: the running one is the news
             since = f" (for {time.monotonic() - running.t_start:.1f} s)" if running is not None else ""
             return Answer(False, f"busy: an identification is already running{since}; try again later")
         try:
@@ -133,6 +141,15 @@ class IdentifyService:
         finally:
             self._running = None
             self._busy.release()
+
+    def _preempt(self) -> bool:
+        """Cancel a background job holding the slot and take the slot once it lets go (True), or
+        False: the slot holds a request's identification, or the job did not stop in time."""
+        background = self._background
+        if background is None:
+            return False
+        background.cancel("preempted by a requested identification")
+        return self._busy.acquire(timeout=PREEMPT_WAIT_S)
 
     def _wait(self, work, control: JobControl, on_wait, done) -> Answer:
         box: dict = {}

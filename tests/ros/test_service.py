@@ -66,6 +66,40 @@ def test_cancel_stops_the_identification_and_keeps_the_parameters(tmp_path):
     assert service.handle(Identify.Request()).ok  # not stuck busy
 
 
+def test_a_request_preempts_a_background_job_but_not_another_request(tmp_path):
+    """A background job in the slot (an online re-identification: ``slot(background=...)``) is
+    cancelled by a request, which then runs at once; a request's own identification is not: the
+    next request is answered "busy"."""
+    from frictionid_ros.request import parse_request
+    from frictionid_ros.worker import Cancelled
+
+    service, _ = service_with_parameters(tmp_path)
+    background, box = JobControl(), {}
+
+    def job():
+        with service.slot(background=background) as free:
+            assert free
+            try:
+                service.run_job(parse_request(Identify.Request(**HUGE), service._settings(), ["a", "b"]), background)
+            except Cancelled as exc:
+                box["cancelled"] = str(exc)
+
+    t = threading.Thread(target=job)
+    t.start()
+    wait_until(lambda: background.progress[0] >= 2, "two generations of the background job")
+    answer = service.handle(Identify.Request())
+    t.join(30)
+    assert answer.ok, answer.message
+    assert background.reason == "preempted by a requested identification" and "cancelled" in box
+    control = JobControl()
+    t = threading.Thread(target=lambda: box.setdefault("long", service.handle(Identify.Request(**HUGE), control)))
+    t.start()
+    wait_until(lambda: control.progress[0] >= 2, "two generations of the requested identification")
+    assert service.handle(Identify.Request()).message.startswith("busy") and not control.cancelled
+    service.cancel_running("done")
+    t.join(30)
+
+
 def test_wall_time_limit_stops_the_identification(tmp_path):
     service, active = service_with_parameters(tmp_path, max_wall_s=0.5)
     before = active.results
