@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from frictionid_core.jsonfile import write_json, write_text
+from frictionid_core.files import write_json, write_text
 
 RESULTS = Path(__file__).resolve().parent / "results"
 

@@ -258,7 +258,7 @@ def main(argv=None) -> int:
     with_tx40 = not (a.quick or a.no_tx40)
     out_path = a.out or RESULTS / ("contention_quick.json" if a.quick else "contention.json")
 
-    from frictionid_core.emps_simulation import EmpsSimulator
+    from frictionid_core.emps import EmpsSimulator
     from frictionid_core.identification import IdentifyRequest, build_model, identify
     from frictionid_core.io import load
     from frictionid_core.parallel import busy_cpus

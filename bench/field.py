@@ -103,7 +103,7 @@ def _csv(path: Path) -> tuple[list[str], np.ndarray]:
 def read_tx40(folder: Path, tmp: Path) -> Log:
     """FIGAROH's TX40 log: motor angles and torques at 5 kHz, taken to the joint side by the drive's ratios."""
     from frictionid_core.drive import load_drive
-    from frictionid_core.robots.tx40 import build_tx40
+    from frictionid_core.robots import build_tx40
 
     _, qm = _csv(folder / "pos_read_data.csv")
     _, y = _csv(folder / "curr_data.csv")

@@ -79,7 +79,7 @@ class Scenario:
 
 
 def _ur5() -> str:
-    from frictionid_core.robots.robot_model import example_robot_data_dir
+    from frictionid_core.robots import example_robot_data_dir
 
     return f"urdf:{example_robot_data_dir() / 'ur_description' / 'urdf' / 'ur5_robot.urdf'}"
 
@@ -120,7 +120,7 @@ def truth_robot(sc: Scenario):
     """The scenario's RobotModel with its hidden rotor inertias (the simulator's and the controller's)."""
     import pinocchio as pin
 
-    from frictionid_core.loop.sim import load_robot
+    from frictionid_core.loop import load_robot
 
     robot = load_robot(sc.robot)
     model = pin.Model(robot.model)
@@ -145,8 +145,7 @@ class Reference:
 def simulate(sc: Scenario, trajectory) -> dict:
     """Track ``trajectory`` on the scenario's arm: per step k (before it) t, q, q̇ (N,)/(N, J), the
     torque τ applied during it and the friction torque of the step (``friction``, opposing the motion)."""
-    from frictionid_core.loop.control import Controller
-    from frictionid_core.loop.sim import SimArm
+    from frictionid_core.loop import Controller, SimArm
 
     robot = truth_robot(sc)
     ref = Reference(trajectory, robot.joints)
@@ -186,8 +185,8 @@ def stick_figures(sc: Scenario, sim: dict) -> dict:
 def make_log(sc: Scenario, folder: Path, name: str, seed_offset: int = 0) -> dict:
     """Excite, simulate and record the ``name`` log of ``sc`` in ``folder`` (reused when present),
     its seeds those of LOGS + ``seed_offset``: {"bag": path, "npz": path of the clean record and noise levels}."""
-    from frictionid_core.io.bag import write_joint_state_bag
-    from frictionid_core.robots.excitation import load_trajectory
+    from frictionid_core.excitation import load_trajectory
+    from frictionid_core.io import write_joint_state_bag
     from frictionid_core.timeseries import JointSeries
 
     excite_seed, noise_seed = (s + seed_offset for s in LOGS[name])
@@ -226,8 +225,7 @@ class RigidBody:
 
     @classmethod
     def of(cls, spec: str) -> RigidBody:
-        from frictionid_core.systems import get_system
-        from frictionid_core.systems.robot import nominal_parameters
+        from frictionid_core.systems import get_system, nominal_parameters
 
         system = get_system(spec)
         nominal = nominal_parameters(system)

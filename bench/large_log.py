@@ -81,7 +81,7 @@ def shape_errors(params: dict, truth: dict) -> dict[str, dict[str, float]]:
 
 
 def main() -> int:
-    from frictionid_core.jsonfile import read_json
+    from frictionid_core.files import read_json
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--keep", type=Path, help="folder of the logs (kept; reused when present)")

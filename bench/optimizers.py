@@ -166,8 +166,7 @@ def time_to_reach(history, wall: float, generations: int, target: float):
 
 # ----------------------------------------------------------------------------- frictionid
 def run_ours(model, generations: int, seeds) -> dict:
-    from frictionid_core.optim import minimize
-    from frictionid_core.optim.problem import Problem
+    from frictionid_core.optim import Problem, minimize
 
     lo, hi = model.bounds()
     problem = Problem(list(model.names), lo, hi, model.batch_cost, residuals=model.residuals)
@@ -450,8 +449,7 @@ def run_varpro(series, fr, asym, model, generations, seeds, warm_up: bool = True
 
 
 def run_bo_dt(model, seeds) -> dict:
-    from frictionid_core.optim import minimize
-    from frictionid_core.optim.problem import Problem
+    from frictionid_core.optim import Problem, minimize
 
     lo, hi = model.bounds()
     problem = Problem(list(model.names), lo, hi, model.batch_cost, residuals=model.residuals)

@@ -58,7 +58,7 @@ def frictionid(*args: str) -> float:
 def run_case(name: str, base_src: list[str], loaded_src: list[str], val_src: list[str], folder: Path,
              truth) -> dict:
     """identify BASE, payload, validate with it, full re-identification: the case's figures."""
-    from frictionid_core.robots.payload import body_quantities
+    from frictionid_core.robots import body_quantities
 
     files = {k: folder / f"{name}_{k}.json" for k in ("base", "p", "full", "val_p", "val_full", "val_base")}
     system = ["--system", "tx40" if name.startswith("tx40") else truth["system"]]
@@ -87,19 +87,19 @@ def run_case(name: str, base_src: list[str], loaded_src: list[str], val_src: lis
 
 
 def _quantities() -> tuple[str, ...]:
-    from frictionid_core.robots.payload import QUANTITIES
+    from frictionid_core.robots import QUANTITIES
 
     return QUANTITIES
 
 
 def _standard(p: dict) -> np.ndarray:
-    from frictionid_core.robots.payload import body_parameters
+    from frictionid_core.robots.payload_model import body_parameters
 
     return body_parameters(p["mass"], p["com"], p["inertia"])
 
 
 def _sigma(p: dict, quantity: str) -> float:
-    from frictionid_core.robots.payload import INERTIA_ENTRIES
+    from frictionid_core.robots import INERTIA_ENTRIES
 
     s = p["sigma"]
     if quantity == "mass":
@@ -113,7 +113,7 @@ def _sigma(p: dict, quantity: str) -> float:
 
 
 def synthetic(folder: Path) -> dict:
-    from frictionid_core.io.csv import save_csv
+    from frictionid_core.io import save_csv
     from support.payload_logs import loaded_logs
 
     out = {}
@@ -132,9 +132,8 @@ def real_loaded(data: Path, folder: Path, payload) -> Path:
     """A copy of the real log with the payload's torque added to ``curr_data.csv``: its folder."""
     from frictionid_core.drive import load_drive
     from frictionid_core.io import load
-    from frictionid_core.preprocess.filters import central_difference, lowpass_position
-    from frictionid_core.robots.payload import robot_with_payload
-    from frictionid_core.robots.tx40 import build_tx40
+    from frictionid_core.preprocess import central_difference, lowpass_position
+    from frictionid_core.robots import build_tx40, robot_with_payload
     from frictionid_core.timeseries import JointSeries
 
     (folder / "layout.yaml").write_text(LAYOUT)
@@ -164,8 +163,7 @@ def real_loaded(data: Path, folder: Path, payload) -> Path:
 
 
 def real(data: Path, folder: Path) -> dict:
-    from frictionid_core.robots.payload import Payload, default_link
-    from frictionid_core.robots.tx40 import build_tx40
+    from frictionid_core.robots import Payload, build_tx40, default_link
     from support.payload_logs import PAYLOAD
 
     payload = Payload(default_link(build_tx40()), **PAYLOAD)

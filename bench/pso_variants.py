@@ -26,9 +26,8 @@ import numpy as np
 
 from frictionid_core.identification import build_model
 from frictionid_core.io import load
-from frictionid_core.optim import minimize
+from frictionid_core.optim import Problem, minimize
 from frictionid_core.optim._engine import PopulationRun
-from frictionid_core.optim.problem import Problem
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = {"tustin-asym": ("tustin", True), "stribeck": ("stribeck", False)}

@@ -73,7 +73,7 @@ from _load import DESCRIPTION as COMPETITOR
 from _load import Competitors
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.jsonfile import write_json
+from frictionid_core.files import write_json
 from frictionid_ros.realtime import realtime_priority
 
 ROOT = Path(__file__).resolve().parents[1]

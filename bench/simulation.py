@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from frictionid_core.emps_simulation import METRIC_KEYS, EmpsSimulator, load_emps
+from frictionid_core.emps import METRIC_KEYS, EmpsSimulator, load_emps
 
 ROOT = Path(__file__).resolve().parents[1]
 REF = {"M": 95.1089, "Fv": 203.5034, "Fc": 20.3935, "offset": -3.1648}

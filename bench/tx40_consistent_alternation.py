@@ -20,8 +20,8 @@ from tx40_real import SPLIT_S, prepare
 
 from frictionid_core.cli import build_parser
 from frictionid_core.cli._common import drive_option, load_sources
+from frictionid_core.consistency import consistent_fit
 from frictionid_core.identification import SolverOptions, build_model, model_metrics, solve_model
-from frictionid_core.robots.consistent_fit import consistent_fit
 from frictionid_core.systems import as_system
 
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from frictionid_core.identification import IdentifyRequest, SolverOptions, identify, validate
 from frictionid_core.io import load
-from frictionid_core.robots.synth import expected_parameters
+from frictionid_core.synthetic import expected_parameters
 
 ROOT = Path(__file__).resolve().parents[1]
 THESIS = {  # Tables 6.17/6.18 (mean), 6.19 (s), 6.20 (%)

@@ -27,10 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
+from frictionid_core.excitation.design import trajectory_from_dict
 from frictionid_core.friction import get_model
-from frictionid_core.robots.excitation import trajectory_from_dict
-from frictionid_core.robots.synth import truth_friction
-from frictionid_core.robots.tx40 import build_tx40
+from frictionid_core.robots import build_tx40
+from frictionid_core.synthetic.robot_logs import truth_friction
 
 ROOT = Path(__file__).resolve().parents[1]
 NAMES = ("Fv", "Fc", "Fs", "vs", "delta")

@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 from _results import publish
 
+from frictionid_core.consistency import consistent_fit
 from frictionid_core.identification import IdentifyRequest, SolverOptions, build_model, identify, model_metrics
 from frictionid_core.io import load
 from frictionid_core.preprocess import Preprocessing
-from frictionid_core.robots.consistent_fit import consistent_fit
 from frictionid_core.systems import get_system
 
 ROOT = Path(__file__).resolve().parents[1]

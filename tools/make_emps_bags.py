@@ -13,8 +13,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from frictionid_core.io.bag import write_joint_state_bag
-from frictionid_core.io.mat import load_emps_mat
+from frictionid_core.io import load_emps_mat, write_joint_state_bag
 
 ROOT = Path(__file__).resolve().parents[1]
 

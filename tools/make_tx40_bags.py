@@ -30,9 +30,9 @@ import sys
 import time
 from pathlib import Path
 
-from frictionid_core.io.bag import write_joint_state_bag
-from frictionid_core.robots.excitation import add_dwell, optimise_excitation, robot_of
-from frictionid_core.robots.synth import synthesize
+from frictionid_core.excitation import add_dwell, optimise_excitation, robot_of
+from frictionid_core.io import write_joint_state_bag
+from frictionid_core.synthetic import synthesize
 from frictionid_core.systems import get_system
 
 ROOT = Path(__file__).resolve().parents[1]

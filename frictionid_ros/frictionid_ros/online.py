@@ -3,7 +3,7 @@
 Every ``online_period_s`` the node calls :meth:`Online.tick`: the last ``online_window_s`` of
 buffered data is split in time, the older (1 − ``online_holdout``) share is identified (in the
 worker, with the node's friction model, solver and ``known_rigid_body``) and the newest share is
-held back; :func:`frictionid_core.loop.gate.review`, run in the worker too (its predictions
+held back; :func:`frictionid_core.safety.gate.review`, run in the worker too (its predictions
 would otherwise take the GIL from the 1 kHz inputs), decides whether the candidate replaces the
 active parameters (it must predict the held-back slice better). ``~/load`` goes through the
 same gate while online re-identification is on (:meth:`Online.offer`). A re-identification yields
@@ -19,7 +19,7 @@ import time
 from dataclasses import replace
 
 from frictionid_core import FrictionIdError
-from frictionid_core.loop import Decision
+from frictionid_core.safety import Decision
 from frictionid_ros.request import Job, node_request
 from frictionid_ros.store import Results, read_results, split_identification
 from frictionid_ros.window import Selection

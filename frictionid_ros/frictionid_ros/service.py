@@ -28,7 +28,7 @@ from frictionid_ros.worker import (
 if TYPE_CHECKING:
     from frictionid_core import IdentifyResult
     from frictionid_core.identification import PayloadResult
-    from frictionid_core.loop import Decision
+    from frictionid_core.safety import Decision
 
 WAIT_PERIOD_S = 0.05  # how often a waiting request checks the wall time and calls on_wait [s]
 PREEMPT_WAIT_S = 2.0  # how long a request waits for a cancelled background job to let the slot go [s]

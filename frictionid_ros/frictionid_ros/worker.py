@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from frictionid_core import IdentifyRequest, IdentifyResult
-    from frictionid_core.loop import Decision
+    from frictionid_core.safety import Decision
 
 _LENGTH = struct.Struct("<Q")  # an out-of-band buffer's length
 _FRAME = struct.Struct("<QQ")  # a message's pickle length and number of out-of-band buffers
@@ -64,7 +64,7 @@ class Cancelled(Exception):
 
 @dataclass(frozen=True)
 class Gate:
-    """A review by the safety gate (:func:`frictionid_core.loop.gate.review`) of an identification:
+    """A review by the safety gate (:func:`frictionid_core.safety.gate.review`) of an identification:
     ``candidate`` (None: the identification's own result) against ``current`` (None: no active
     set) on the held-back series ``holdout``; ``max_abs``: largest parameter magnitude accepted."""
 
@@ -182,7 +182,7 @@ def run_identification(series, request: IdentifyRequest, progress=None, gate: Ga
             result = request.run(series)
         decision = None
         if gate is not None:  # judged here too: the prediction of the held-back slice is CPU work
-            from frictionid_core.loop import review
+            from frictionid_core.safety import review
 
             decision = review(gate.current, result, gate.holdout, gate.max_abs)
         return ("ok", (result, decision))

@@ -16,7 +16,7 @@ import scipy.io
 from frictionid_core.cli import main
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.identification import IdentifyRequest, identify, validate
-from frictionid_core.linear import least_squares
+from frictionid_core.model.least_squares import least_squares
 from support.data import EMPS_ESTIMATION, EMPS_VALIDATION, REPO
 
 REF = {"M": 95.1089, "Fv": 203.5034, "Fc": 20.3935, "offset": -3.1648}

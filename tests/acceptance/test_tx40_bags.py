@@ -8,12 +8,12 @@ import json
 import numpy as np
 import pytest
 
+from frictionid_core.compare import compare, noise_floor
 from frictionid_core.errors import InputError
 from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides, SolverOptions, build_model, identify
 from frictionid_core.io import load
 from frictionid_core.preprocess import Preprocessing
-from frictionid_core.robots.compare import compare, noise_floor
-from frictionid_core.robots.synth import expected_parameters, truth_friction
+from frictionid_core.synthetic.robot_logs import expected_parameters, truth_friction
 from support.data import BAGS
 
 TRUTH = json.loads((BAGS / "tx40_truth.json").read_text())["bags"]
@@ -97,7 +97,7 @@ def test_thesis_protocol_de_runs_from_the_cli(capsys):
 def test_full_robot_on_the_bundled_bags():
     """At the true Stribeck shapes the closed form gives every determined base parameter and
     every friction level within 5 %, consistent bodies, and the noise floor on validation."""
-    from frictionid_core.robots.consistency_check import report_for_result
+    from frictionid_core.consistency import report_for_result
     from frictionid_core.systems import get_system
 
     est = load(BAGS / "tx40_excitation")

@@ -24,7 +24,7 @@ def _minimize_with_a_typo():
 
 # "module.qualname" → (why it takes **keywords, a call with an unknown keyword that must raise)
 ALLOWED = {
-    "frictionid_core.optim.minimize": (
+    "frictionid_core.optim.suite.minimize": (
         "the method's own options (e.g. F for de, topology for pso), checked against that method's "
         "solve signature before it runs", _minimize_with_a_typo),
 }
@@ -62,9 +62,9 @@ def public_functions() -> dict:
 def test_the_walk_sees_the_public_api():
     names = public_functions()
     for expected in ("frictionid_core.identification.orchestration.identify",
-                     "frictionid_core.identification.reload.validate",
+                     "frictionid_core.identification.validation.validate",
                      "frictionid_core.identification.request.IdentifyRequest.from_dict",
-                     "frictionid_core.io.load", "frictionid_core.optim.minimize"):
+                     "frictionid_core.io.loader.load", "frictionid_core.optim.suite.minimize"):
         assert expected in names, expected
     assert len(names) > 40
 

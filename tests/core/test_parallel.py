@@ -131,7 +131,7 @@ def test_pool_runs_every_chunk_once_and_reports_errors():
 
 
 def test_simulated_population_does_not_depend_on_the_thread_count():
-    from frictionid_core.emps_simulation import EmpsSimulator
+    from frictionid_core.emps import EmpsSimulator
 
     sim = EmpsSimulator(EMPS_ESTIMATION, "tustin", True)
     lo = np.array([90.0, 150.0, 15.0, 20.0, 0.01, 220.0, 15.0, 20.0, 0.01])

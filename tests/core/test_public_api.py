@@ -37,7 +37,8 @@ def test_every_public_name_has_a_docstring():
 
 def test_public_names_are_the_library_objects():
     from frictionid_core.drive import Drive, friction_rows, load_drive
-    from frictionid_core.errors import FrictionIdError, InputError, OptimError
+    from frictionid_core.errors import FrictionIdError, InputError, OptimError, check_choice
+    from frictionid_core.files import YAML_SUFFIXES, read_json, write_json
     from frictionid_core.friction import FRICTIONS, FrictionModel, get_model
     from frictionid_core.identification import (
         IdentifyRequest,
@@ -50,8 +51,6 @@ def test_public_names_are_the_library_objects():
         validate,
     )
     from frictionid_core.io import load
-    from frictionid_core.jsonfile import YAML_SUFFIXES, read_json, write_json
-    from frictionid_core.options import check_choice
     from frictionid_core.timeseries import JointSeries
 
     expected = {"load": load, "identify": identify, "validate": validate, "FrictionModel": FrictionModel,

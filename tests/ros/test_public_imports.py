@@ -35,9 +35,9 @@ def test_the_ros_package_imports_only_public_core_names():
 def test_the_rule_refuses_private_modules_and_names():
     source = ("import frictionid_core\nfrom frictionid_core import FrictionIdError\n"
               "from frictionid_core.io import check_series\nfrom frictionid_core.io.checks import stamp_gaps\n"
-              "from frictionid_core.jsonfile import write_json\nfrom frictionid_core.systems import registry\n"
+              "from frictionid_core.files.writing import write_json\nfrom frictionid_core.systems import registry\n"
               "def f():\n    import frictionid_core.friction\n    from frictionid_core import _lazy\n")
     assert private_core_imports(source) == ["from frictionid_core.io.checks import stamp_gaps",
-                                            "from frictionid_core.jsonfile import write_json",
+                                            "from frictionid_core.files.writing import write_json",
                                             "from frictionid_core.systems import registry", "frictionid_core.friction",
                                             "from frictionid_core import _lazy"]

@@ -27,8 +27,7 @@ with warnings.catch_warnings():
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
-from frictionid_core.io import load
-from frictionid_core.io.bag import write_joint_state_bag
+from frictionid_core.io import load, write_joint_state_bag
 from frictionid_ros import replay
 from support.ros_harness import private_domain
 from support.waiting import wait_until

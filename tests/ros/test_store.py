@@ -15,8 +15,8 @@ with warnings.catch_warnings():
     from frictionid_interfaces.srv import Identify
 
 from frictionid_core.errors import FrictionIdError
+from frictionid_core.files import temporary_name
 from frictionid_core.identification import IdentifyResult
-from frictionid_core.jsonfile import temporary_name
 from frictionid_ros.service import IdentifyService
 from frictionid_ros.store import (
     ActiveParameters,

@@ -1,9 +1,9 @@
 """Synthetic logs of a robot without and with a known payload (TX40, UR5 of example-robot-data).
 
 Each log: a Fourier excitation within the joint limits (its own seed), Coulomb friction of known
-levels, white torque noise 0.05 N·m, 1 kHz (:func:`frictionid_core.robots.synth.synthesize`); the
+levels, white torque noise 0.05 N·m, 1 kHz (:func:`frictionid_core.synthetic.robot_logs.synthesize`); the
 loaded logs come from the robot model with the payload fixed to its last link
-(:func:`frictionid_core.robots.payload.robot_with_payload`).
+(:func:`frictionid_core.robots.payload_model.robot_with_payload`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from functools import cache
 
 import numpy as np
 
-from frictionid_core.robots.payload import Payload
+from frictionid_core.robots import Payload
 
 # A 2.8 kg tool 7 cm out along the flange axis, a little off it; inertia of a ~10 cm body.
 PAYLOAD = dict(mass=2.8, com=(0.02, -0.03, 0.07),
@@ -39,7 +39,7 @@ def robot_of(name: str):
     from frictionid_core.robots import example_robot_data_dir, load_urdf
 
     if name == "tx40":
-        from frictionid_core.robots.tx40 import build_tx40
+        from frictionid_core.robots import build_tx40
 
         return "tx40", build_tx40()
     path = example_robot_data_dir() / "ur_description" / "urdf" / "ur5_robot.urdf"
@@ -48,7 +48,7 @@ def robot_of(name: str):
 
 def excitation(robot, seed: int, duration: float = 10.0, scale: float = 1.0):
     """A 4-harmonic Fourier trajectory of every joint within the limits (``scale`` < 1: slower)."""
-    from frictionid_core.robots.excitation import FourierTrajectory, fit_to_limits
+    from frictionid_core.excitation.design import FourierTrajectory, fit_to_limits
 
     rng = np.random.default_rng(seed)
     traj = FourierTrajectory(list(robot.joints), np.zeros(robot.nv), rng.uniform(-1, 1, (robot.nv, 4)),
@@ -62,7 +62,7 @@ def coulomb_friction(robot, factor: float = 1.0) -> dict[str, dict[str, float]]:
     """Known Coulomb friction per joint (``factor`` × the levels): the TX40's published levels, a
     UR5's of the same order (within the safety screen's limits of both)."""
     if robot.name == "tx40":
-        from frictionid_core.robots.synth import tx40_friction
+        from frictionid_core.synthetic.robot_logs import tx40_friction
 
         levels = tx40_friction("coulomb", False)
         return {j: {n: factor * v for n, v in levels[j].items()} for j in robot.joints}
@@ -73,8 +73,8 @@ def coulomb_friction(robot, factor: float = 1.0) -> dict[str, dict[str, float]]:
 def loaded_logs(name: str, friction_factor: float = 1.0) -> LoadedLogs:
     """The three logs of ``name`` (``tx40`` or ``ur5``); the loaded ones with ``friction_factor``
     × the base log's friction levels (friction rising with the load)."""
-    from frictionid_core.robots.payload import default_link, robot_with_payload
-    from frictionid_core.robots.synth import synthesize
+    from frictionid_core.robots import default_link, robot_with_payload
+    from frictionid_core.synthetic import synthesize
 
     system, robot = robot_of(name)
     payload = Payload(default_link(robot), **PAYLOAD)

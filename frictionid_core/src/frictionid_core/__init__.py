@@ -24,7 +24,7 @@ Importing the package is light (the errors only): every other public name is loa
 use (PEP 562), so ``import frictionid_core`` pulls in neither scipy nor numba nor an optimiser.
 """
 
-from frictionid_core import _lazy
+from frictionid_core import lazy
 from frictionid_core.errors import FrictionIdError, InputError, OptimError
 
 __version__ = "0.1.0"
@@ -48,10 +48,10 @@ _LAZY = {
     "get_model": "frictionid_core.friction",
     "JointSeries": "frictionid_core.timeseries",
     "budget_field": "frictionid_core.identification",
-    "check_choice": "frictionid_core.options",
-    "read_json": "frictionid_core.jsonfile",
-    "write_json": "frictionid_core.jsonfile",
-    "YAML_SUFFIXES": "frictionid_core.jsonfile",
+    "check_choice": "frictionid_core.errors",
+    "read_json": "frictionid_core.files",
+    "write_json": "frictionid_core.files",
+    "YAML_SUFFIXES": "frictionid_core.files",
 }
 
 __all__ = ["FRICTIONS", "YAML_SUFFIXES", "Drive", "FrictionIdError", "FrictionModel", "IdentifyRequest",
@@ -59,4 +59,4 @@ __all__ = ["FRICTIONS", "YAML_SUFFIXES", "Drive", "FrictionIdError", "FrictionMo
            "budget_field", "check_choice", "friction_rows", "get_model", "identify", "load", "load_drive",
            "read_json", "read_request", "read_result", "validate", "write_json"]
 
-__getattr__, __dir__ = _lazy.lazy_names(__name__, _LAZY)
+__getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

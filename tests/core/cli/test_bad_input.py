@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 from frictionid_core.cli import main
-from frictionid_core.io.bag import open_reader, write_joint_state_bag
-from frictionid_core.io.csv import save_csv
+from frictionid_core.io import open_reader, save_csv, write_joint_state_bag
 from frictionid_core.timeseries import JointSeries
 from support.data import EMPS_ESTIMATION, JOINT_STATE
 

@@ -11,8 +11,7 @@ import pytest
 
 from frictionid_core.cli import main
 from frictionid_core.cli._common import print_table
-from frictionid_core.io.bag import write_joint_state_bag
-from frictionid_core.io.csv import save_csv
+from frictionid_core.io import save_csv, write_joint_state_bag
 from frictionid_core.timeseries import JointSeries
 
 TRUE = {"M": 95.0, "Fv": 200.0, "Fc": 20.0, "offset": -3.0}

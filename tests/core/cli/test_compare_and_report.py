@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from frictionid_core.cli import main
+from frictionid_core.compare import compare_fits
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides, identify
 from frictionid_core.io import load
 from frictionid_core.preprocess import Preprocessing
-from frictionid_core.robots.compare import compare_fits
 from support.data import BAGS, EMPS_ESTIMATION, emps_like
 
 
@@ -233,7 +233,7 @@ def test_report_rows_left_out_by_the_system_are_not_shown(tmp_path):
     assert np.min(np.abs(trace.velocity)) >= result["preprocessing"]["min_speed"]["joint_2"]
     assert trace.t.size == result["metrics"]["samples"]
     # a source where the joint stands still: no figure, the page says why
-    from frictionid_core.reports.result_report import build_fit_report
+    from frictionid_core.reports import build_fit_report
     from frictionid_core.timeseries import JointSeries
 
     still = JointSeries(series.t, ["joint_2"], np.full_like(series.position, 0.3), series.effort, source="still")
@@ -279,7 +279,7 @@ def test_report_cli_errors_in_one_line(tmp_path, capsys):
 
 
 def test_report_refuses_a_result_missing_parameters(emps_estimation, tmp_path):
-    from frictionid_core.reports.result_report import build_fit_report
+    from frictionid_core.reports import build_fit_report
 
     result = identify(emps_estimation, IdentifyRequest(system="emps", friction="coulomb", solver="ls")).to_dict()
     del result["params"]["Fc"]

@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from frictionid_core.jsonfile import remove_orphans, temporary_name, write_json
+from frictionid_core.files import remove_orphans, temporary_name, write_json
 
 HANDSHAKE_S = 120.0  # at most this long for the command to start and open its input (a loaded machine)
 REPEAT_S = 3.0  # Ctrl-C pressed again after this long without an exit

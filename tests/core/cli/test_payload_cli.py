@@ -8,7 +8,7 @@ import json
 import pytest
 
 from frictionid_core.cli import main
-from frictionid_core.io.csv import save_csv
+from frictionid_core.io import save_csv
 from support.payload_logs import loaded_logs
 
 CONTRACT = ["link", "mass", "com", "inertia", "sigma", "feasible", "resolved"]

@@ -8,7 +8,7 @@ import yaml
 
 from frictionid_core.drive import Drive, bundled_drives, drive_from_dict, load_drive
 from frictionid_core.errors import InputError
-from frictionid_core.jsonfile import read_json, write_json
+from frictionid_core.files import read_json, write_json
 from frictionid_core.timeseries import JointSeries
 
 TX40_N = [32.0, 32.0, 45.0, -48.0, 45.0, 32.0]

@@ -17,7 +17,7 @@ from frictionid_core.cli import main
 from frictionid_core.drive import Drive, friction_rows, load_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides, identify, validate
-from frictionid_core.io.csv import save_csv
+from frictionid_core.io import save_csv
 from frictionid_core.preprocess import Preprocessing
 from frictionid_core.systems import as_system, get_system, observe
 from frictionid_core.timeseries import JointSeries
@@ -38,8 +38,8 @@ UNFILTERED = PreprocessingOverrides(filter="none", decimate=1, trim_start_s=0.00
 def tx40_logs(tmp_path_factory):
     """A 4 s TX40 excitation at 500 Hz through ``frictionid synth --drive tx40`` (Coulomb friction
     per motor, joint-3 offset): an estimation bag, a validation bag (other noise) and the truth."""
-    from frictionid_core.robots.excitation import FourierTrajectory, fit_to_limits
-    from frictionid_core.robots.tx40 import build_tx40
+    from frictionid_core.excitation.design import FourierTrajectory, fit_to_limits
+    from frictionid_core.robots import build_tx40
 
     d = tmp_path_factory.mktemp("tx40_drive")
     tx40 = build_tx40()
@@ -88,7 +88,7 @@ def test_synth_writes_what_the_tx40_drive_logs(tx40_logs):
 def test_tx40_motor_side_coupled_log_round_trip(tx40_logs, tx40_fit):
     """synth → identify --drive tx40 → every base, motor friction, offset and rotor inertia is
     within 5σ of the truth; validate takes the drive from the result."""
-    from frictionid_core.robots.synth import expected_parameters
+    from frictionid_core.synthetic import expected_parameters
 
     d = tx40_logs
     r, out = tx40_fit

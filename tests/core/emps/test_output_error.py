@@ -4,9 +4,8 @@ import json
 
 import pytest
 
-from frictionid_core.emps_simulation import EmpsSimulator, load_emps
+from frictionid_core.emps import EmpsSimulator, identify_output_error, load_emps
 from frictionid_core.identification import IdentifyRequest, IdentifyResult
-from frictionid_core.output_error import identify_output_error
 from support.data import EMPS_ESTIMATION, EMPS_VALIDATION
 
 

@@ -4,10 +4,7 @@ import json
 
 import pytest
 
-from frictionid_core.emps_simulation import load_emps
-from frictionid_core.ensemble import grey_black_ensemble
-from frictionid_core.reports.emps_report import build_report
-from frictionid_core.study import plan, run_study
+from frictionid_core.emps import build_report, grey_black_ensemble, load_emps, plan, run_study
 from support.data import EMPS_ESTIMATION, EMPS_VALIDATION
 
 REFERENCE = {"M": 95.1089, "Fv": 203.5034, "Fc": 20.3935, "offset": -3.1648}

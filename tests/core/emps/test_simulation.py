@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from frictionid_core.cli import build_parser
-from frictionid_core.emps_simulation import (
+from frictionid_core.emps.simulation import (
     METRIC_KEYS,
     EmpsData,
     EmpsSimulator,

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from frictionid_core.study import RUNS_FILE, analyse, finished_keys, plan, run_study
+from frictionid_core.emps.study import RUNS_FILE, analyse, finished_keys, plan, run_study
 from support.data import EMPS_ESTIMATION, EMPS_VALIDATION
 
 SMALL = dict(pop=12, generations=8)

@@ -165,7 +165,7 @@ def test_an_output_over_a_log_is_refused(fleet, capsys):
 
 def test_the_workers_read_files_even_after_the_cwd_changes(fleet, tmp_path, monkeypatch):
     # relative globs are resolved against the fleet file, once: the jobs carry absolute paths
-    from frictionid_core.fleet.config import read_fleet
+    from frictionid_core.fleet import read_fleet
 
     monkeypatch.chdir(tmp_path)
     config = read_fleet(os.path.relpath(fleet, tmp_path))
@@ -188,8 +188,7 @@ def test_a_dask_cluster_gives_the_same_fits_and_a_killed_worker_loses_nothing(fl
     # worker process is killed after the third record: its nanny restarts it, the scheduler reruns its task
     import psutil
 
-    from frictionid_core.fleet.config import read_fleet
-    from frictionid_core.fleet.run import run_fleet
+    from frictionid_core.fleet import read_fleet, run_fleet
 
     dask = str(Path(sys.executable).parent / "dask")
     address = f"tcp://127.0.0.1:{_free_port()}"

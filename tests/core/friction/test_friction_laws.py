@@ -12,7 +12,7 @@ from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import FRICTIONS, LAWS, all_models, get_model, smooth_sign
 from frictionid_core.friction.laws import NUMPY_OPS
 from frictionid_core.identification import build_model
-from frictionid_core.linear import least_squares
+from frictionid_core.model.least_squares import least_squares
 
 NAMES = {
     "coulomb": ("Fv", "Fc"),

@@ -15,7 +15,7 @@ import pytest
 
 import frictionid_core as fid
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.jsonfile import write_json
+from frictionid_core.files import write_json
 from support.data import dynamic_friction_log
 
 LUGRE = {"Fv": 0.8, "Fc": 1.5, "Fs": 2.2, "vs": 0.03, "sigma0": 3000.0, "sigma1": 6.0}
@@ -110,9 +110,9 @@ def test_lugre_on_a_tx40_keeps_the_rigid_body_in_closed_form_and_consistent():
     part is barely excited by fast zero crossings (not asserted), the all-rows validation on another
     noise draw within 2.5 × its noise floor (measured 0.74 % against 0.36 %: the velocity filter
     shapes the states' travel at these 0.3 mrad break-away deflections)."""
-    from frictionid_core.robots.excitation import FourierTrajectory, fit_to_limits
-    from frictionid_core.robots.synth import synthesize
-    from frictionid_core.robots.tx40 import build_tx40
+    from frictionid_core.excitation.design import FourierTrajectory, fit_to_limits
+    from frictionid_core.robots import build_tx40
+    from frictionid_core.synthetic import synthesize
 
     tx40 = build_tx40()
     rng = np.random.default_rng(11)

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from frictionid_core.errors import FrictionIdError
+from frictionid_core.excitation.design import FourierTrajectory, fit_to_limits
 from frictionid_core.identification import IdentifyRequest, identify, validate
-from frictionid_core.robots.excitation import FourierTrajectory, fit_to_limits
-from frictionid_core.robots.synth import synthesize
-from frictionid_core.robots.tx40 import build_tx40
+from frictionid_core.robots import build_tx40
+from frictionid_core.synthetic import synthesize
 
 LOAD = {"joint_1": 0.04, "joint_2": 0.05, "joint_3": 0.06, "joint_4": 0.0, "joint_5": 0.03, "joint_6": 0.0}
 
@@ -58,9 +58,9 @@ def test_load_dependence_needs_a_robot_system():
 def test_a_payload_on_a_load_dependent_base_raises_its_coulomb_levels(loaded_tx40, monkeypatch):
     """The payload's torque raises the load-dependent Coulomb levels too: the payload fit refits those
     levels with it until the payload settles; holding them at the base's rigid torque biases the mass."""
-    from frictionid_core.identification import payload as payload_module
-    from frictionid_core.identification.payload import PayloadRequest, identify_payload
-    from frictionid_core.robots.payload import Payload, robot_with_payload
+    from frictionid_core.identification import PayloadRequest, identify_payload
+    from frictionid_core.identification import payload_identification as payload_module
+    from frictionid_core.robots import Payload, robot_with_payload
 
     estimation, _ = loaded_tx40
     tx40 = build_tx40()

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from frictionid_core.cli import main
-from frictionid_core.diagnostics import parameter_warnings
 from frictionid_core.friction import FrictionModel
 from frictionid_core.identification import IdentifyRequest, SolverOptions, build_model, identify, validate
+from frictionid_core.identification.diagnostics import parameter_warnings
 from frictionid_core.identification.linear_case import FS_FACTOR, HOLDOUT_MARGIN, data_bounds, linear_special_case
 from frictionid_core.identification.uncertainty import hac_covariance
-from frictionid_core.io.csv import save_csv
+from frictionid_core.io import save_csv
 from frictionid_core.timeseries import JointSeries
 
 

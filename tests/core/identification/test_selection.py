@@ -24,9 +24,9 @@ from frictionid_core.identification import (
     model_from_result,
     validate,
 )
-from frictionid_core.io.csv import save_csv
-from frictionid_core.linear import box_quadratic
-from frictionid_core.observation import concat_observations
+from frictionid_core.io import save_csv
+from frictionid_core.model import concat_observations
+from frictionid_core.model.least_squares import box_quadratic
 from frictionid_core.preprocess import Preprocessing
 from frictionid_core.systems import get_system, observe
 from frictionid_core.timeseries import JointSeries

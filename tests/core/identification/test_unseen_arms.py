@@ -15,12 +15,12 @@ import pytest
 
 from frictionid_core.cli import main
 from frictionid_core.errors import InputError
+from frictionid_core.excitation.design import FourierTrajectory, fit_to_limits
 from frictionid_core.friction import FrictionModel
 from frictionid_core.identification import IdentifyRequest, identify, model_from_result, validate
-from frictionid_core.io.csv import save_csv
+from frictionid_core.io import save_csv
 from frictionid_core.robots import load_urdf
-from frictionid_core.robots.excitation import FourierTrajectory, fit_to_limits
-from frictionid_core.robots.synth import synthesize
+from frictionid_core.synthetic import synthesize
 from frictionid_core.systems import get_system, nominal_parameters
 from frictionid_core.timeseries import JointSeries
 

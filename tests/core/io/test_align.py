@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from frictionid_core.errors import InputError
-from frictionid_core.io.align import align_effort
-from frictionid_core.io.checks import stamp_gaps
+from frictionid_core.io import align_effort, stamp_gaps
 from frictionid_core.timeseries import JointSeries
 
 

@@ -10,10 +10,8 @@ import numpy as np
 import pytest
 
 from frictionid_core.errors import InputError
+from frictionid_core.io import Layout, load, read_table, save_csv
 from frictionid_core.io import csv as csvio
-from frictionid_core.io import load
-from frictionid_core.io.csv import read_table, save_csv
-from frictionid_core.io.layout import Layout
 from frictionid_core.timeseries import JointSeries
 
 

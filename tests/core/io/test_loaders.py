@@ -7,8 +7,7 @@ import pytest
 import scipy.io
 
 from frictionid_core.errors import InputError
-from frictionid_core.io import load
-from frictionid_core.io.bag import list_topics, write_joint_state_bag
+from frictionid_core.io import list_topics, load, write_joint_state_bag
 from frictionid_core.io.csv import load_csv, save_csv
 from frictionid_core.timeseries import JointSeries
 from support.data import EMPS_ESTIMATION, EMPS_VALIDATION, FLOAT_ARRAY, JOINT_STATE, T0_NS

@@ -11,10 +11,9 @@ import pytest
 
 from frictionid_core.friction import get_model
 from frictionid_core.identification import IdentifyRequest, IdentifyResult, identify
+from frictionid_core.loop import SimArm, hidden_friction, load_robot, median_ratio, summarize
 from frictionid_core.loop.control import Controller, default_trajectory, friction_feedforward, run_loop
-from frictionid_core.loop.evaluate import median_ratio, summarize
-from frictionid_core.loop.gate import review
-from frictionid_core.loop.sim import SimArm, hidden_friction, load_robot
+from frictionid_core.safety import review
 from frictionid_core.timeseries import JointSeries
 
 FV, FC = 2.0, 0.5  # friction of the gate's synthetic joint [N·m·s/rad, N·m]

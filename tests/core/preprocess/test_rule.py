@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from frictionid_core.cli import main
-from frictionid_core.diagnostics import parameter_warnings
 from frictionid_core.errors import InputError
 from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides, identify, validate
-from frictionid_core.io.csv import save_csv
+from frictionid_core.identification.diagnostics import parameter_warnings
+from frictionid_core.io import save_csv
 from frictionid_core.preprocess import Preprocessing, choose_preprocessing
 from frictionid_core.timeseries import JointSeries
 
@@ -154,9 +154,9 @@ def slow_joint2():
     """TX40 joint 2 alone at 500 Hz, Fourier motion of fundamental 0.08 Hz and 5 harmonics with
     a 0.05 rad peak around the upright arm (62.5 s), published noise (σ_q 1e-6 rad, σ_τ 0.05 N·m),
     Coulomb friction: the slow single-joint case (the former 50 Hz default gives ZZ 40 % low)."""
-    from frictionid_core.robots.excitation import FourierTrajectory
-    from frictionid_core.robots.synth import synthesize
+    from frictionid_core.excitation.design import FourierTrajectory
     from frictionid_core.robots.tx40 import JOINTS, build_tx40
+    from frictionid_core.synthetic import synthesize
 
     rng = np.random.default_rng(1)
     harmonics = np.arange(1, 6)

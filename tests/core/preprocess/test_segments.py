@@ -10,7 +10,7 @@ import pytest
 
 from frictionid_core.errors import InputError
 from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides, identify
-from frictionid_core.io.checks import check_series
+from frictionid_core.io import check_series
 from frictionid_core.timeseries import JointSeries, sample_period
 from support.data import emps_like
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from frictionid_core.observation import build_observation
+from frictionid_core.model import build_observation
 from frictionid_core.preprocess import DIP_WINDOW, Prepared, Preprocessing, decimate, thinned_rows
 
 
@@ -61,7 +61,7 @@ def test_thinned_observation_rows_are_the_fine_or_coarse_decimation_weighted():
     velocity is not weighted; the dip mask carries the weight; metrics rows are one in ``thin``,
     unweighted."""
     from frictionid_core.friction import get_model
-    from frictionid_core.identification_model import IdentificationModel
+    from frictionid_core.model import IdentificationModel
 
     rng = np.random.default_rng(0)
     n, dt = 6000, 1e-3

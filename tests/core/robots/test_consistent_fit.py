@@ -9,11 +9,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from frictionid_core.consistency import report_for_result, standard_from_record
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.identification import IdentifyRequest, identify, validate
 from frictionid_core.io import load
 from frictionid_core.robots import example_robot_data_dir, load_urdf
-from frictionid_core.robots.consistency_check import report_for_result, standard_from_record
 from frictionid_core.systems import get_system, result_system
 from support.data import BAGS
 
@@ -81,7 +81,7 @@ def test_short_data_unconstrained_infeasible_consistent_near_the_prior(short_fit
     check's repair fails), the consistent fit is feasible, and the prior holds what the data do
     not resolve: every link mass within 30 % of the model's (W 1 leaves link 2 at 9 kg, 4.85 true;
     W 100 gives 5.5), the total within 10 %."""
-    from frictionid_core.robots.export import export_data
+    from frictionid_core.export import export_data
     from frictionid_core.robots.tx40 import MASS
 
     free, cons = short_fits
@@ -135,7 +135,7 @@ def _check_export(result: dict, tmp_path, capsys):
     import mujoco
 
     from frictionid_core.cli import main
-    from frictionid_core.robots.base import random_samples
+    from frictionid_core.robots import random_samples
     from frictionid_ros.store import read_results
 
     path = tmp_path / "r.json"
@@ -179,8 +179,8 @@ def test_tx40_export_urdf_mujoco_yaml(tx40_fits, tmp_path, capsys):
 def test_ur5_consistent_and_export(tmp_path, capsys):
     """A synthetic UR5 (example-robot-data URDF, Coulomb friction): consistent = unconstrained
     within 3 σ, feasible, and its export (the robot's own URDF edited) passes the same checks."""
-    from frictionid_core.robots.excitation import FourierTrajectory, fit_to_limits
-    from frictionid_core.robots.synth import synthesize
+    from frictionid_core.excitation.design import FourierTrajectory, fit_to_limits
+    from frictionid_core.synthetic import synthesize
 
     path = example_robot_data_dir() / UR5
     ur5 = load_urdf(path)

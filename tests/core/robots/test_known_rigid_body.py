@@ -12,15 +12,14 @@ import pytest
 from scipy.optimize import lsq_linear
 
 from frictionid_core.cli import main
+from frictionid_core.consistency.check import PLAUSIBILITY
 from frictionid_core.errors import FrictionIdError
+from frictionid_core.export.model_files import MATCH_SPEEDS
 from frictionid_core.friction import FrictionModel
 from frictionid_core.identification import IdentifyRequest, identify, validate
 from frictionid_core.io import load
-from frictionid_core.robots.consistency_check import PLAUSIBILITY
-from frictionid_core.robots.export import MATCH_SPEEDS
 from frictionid_core.robots.tx40 import FRICTION, ROTOR_INERTIA
-from frictionid_core.systems import get_system, nominal_parameters
-from frictionid_core.systems.robot import known_rigid_body
+from frictionid_core.systems import get_system, known_rigid_body, nominal_parameters
 from support.data import BAGS
 
 JOINTS = [f"joint_{k}" for k in range(1, 7)]
@@ -163,14 +162,14 @@ def test_a_fit_with_absurd_links_is_warned_and_not_exported_unless_forced(known,
     assert main(["export", str(path), "--urdf", str(tmp_path / "x.urdf"), "--force"]) == 0
     assert "exporting an inconsistent or implausible result (--force)" in capsys.readouterr().out
     with pytest.raises(FrictionIdError):
-        from frictionid_core.robots.export import export_data
+        from frictionid_core.export import export_data
 
         export_data(r, system)
 
 
 def test_a_rotor_inertia_is_negative_beyond_round_off_only():
     """A reconstruction gives −1e-17 for a rotor inertia of 0: not a problem; −1e-3 kg·m² is one, named."""
-    from frictionid_core.robots.consistency_check import link_plausibility
+    from frictionid_core.consistency import link_plausibility
 
     info = get_system("tx40").robot
     names = info.model.parameter_names()

@@ -10,16 +10,25 @@ import numpy as np
 import pytest
 
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.identification import IdentifyRequest, identify, model_from_result, validate, validation_metrics
-from frictionid_core.identification.payload import PayloadRequest, identify_payload, loaded_result, read_payload
-from frictionid_core.robots.base import random_samples
-from frictionid_core.robots.payload import (
+from frictionid_core.identification import (
+    IdentifyRequest,
+    PayloadRequest,
+    identify,
+    identify_payload,
+    loaded_result,
+    model_from_result,
+    read_payload,
+    validate,
+    validation_metrics,
+)
+from frictionid_core.robots import (
     QUANTITIES,
     Payload,
     body_quantities,
     default_link,
     frame_map,
     link_frame,
+    random_samples,
     robot_with_payload,
 )
 from support.payload_logs import loaded_logs, robot_of
@@ -91,7 +100,7 @@ def test_slow_motion_leaves_the_inertia_held_at_a_point_mass():
     """At a twentieth of the excitation's speed the accelerations are 1/400: the inertia about the
     centre of mass is not resolved, held at the point mass' values and listed; mass and centre of
     mass still within 1 % and 5 mm."""
-    from frictionid_core.robots.synth import synthesize
+    from frictionid_core.synthetic import synthesize
     from support.payload_logs import coulomb_friction, excitation
 
     logs = loaded_logs("tx40")

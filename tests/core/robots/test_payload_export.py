@@ -10,12 +10,9 @@ import numpy as np
 import pytest
 
 from frictionid_core.cli import main
-from frictionid_core.identification import IdentifyRequest, identify, read_payload
-from frictionid_core.identification.payload import identify_payload
-from frictionid_core.io.csv import save_csv
-from frictionid_core.robots import load_urdf
-from frictionid_core.robots.base import random_samples
-from frictionid_core.robots.payload import robot_with_payload
+from frictionid_core.identification import IdentifyRequest, identify, identify_payload, read_payload
+from frictionid_core.io import save_csv
+from frictionid_core.robots import load_urdf, random_samples, robot_with_payload
 from support.payload_logs import loaded_logs
 
 

@@ -9,9 +9,7 @@ import numpy as np
 import pytest
 
 from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.robots import example_robot_data_dir, load_urdf
-from frictionid_core.robots.base import random_samples, robot_base_parameters
-from frictionid_core.robots.excitation import (
+from frictionid_core.excitation.design import (
     DWELL_SPEEDS,
     DwellTrajectory,
     FourierTrajectory,
@@ -23,7 +21,7 @@ from frictionid_core.robots.excitation import (
     optimise_excitation,
     robot_of,
 )
-from frictionid_core.robots.synth import expected_parameters, synthesize
+from frictionid_core.robots import example_robot_data_dir, load_urdf, random_samples, robot_base_parameters
 from frictionid_core.robots.tx40 import (
     DH,
     FIRST_MOMENT,
@@ -33,6 +31,7 @@ from frictionid_core.robots.tx40 import (
     build_tx40,
     joint2_effective_parameters,
 )
+from frictionid_core.synthetic import expected_parameters, synthesize
 from frictionid_core.systems import as_system, get_system, parse_joint_map
 
 UR5 = "ur_description/urdf/ur5_robot.urdf"
@@ -282,7 +281,7 @@ def test_dwell_keeps_held_joints_still(tx40):
 # ------------------------------------------------------------------- consistency
 @pytest.mark.slow
 def test_consistency_of_true_and_of_impossible_base_parameters(tx40):
-    from frictionid_core.robots.consistency_check import check_consistency, generic_prior
+    from frictionid_core.consistency.check import check_consistency, generic_prior
 
     base = robot_base_parameters(tx40)
     beta = base.from_standard(tx40.parameters())

@@ -101,7 +101,7 @@ def test_real_identifications_pass_and_the_export_refuses_an_absurd_set(emps_est
             for k, j in enumerate(tx40.JOINTS)}
     good = {"system": "tx40", "friction": "stribeck", "asymmetric": False, "joints": list(tx40.JOINTS), "params": rows}
     assert result_refusals(good) == []
-    from frictionid_core.robots.export import yaml_text
+    from frictionid_core.export import yaml_text
 
     bad = {**good, "params": {**rows, "joint_1/Fc": 500.0}}
     with pytest.raises(FrictionIdError, match=r"parameter 'joint_1/Fc' = 500 is over the effort limit 131.84 of "

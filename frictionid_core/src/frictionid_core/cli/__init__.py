@@ -18,8 +18,8 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Iterable
-from importlib import import_module
 
+from frictionid_core import lazy
 from frictionid_core.cli._common import interrupted, run_handler
 
 __all__ = ["COMMANDS", "PLUGIN_GROUP", "build_parser", "main", "run_handler"]
@@ -59,9 +59,8 @@ def build_parser(commands: Iterable[str] | None = None) -> tuple[argparse.Argume
     for name, (module, help_line) in COMMANDS.items():
         p = sub.add_parser(name, help=help_line)
         if name in wanted:
-            command = import_module(f"{__name__}.{module}")
-            command.add_arguments(p)
-            handlers[name] = command.run
+            lazy.attribute(f"{__name__}.{module}", "add_arguments")(p)
+            handlers[name] = lazy.attribute(f"{__name__}.{module}", "run")
     if not wanted or not wanted <= set(COMMANDS):
         _add_plugins(sub, wanted, handlers)
     return parser, handlers

@@ -272,7 +272,7 @@ def warn(messages: list[str]) -> None:
 def save_json(path: Path | None, data) -> None:
     """Write ``data`` to ``path`` (the ``--json`` option) atomically; nothing when ``path`` is None."""
     if path is not None:
-        from frictionid_core.jsonfile import write_json
+        from frictionid_core.files import write_json
 
         write_json(path, data)
 
@@ -284,7 +284,7 @@ def source_inputs(args) -> dict[str, object]:
     inputs = {"SOURCE": [Path(s) for s in args.source], "--layout": args.layout,
               "--drive": drive_file(getattr(args, "drive", None))}
     if args.layout is not None and Path(args.layout).is_file():
-        from frictionid_core.io.layout import load_layout
+        from frictionid_core.io import load_layout
 
         effort_file = load_layout(args.layout).effort_file
         if effort_file:

@@ -27,9 +27,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
+    from frictionid_core.compare import compare_fits, fit_labels
+    from frictionid_core.files import read_json
     from frictionid_core.identification import read_result
-    from frictionid_core.jsonfile import read_json
-    from frictionid_core.robots.compare import compare_fits, fit_labels
 
     payloads = _payload_files(args.results)
     if payloads:
@@ -69,8 +69,8 @@ def run(args) -> int:
 def _payload_files(paths: list[Path]) -> list:
     """The payloads of ``paths`` when they are payload files ('frictionid payload --json': a
     ``payload`` block and no ``params``), else []; FrictionIdError for a mix of both."""
+    from frictionid_core.files import read_json
     from frictionid_core.identification import PayloadResult
-    from frictionid_core.jsonfile import read_json
 
     data = [read_json(p, "an identification result or a payload file") for p in paths]
     kinds = [isinstance(d, dict) and "payload" in d and "params" not in d for d in data]
@@ -85,7 +85,7 @@ def _payload_files(paths: list[Path]) -> list:
 
 def _print_payloads(payloads: list, paths: list[Path]) -> dict:
     """Print payloads side by side (value, σ per payload; difference and z against A); return the block."""
-    from frictionid_core.robots.compare import compare_payloads
+    from frictionid_core.compare import compare_payloads
 
     out = compare_payloads(payloads, [str(p) for p in paths])
     labels = [p["label"] for p in out["payloads"]]
@@ -147,7 +147,7 @@ def _short(value, width: int = 40) -> str:
 # ------------------------------------------------------------------------------- truth
 def _truth_block(path: Path, result: dict, args, truth_all: dict) -> dict:
     """Print one fit against the truth; return {parameters, summary}."""
-    from frictionid_core.robots.compare import RESOLVE_TOLERANCE_PCT, Z95, compare, select_truth
+    from frictionid_core.compare import RESOLVE_TOLERANCE_PCT, Z95, compare, select_truth
 
     out = compare(result, select_truth(truth_all, args.bag or result.get("source")))
     print(f"{path} vs truth ({args.truth}{'' if not args.bag else ' · ' + args.bag})")
@@ -187,8 +187,8 @@ def _load_once(src: Path, joints: tuple[str, ...] | None, layout: Path | None):
 
 def _noise_floor_line(src: Path, result: dict, args, truth_all: dict, label: str = "") -> dict:
     """Print (and return) a fit's cross-test error on ``src`` against the truth's noise floor."""
-    from frictionid_core.metrics import check_finite
-    from frictionid_core.robots.compare import noise_floor, select_truth
+    from frictionid_core.compare import noise_floor, select_truth
+    from frictionid_core.model import check_finite
 
     v = dict(noise_floor(_load(src, result, args), result, select_truth(truth_all, str(src))), source=str(src))
     check_finite(v, f"{label}the cross-test on {src}", ("relerr_pct", "floor_relerr_pct"))
@@ -200,7 +200,7 @@ def _noise_floor_line(src: Path, result: dict, args, truth_all: dict, label: str
 def _validation(src: Path, labels: list[str], results: list[dict], args, truth_all: dict | None) -> dict:
     """Every fit cross-tested on ``src``: {source, fits: {label: metrics (+ noise floor with a truth)}}."""
     from frictionid_core.identification import validate
-    from frictionid_core.metrics import check_finite
+    from frictionid_core.model import check_finite
 
     if truth_all is not None:
         return {"source": str(src), "fits": {lab: _noise_floor_line(src, r, args, truth_all, f"{lab}: ")

@@ -19,8 +19,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
+    from frictionid_core.consistency import report_for_result
     from frictionid_core.identification import read_result
-    from frictionid_core.robots.consistency_check import report_for_result
     from frictionid_core.systems import result_system
 
     result = read_result(args.result)

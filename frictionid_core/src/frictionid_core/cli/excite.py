@@ -42,7 +42,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     import numpy as np
 
-    from frictionid_core.robots.excitation import add_dwell, optimise_excitation, robot_of
+    from frictionid_core.excitation import add_dwell, optimise_excitation, robot_of
     from frictionid_core.systems import get_system
 
     refuse_overwriting({"--out": args.out, "--json": args.json}, {"--system": system_file(args.system)})

@@ -28,9 +28,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     from frictionid_core.cli._common import refuse_overwriting, system_file
+    from frictionid_core.export import export_data, mujoco_text, urdf_text, yaml_text
+    from frictionid_core.files import write_text
     from frictionid_core.identification import payload_of, read_result
-    from frictionid_core.jsonfile import write_text
-    from frictionid_core.robots.export import export_data, mujoco_text, urdf_text, yaml_text
     from frictionid_core.systems import result_system
 
     if not (args.urdf or args.mujoco or args.yaml):

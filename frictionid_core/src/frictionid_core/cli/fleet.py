@@ -41,8 +41,7 @@ class _ProgressLine:
 
 def run(args) -> int:
     from frictionid_core.cli._common import output_folder, refuse_overwriting, warn
-    from frictionid_core.fleet.config import read_fleet
-    from frictionid_core.fleet.run import OUTPUT_FILES, per_log_cost, run_fleet
+    from frictionid_core.fleet import OUTPUT_FILES, per_log_cost, read_fleet, run_fleet
 
     config = read_fleet(args.fleet)
     logs = [Path(source) for robot in config.robots for _, source in robot.logs]

@@ -49,9 +49,10 @@ FLAGS = {"system": "--system", "joints": "--joints", "joint_map": "--joint-map",
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
+    from frictionid_core.emps import CLOCKS
     from frictionid_core.friction import FRICTIONS
     from frictionid_core.optim import SOLVERS
-    from frictionid_core.options import CLOCKS, VELOCITY_SOURCES
+    from frictionid_core.preprocess import VELOCITY_SOURCES
 
     add_source_arguments(p)
     p.add_argument("--request", metavar="FILE",
@@ -199,7 +200,7 @@ def request_of(args):
 
 
 def run(args) -> int:
-    from frictionid_core.metrics import FINITE_METRICS, check_finite
+    from frictionid_core.model import FINITE_METRICS, check_finite
 
     request = request_of(args)
     drive = request.drive if isinstance(request.drive, str) else None  # --drive or the request file's
@@ -211,7 +212,7 @@ def run(args) -> int:
 
         write_request(args.save_request, request)
     if args.output_error:
-        from frictionid_core.output_error import identify_output_error
+        from frictionid_core.emps import identify_output_error
 
         unsupported = [flag for flag, used in (("several sources", len(args.source) > 1),
                                                ("--layout", args.layout)) if used]

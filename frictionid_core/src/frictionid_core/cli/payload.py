@@ -49,8 +49,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     from dataclasses import replace
 
-    from frictionid_core.identification import PreprocessingOverrides, read_result
-    from frictionid_core.identification.payload import PayloadRequest, identify_payload
+    from frictionid_core.identification import PayloadRequest, PreprocessingOverrides, identify_payload, read_result
 
     base = read_result(args.base)
     refuse_overwriting({"--json": args.json}, {**source_inputs(args), "--base": args.base,
@@ -93,7 +92,7 @@ def print_payload(out: dict) -> None:
 
 def _rows(p: dict) -> list[tuple[str, float, float | None]]:
     """(quantity, value, σ) in the order of the payload's ``resolved`` names."""
-    from frictionid_core.robots.payload import INERTIA_ENTRIES
+    from frictionid_core.robots import INERTIA_ENTRIES
 
     sigma = p.get("sigma") or {}
     out = [("mass", p["mass"], sigma.get("mass"))]

@@ -35,8 +35,7 @@ def run(args) -> int:
 def _run_result(args) -> int:
     from frictionid_core.identification import read_result
     from frictionid_core.io import load
-    from frictionid_core.reports.html_page import REPORT_FILES
-    from frictionid_core.reports.result_report import build_fit_report
+    from frictionid_core.reports import REPORT_FILES, build_fit_report
 
     if args.estimation is not None or args.study is not None:
         raise FrictionIdError("--estimation and --study belong to 'frictionid report emps'; give the sources of a "
@@ -62,8 +61,8 @@ def _run_result(args) -> int:
 
 
 def _run_emps(args) -> int:
-    from frictionid_core.reports.emps_report import build_report
-    from frictionid_core.reports.html_page import REPORT_FILES
+    from frictionid_core.emps import build_report
+    from frictionid_core.reports import REPORT_FILES
 
     if args.sources or (args.validation and len(args.validation) > 1) or args.layout or args.topic:
         raise FrictionIdError("'frictionid report emps' takes --estimation, one --validation, --study and --out only")

@@ -11,7 +11,7 @@ from frictionid_core.cli._common import add_json_argument, refuse_overwriting, s
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from frictionid_core.options import CLOCKS
+    from frictionid_core.emps import CLOCKS
 
     p.add_argument("system", choices=["emps"], help="system to simulate")
     p.add_argument("--params", type=Path, required=True, help="JSON written by 'frictionid identify'")
@@ -26,9 +26,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from frictionid_core.emps_simulation import METRIC_KEYS, load_emps, simulate_identification
+    from frictionid_core.emps import METRIC_KEYS, load_emps, simulate_identification
     from frictionid_core.identification import read_result
-    from frictionid_core.metrics import check_finite
+    from frictionid_core.model import check_finite
 
     refuse_overwriting({"--json": args.json}, {"--params": args.params, "--data": args.data})
     result = read_result(args.params)
@@ -46,7 +46,7 @@ def run(args) -> int:
 
 def print_simulation(out: dict, stream=None) -> None:
     """A small table of the simulation metrics, stating the clock."""
-    from frictionid_core.emps_simulation import METRIC_KEYS
+    from frictionid_core.emps import METRIC_KEYS
 
     stream = stream or sys.stdout
     m = out["metrics"]

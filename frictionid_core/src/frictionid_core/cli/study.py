@@ -13,7 +13,7 @@ from frictionid_core.errors import FrictionIdError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from frictionid_core.study import ALGORITHMS
+    from frictionid_core.emps import ALGORITHMS
 
     p.add_argument("system", choices=["emps"])
     p.add_argument("--algorithms", default=",".join(ALGORITHMS), help="comma-separated (default de,pso,ga,aco,bbo)")
@@ -38,9 +38,9 @@ def _progress_bar(n: int, total: int, elapsed: float) -> None:
 
 
 def run(args) -> int:
-    from frictionid_core.friction.laws import STATIC_FRICTIONS as FRICTIONS  # the EMPS simulator's laws
+    from frictionid_core.emps import analyse, format_summary, plan, run_study
+    from frictionid_core.friction import STATIC_FRICTIONS as FRICTIONS  # the EMPS simulator's laws
     from frictionid_core.optim import METHODS
-    from frictionid_core.study import analyse, format_summary, plan, run_study
 
     algos = split_list(args.algorithms)
     unknown = [a for a in algos if a not in METHODS]

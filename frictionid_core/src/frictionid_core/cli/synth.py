@@ -61,9 +61,9 @@ def _per_joint(text: str | None, n: int, option: str) -> list[float] | None:
 
 
 def run(args) -> int:
-    from frictionid_core.io.bag import write_joint_state_bag
-    from frictionid_core.robots.excitation import load_trajectory, robot_of
-    from frictionid_core.robots.synth import read_friction_params, synthesize
+    from frictionid_core.excitation import load_trajectory, robot_of
+    from frictionid_core.io import write_joint_state_bag
+    from frictionid_core.synthetic import read_friction_params, synthesize
     from frictionid_core.systems import get_system
 
     refuse_overwriting({"--out": args.out, "--truth": args.truth},

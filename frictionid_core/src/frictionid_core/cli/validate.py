@@ -47,6 +47,7 @@ def run(args) -> int:
 
     from frictionid_core.identification import (
         PreprocessingOverrides,
+        check_metrics,
         model_from_result,
         payload_of,
         read_result,
@@ -54,7 +55,6 @@ def run(args) -> int:
         validation_record,
         window_record,
     )
-    from frictionid_core.identification.plausibility import check_metrics
     from frictionid_core.systems import parse_joint_map
 
     result = read_result(args.params)

@@ -88,7 +88,7 @@ class FleetConfig:
 
 def read_fleet(path: str | Path) -> FleetConfig:
     """The fleet file at ``path``, validated; InputError naming the file and key at fault."""
-    from frictionid_core.yamlfile import check_keys, read_yaml
+    from frictionid_core.files import check_keys, read_yaml
 
     path = Path(path).expanduser().absolute()
     data = read_yaml(path, "a fleet file (robots, logs, defaults)")
@@ -115,7 +115,7 @@ def _baseline_logs(path: Path, value) -> int:
 
 
 def _alarm(path: Path, data) -> AlarmSettings:
-    from frictionid_core.yamlfile import check_keys
+    from frictionid_core.files import check_keys
 
     if data is None:
         data = {}
@@ -188,7 +188,7 @@ def _robot(path: Path, index: int, entry, defaults: Mapping) -> RobotConfig:
 def _resolve_request_paths(request: dict, folder: Path, origin: dict, path: Path) -> dict:
     """The request with its files made absolute: ``urdf:PATH`` and a drive file (as its keys)."""
     from frictionid_core.drive import bundled_drives
-    from frictionid_core.systems.registry import URDF_PREFIX
+    from frictionid_core.systems import URDF_PREFIX
 
     out = dict(request)
     system = out.get("system")
@@ -197,7 +197,7 @@ def _resolve_request_paths(request: dict, folder: Path, origin: dict, path: Path
         out["system"] = URDF_PREFIX + str(urdf)
     drive = out.get("drive")
     if isinstance(drive, str) and drive not in bundled_drives():
-        from frictionid_core.yamlfile import read_yaml
+        from frictionid_core.files import read_yaml
 
         drive_path = (folder / Path(drive).expanduser()).absolute()
         keys = read_yaml(drive_path, f"a drive model (key '{origin.get('drive', 'drive')}' of {path})")
@@ -222,7 +222,7 @@ def _load_options(merged: dict, folder: Path, origin: dict, path: Path) -> dict:
             out[key] = value
     layout = merged.get("layout")
     if layout is not None:
-        from frictionid_core.io.layout import load_layout
+        from frictionid_core.io import load_layout
 
         if not isinstance(layout, str) or not layout:
             raise InputError(f"{path}: key '{origin['layout']}' must be a layout file, got {layout!r}")
@@ -232,7 +232,7 @@ def _load_options(merged: dict, folder: Path, origin: dict, path: Path) -> dict:
 
 def _covariates(data, label: str, path: Path) -> dict:
     """{name: {"topic", "field"} | {"column"}} of a robot's ``covariates`` key."""
-    from frictionid_core.yamlfile import check_keys
+    from frictionid_core.files import check_keys
 
     if data is None:
         return {}

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from frictionid_core.reports.html_page import PAGE_STYLE, html_table, png_bytes
+from frictionid_core.reports import PAGE_STYLE, html_table, png_bytes
 
 PLOTS = "plots"
 
@@ -79,7 +79,7 @@ def _figure(tests: list, path: Path) -> None:
 
 def write_dashboard(run, config) -> Path:
     """Write ``index.html`` and its figures in ``run.out_dir``; returns the page's path."""
-    from frictionid_core.jsonfile import write_text
+    from frictionid_core.files import write_text
 
     plots = run.out_dir / PLOTS
     plots.mkdir(parents=True, exist_ok=True)

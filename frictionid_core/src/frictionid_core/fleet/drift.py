@@ -148,7 +148,7 @@ def threshold(rate: float, baseline_logs: int, reference: float) -> float:
     edges = np.arange(CALIBRATION_WINDOW, CALIBRATION_LOGS + 1, CALIBRATION_WINDOW) - 1
     h = _threshold_of(np.sort(running[:, edges], axis=0), rate)
     try:
-        from frictionid_core.jsonfile import write_json
+        from frictionid_core.files import write_json
 
         write_json(path, {**(cached if isinstance(cached, dict) else {}), key: h})
     except Exception:  # a cache that cannot be written only costs the next run the simulation

@@ -20,7 +20,8 @@ from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
 
-from frictionid_core.errors import InputError
+from frictionid_core.errors import FrictionIdError, InputError
+from frictionid_core.fleet.store import canonical
 
 HASH_BLOCK = 1 << 20
 _EPOCH = datetime(1970, 1, 1, tzinfo=timezone.utc)
@@ -76,8 +77,6 @@ def content_hash(source: str | Path) -> str:
 
 def job_key(job: LogJob, content: str) -> str:
     """The key of ``job``'s fit: SHA-256 of its log's ``content`` hash and of its settings."""
-    from frictionid_core.fleet.store import canonical
-
     load = {k: (dataclasses.asdict(v) if dataclasses.is_dataclass(v) else v) for k, v in job.load.items()}
     settings = canonical({"robot": job.robot, "request": job.request, "load": load, "covariates": job.covariates})
     return hashlib.sha256(f"{content}|{settings}".encode()).hexdigest()
@@ -150,7 +149,7 @@ def iso_time(ns: int) -> str:
 def _start_ns(source: str, series, topic: str | None) -> tuple[int, str]:
     """The log's first stamp (ns since the epoch) and where it came from: ``stamp`` (a bag's first
     message, a CSV's absolute time column) or ``mtime`` (the file's modification time)."""
-    from frictionid_core.io import BAG_SUFFIXES
+    from frictionid_core.io import BAG_SUFFIXES, first_bag_stamp
 
     path = Path(source)
     if path.is_dir() or path.suffix.lower() in BAG_SUFFIXES:
@@ -158,24 +157,6 @@ def _start_ns(source: str, series, topic: str | None) -> tuple[int, str]:
     if len(series) and series.t[0] >= EPOCH_FLOOR_S:
         return int(round(float(series.t[0]) * 1e9)), "stamp"
     return path.stat().st_mtime_ns, "mtime"
-
-
-def first_bag_stamp(path: Path, topic: str | None) -> int:
-    """The stamp (ns) of the first message of a bag's JointState topic (the bag time where the
-    stamp is zero), as :func:`frictionid_core.io.load` counts its time from."""
-    from frictionid_core.io import joint_state_topic, open_reader
-    from frictionid_core.io.bag import _stamp
-
-    reader = open_reader(path)
-    try:
-        topics = {name: info.msgtype for name, info in reader.topics.items()}
-        name = joint_state_topic(path, topics, topic)
-        conns = [c for c in reader.connections if c.topic == name]
-        for conn, bag_ns, raw in reader.messages(connections=conns):
-            return _stamp(reader.deserialize(raw, conn.msgtype), int(bag_ns))
-    finally:
-        reader.close()
-    raise InputError(f"{path}: topic '{name}' has no messages")
 
 
 def _covariate_means(job: LogJob, source: str, series) -> dict[str, dict[str, float]]:
@@ -202,7 +183,7 @@ def _covariate_means(job: LogJob, source: str, series) -> dict[str, dict[str, fl
 
 def _csv_column(path: Path, column: str, name: str):
     """The numbers of the column named ``column`` of a CSV log."""
-    from frictionid_core.io.csv import read_table
+    from frictionid_core.io import read_table
 
     def pick(names, ncols):
         if not names or column not in names:
@@ -218,7 +199,6 @@ def warm_up(requests: tuple[dict, ...]) -> None:
     (system friction-only, the solver's smallest budget)."""
     import numpy as np
 
-    from frictionid_core.errors import FrictionIdError
     from frictionid_core.friction import get_model
     from frictionid_core.identification import IdentifyRequest, budget_field, identify
     from frictionid_core.timeseries import JointSeries

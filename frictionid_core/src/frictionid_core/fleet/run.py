@@ -187,8 +187,8 @@ def fits_csv(records: list[dict]) -> str:
 
 def write_outputs(run: FleetRun, config: FleetConfig) -> None:
     """Write fits.csv, alarms.json, failed.json and index.html in ``run.out_dir`` (each atomically)."""
+    from frictionid_core.files import write_json, write_text
     from frictionid_core.fleet.dashboard import write_dashboard
-    from frictionid_core.jsonfile import write_json, write_text
 
     write_text(run.out_dir / FITS_CSV, fits_csv(run.records))
     write_json(run.out_dir / ALARMS_JSON, run.alarms)

@@ -181,7 +181,7 @@ class RecordStore:
 
     def _rewrite(self, kept: list[bytes], rejected: list[dict]) -> None:
         """Append ``rejected`` to the set-aside file, then replace the store by the ``kept`` lines."""
-        from frictionid_core.jsonfile import write_text
+        from frictionid_core.files import write_text
 
         if rejected:
             try:

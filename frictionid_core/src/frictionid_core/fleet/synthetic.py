@@ -74,9 +74,9 @@ def synthesize_fleet(out_dir: str | Path, *, robots: int = 4, logs: int = 20, jo
     as a covariate); returns the fleet file's path."""
     import yaml
 
+    from frictionid_core.files import write_json, write_text
     from frictionid_core.friction import get_model
-    from frictionid_core.io.bag import write_joint_state_bag
-    from frictionid_core.jsonfile import write_json, write_text
+    from frictionid_core.io import write_joint_state_bag
     from frictionid_core.timeseries import JointSeries
 
     out = Path(out_dir)

@@ -23,9 +23,26 @@ parameter on every row (:mod:`frictionid_core.identification.dynamic_fit`). The 
 and the dip sums take static laws only.
 """
 
-from frictionid_core.friction.laws import DEFAULT_BOUNDS, FRICTIONS, LAWS, UNITS, FrictionLaw
-from frictionid_core.friction.model import FrictionModel, all_models, elements_of, get_model, smooth_sign
-from frictionid_core.friction.states import StateFriction
+from frictionid_core import lazy
 
-__all__ = ["DEFAULT_BOUNDS", "FRICTIONS", "LAWS", "UNITS", "FrictionLaw", "FrictionModel", "StateFriction",
-           "all_models", "elements_of", "get_model", "smooth_sign"]
+# Public names -> the module that defines them (loaded on first use).
+_LAZY = {
+    **dict.fromkeys((
+        "dip_ends", "dip_sums", "kernels", "law_parts", "members_friction", "SOURCE_DIGEST",
+    ), "frictionid_core.friction.kernels"),
+    **dict.fromkeys((
+        "DEFAULT_BOUNDS", "FrictionLaw", "FRICTIONS", "LAWS", "LUGRE_DELTA", "parameter_base", "STATIC_FRICTIONS",
+        "UNITS",
+    ), "frictionid_core.friction.laws"),
+    **dict.fromkeys((
+        "all_models", "elements_of", "FrictionModel", "get_model", "smooth_sign",
+    ), "frictionid_core.friction.model"),
+    **dict.fromkeys(("joint_state_rows", "StateFriction"), "frictionid_core.friction.states"),
+}
+
+__all__ = ["DEFAULT_BOUNDS", "FRICTIONS", "FrictionLaw", "FrictionModel", "LAWS", "LUGRE_DELTA", "SOURCE_DIGEST",
+           "STATIC_FRICTIONS", "StateFriction", "UNITS", "all_models", "dip_ends", "dip_sums", "elements_of",
+           "get_model", "joint_state_rows", "kernels", "law_parts", "members_friction", "parameter_base",
+           "smooth_sign"]
+
+__getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

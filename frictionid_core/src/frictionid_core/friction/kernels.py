@@ -13,7 +13,7 @@ also closes over :data:`SOURCE_DIGEST`, the digest of this package's sources, so
 law recompiles every kernel that inlines it — here and in the EMPS simulator.
 
 Dip sums. The cost and the variable projection of
-:class:`~frictionid_core.identification_model.IdentificationModel` need, per candidate i, only
+:class:`~frictionid_core.model.identification_model.IdentificationModel` need, per candidate i, only
 three reductions of the signed dip column d_i (n,) over the rows where its branch is active:
 d_iᵀd_i, d_iᵀy and d_iᵀF (L,). :func:`dip_sums` computes them without materialising the (P, n)
 dip array, over chunks of candidates in the threads that :mod:`frictionid_core.parallel` allows

@@ -10,50 +10,47 @@ pre-processing parts; ``checks``: its field checks), ``result`` (the result and 
 ``result_fields``: the key-by-key checks of a result file),
 ``orchestration`` (:func:`identify`), ``effort_sign`` (an effort logged against its joint's axis),
 ``plan`` (what each source gives a fit),
-``identifiability`` (what the data resolve), ``payload`` and ``payload_fit`` (a payload on a
+``identifiability`` (what the data resolve), ``payload_identification`` and ``payload_fit`` (a payload on a
 link from a loaded log and a base result), ``model_building`` (data → identification model,
 metrics), ``solve`` (solver glue), ``linear_case`` (a law's Coulomb case: the bounds it grounds, the
 held-back comparison, the fallback), ``dip_refit`` (the
 friction-dip refit policy), ``uncertainty`` (σ, white and robust), ``plausibility`` (absurd fits,
-links against the model, the known rigid body's report), ``reload`` (a result on other data:
+links against the model, the known rigid body's report), ``validation`` (a result on other data:
 :func:`model_from_result`, :func:`validate`). Other packages import the names of :data:`__all__`
 from here; each is loaded on first use (PEP 562), so importing the request alone stays light.
 """
 
-import importlib as _importlib
+from frictionid_core import lazy
 
-# Public names -> the module of this package that defines them.
+# Public names -> the module that defines them (loaded on first use).
 _LAZY = {
-    "IdentifyRequest": "request", "read_request": "request", "write_request": "request",
-    "window_record": "request",
-    "SolverOptions": "settings", "PreprocessingOverrides": "settings", "budget_field": "settings",
-    "FieldError": "checks",
-    "IdentifyResult": "result", "read_result": "result",
-    "identify": "orchestration",
-    "Sources": "model_building", "build_model": "model_building", "observe_sources": "model_building",
-    "as_sources": "model_building", "model_metrics": "model_building", "metric_model": "model_building",
-    "solve_model": "solve",
-    "model_from_result": "reload", "validate": "reload", "validation_settings": "reload",
-    "validation_metrics": "reload", "validation_record": "reload",
-    "PayloadRequest": "payload", "PayloadResult": "payload", "identify_payload": "payload", "read_payload": "payload",
-    "payload_of": "payload", "loaded_result": "payload",
+    **dict.fromkeys(("FieldError",), "frictionid_core.identification.checks"),
+    **dict.fromkeys((
+        "as_sources", "build_model", "metric_model", "model_metrics", "observe_sources", "Sources",
+    ), "frictionid_core.identification.model_building"),
+    **dict.fromkeys(("identify",), "frictionid_core.identification.orchestration"),
+    **dict.fromkeys((
+        "identify_payload", "loaded_result", "payload_of", "PayloadRequest", "PayloadResult", "read_payload",
+    ), "frictionid_core.identification.payload_identification"),
+    **dict.fromkeys(("check_metrics",), "frictionid_core.identification.plausibility"),
+    **dict.fromkeys((
+        "IdentifyRequest", "read_request", "window_record", "write_request",
+    ), "frictionid_core.identification.request"),
+    **dict.fromkeys(("IdentifyResult", "read_result"), "frictionid_core.identification.result"),
+    **dict.fromkeys((
+        "budget_field", "PreprocessingOverrides", "SolverOptions",
+    ), "frictionid_core.identification.settings"),
+    **dict.fromkeys(("solve_model",), "frictionid_core.identification.solve"),
+    **dict.fromkeys((
+        "model_from_result", "validate", "validation_metrics", "validation_record", "validation_settings",
+    ), "frictionid_core.identification.validation"),
 }
 
 __all__ = ["FieldError", "IdentifyRequest", "IdentifyResult", "PayloadRequest", "PayloadResult",
            "PreprocessingOverrides", "SolverOptions", "Sources", "as_sources", "budget_field", "build_model",
-           "identify", "identify_payload", "loaded_result", "metric_model", "model_from_result", "model_metrics",
-           "observe_sources", "payload_of", "read_payload", "read_request", "read_result", "solve_model", "validate",
-           "validation_metrics", "validation_record", "validation_settings", "window_record", "write_request"]
+           "check_metrics", "identify", "identify_payload", "loaded_result", "metric_model", "model_from_result",
+           "model_metrics", "observe_sources", "payload_of", "read_payload", "read_request", "read_result",
+           "solve_model", "validate", "validation_metrics", "validation_record", "validation_settings",
+           "window_record", "write_request"]
 
-
-def __getattr__(name: str):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(_importlib.import_module(f"{__name__}.{module}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

@@ -97,7 +97,7 @@ def bound_value(path: str, value) -> tuple[float, float]:
 
 
 def system_name(name) -> str:
-    from frictionid_core.systems.registry import FIXED_SYSTEMS, SYSTEM_NAMES, URDF_PREFIX
+    from frictionid_core.systems import FIXED_SYSTEMS, SYSTEM_NAMES, URDF_PREFIX
 
     if not isinstance(name, str) or not (name in FIXED_SYSTEMS or name == "tx40"
                                          or (name.startswith(URDF_PREFIX) and len(name) > len(URDF_PREFIX))):

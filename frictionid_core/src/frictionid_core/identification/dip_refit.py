@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 
 from frictionid_core.identification.solve import Fit
-from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.model import IdentificationModel
 from frictionid_core.preprocess import Preprocessing, cutoff_range, dip_needs, rule_decimation
 
 # At most this many refits when a friction dip needs finer rates than those chosen.
@@ -23,17 +23,17 @@ def fit_at_dip_rates(model: IdentificationModel, settings: Preprocessing,
     """``fit(model)``, then while the dip of the estimate needs finer rates than those chosen from
     the data, ``fit(rebuild(settings with those rates), previous)`` (too coarse a rate
     overestimates vs, so this may take a few rounds); returns the last model and its fit.
-    ``fit(model, previous=None)``: see :func:`frictionid_core.identification.solve.fit_model`."""
+    ``fit(model, previous=None)``: see :func:`frictionid_core.identification.solve.fit_static`."""
     result = fit(model)
     for _ in range(DIP_ROUNDS):
-        changes, why = dip_changes(model, result[0])
+        changes, why = dip_changes(model, result.x)
         if not changes:
             break
         from_data = model.obs.report["from_data"]
         model = rebuild(replace(settings, **changes))
         model.obs.report["from_data"] = sorted(set(from_data) | set(model.obs.report["from_data"]))
         model.obs.report["dip"] = why
-        result = fit(model, (result[0], result[3]))
+        result = fit(model, result)
     return model, result
 
 

@@ -26,13 +26,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from frictionid_core.friction import get_model
-from frictionid_core.friction.laws import LUGRE_DELTA, parameter_base
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.friction import LUGRE_DELTA, get_model, parameter_base
 from frictionid_core.identification.linear_case import with_data_bounds
 from frictionid_core.identification.settings import SolverOptions
-from frictionid_core.identification_model import IdentificationModel
-from frictionid_core.observation import Observation
-from frictionid_core.parameter_names import parameter_kind
+from frictionid_core.identification.solve import Fit, fit_static, solve_model
+from frictionid_core.identification.stick import coulomb_fit, coulomb_model, without_rows
+from frictionid_core.model import IdentificationModel, Observation, parameter_kind
+from frictionid_core.systems import exclude_rows
 
 # Break-away deflections g/(n·k) tried for each joint's start (m or rad): micrometres to centimetres.
 PRESLIDE_GRID = np.geomspace(1e-6, 3e-2, 19)
@@ -47,31 +48,27 @@ VS_SHARES = (0.01, 0.05)
 FS_START = 1.5
 
 
-def fit_dynamic(model, solver: SolverOptions, progress=None, previous=None) -> tuple:
-    """The fit (x (k,), None, None, OptimResult) of a
-    :class:`~frictionid_core.dynamic_model.DynamicIdentificationModel` (module doc); ``previous``
-    (x, OptimResult) of a coarser round: polished from there."""
-    from frictionid_core.identification.solve import solve_model
-
+def fit_dynamic(model, solver: SolverOptions, progress=None, previous: Fit | None = None) -> Fit:
+    """The fit (its parameters and optimiser result) of a
+    :class:`~frictionid_core.model.DynamicIdentificationModel` (module doc); ``previous``, the fit
+    of a coarser round: polished from there."""
     polish = SolverOptions("lm", solver.seed, calls=solver.calls, varpro=True,
                            options=solver.options.get("polish_options") or {} if solver.method == "hybrid"
                            else solver.options if solver.method == "lm" else {})
     if previous is not None:
-        x, res = solve_model(model, polish, progress=progress, start=previous[0])
-        return x, None, None, previous[1].refined(res, "dynamic refit at the finer rates: lm from this point")
+        x, res = solve_model(model, polish, progress=progress, start=previous.x)
+        return Fit(x, optim=previous.optim.refined(res, "dynamic refit at the finer rates: lm from this point"))
     static, x_static, res_static = static_part(model, solver, progress)
     first = static_start(model, static, x_static)
     start = presliding_start(model, [first, sliding_start(model, static, first)])
     x, res = solve_model(model, polish, progress=progress, start=start)
     how = "every parameter on every row: lm (variable projection) from the static fits and a stiffness grid"
-    return x, None, None, res if res_static is None else res_static.refined(res, how)
+    return Fit(x, optim=res if res_static is None else res_static.refined(res, how))
 
 
 def static_part(model, solver: SolverOptions, progress=None) -> tuple[IdentificationModel, np.ndarray, object]:
     """(the static model: Stribeck with δ = LUGRE_DELTA on the moving rows, its fit (k,), its
     OptimResult or None)."""
-    from frictionid_core.identification.solve import fit_model
-
     law = get_model("stribeck", model.friction.asymmetric)
     kinds = set(STATIC_KINDS) | {"delta"}
 
@@ -84,15 +81,12 @@ def static_part(model, solver: SolverOptions, progress=None) -> tuple[Identifica
         {k: v for k, v in model.bound_overrides.items() if applies(k)},
         {**{k: v for k, v in model.fixed.items() if applies(k)}, "delta": LUGRE_DELTA}))
     method = replace(solver, varpro=True) if solver.method != "ls" else SolverOptions("lm", solver.seed, varpro=True)
-    x, _, _, res = fit_model(static, method, progress)
-    return static, x, res
+    fit = fit_static(static, method, progress)
+    return static, fit.x, fit.optim
 
 
 def moving_rows(full: Observation) -> Observation:
     """A copy of a full observation with the rows it does not count as moving left out (zeroed)."""
-    from frictionid_core.identification.stick import without_rows
-    from frictionid_core.systems.system import exclude_rows
-
     obs = without_rows(full, {})
     nd = obs.n_samples
     if full.moving is not None:
@@ -177,9 +171,6 @@ def sliding_start(model, static: IdentificationModel, x: np.ndarray) -> np.ndarr
     """``x`` (the dynamic model's (k,)) with the rigid body, Fv, Fc and offsets of a Coulomb fit of
     the rows faster than SLIDING_SHARE × each joint's top speed (where the bristles slide: the
     pre-sliding rows after each reversal mislead a static fit), Fs = Fc; ``x`` when that fit fails."""
-    from frictionid_core.errors import FrictionIdError
-    from frictionid_core.identification.stick import coulomb_fit, coulomb_model, without_rows
-
     obs = static.obs
     used = obs.used.reshape(len(obs.joints), obs.n_samples)
     speed = {j: SLIDING_SHARE * float(np.quantile(np.abs(obs.velocity[used[k], k]), 0.99))

@@ -17,7 +17,7 @@ parameters it is collinear with, named in ``folded_into``), or at the robot mode
 (``prior``). Parameters the user fixed are left to the user (``fixed`` when they cover a
 deficiency). Only a parameter with no effect at all on a joint that moves is worth a refusal,
 and that case (a joint whose friction has no usable row) is refused before, by the direction
-check of :mod:`frictionid_core.diagnostics`.
+check of :mod:`frictionid_core.identification.diagnostics`.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.model import IdentificationModel
 
 # A column whose pivot, among unit-norm columns, falls below this share of the first one's is
 # unresolved: its estimate would carry at least 1e6 × the noise the best-determined direction

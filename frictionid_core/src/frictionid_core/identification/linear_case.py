@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import DEFAULT_BOUNDS, get_model
 from frictionid_core.identification.settings import SolverOptions
 from frictionid_core.identification.solve import is_closed_form, solve_model
-from frictionid_core.identification_model import IdentificationModel
-from frictionid_core.parameter_names import parameter_kind
+from frictionid_core.model import IdentificationModel, parameter_kind
 
 # Fs ≤ FS_FACTOR × the Coulomb special case's Fc of its joint and branch: a static friction many
 # times the sliding level fits something else (a few rows near standstill, a transient).
@@ -108,8 +108,6 @@ def holdout_comparison(model: IdentificationModel, x: np.ndarray, solver: Solver
 
     Returns {held_back_rows, law_relerr_pct, linear_relerr_pct, beats_linear}, or {skipped: why}
     when the training rows cannot be fitted (e.g. a joint that no longer moves both ways)."""
-    from frictionid_core.errors import FrictionIdError
-
     nd = model.obs.n_samples
     held = (np.arange(nd) * HOLDOUT_BLOCKS // max(nd, 1)) % HOLDOUT_EVERY == HOLDOUT_EVERY - 1
     special, _ = linear_special_case(model)

@@ -10,9 +10,14 @@ import numpy as np
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import get_model
 from frictionid_core.identification.plan import FitPlan, SourcePlan, plan_fit
-from frictionid_core.identification_model import IdentificationModel
-from frictionid_core.metrics import all_rows_metrics, observation_metrics
-from frictionid_core.observation import VELOCITY_COLUMNS, Observation, concat_observations
+from frictionid_core.model import (
+    VELOCITY_COLUMNS,
+    IdentificationModel,
+    Observation,
+    all_rows_metrics,
+    concat_observations,
+    observation_metrics,
+)
 from frictionid_core.preprocess import Preprocessing, choose_preprocessing, cutoff_range, resample_uniform
 from frictionid_core.systems import System, as_system, observe
 from frictionid_core.timeseries import JointSeries
@@ -33,14 +38,14 @@ def build_model(series: Sources | FitPlan, system: str | System, friction: str, 
 
     ``preprocessing`` overrides the system's default; ``bounds`` are the user's bounds and
     ``fixed`` the parameters held at a value (see ``IdentificationModel``). A dynamic law's model
-    (:class:`~frictionid_core.dynamic_model.DynamicIdentificationModel`) is on every row.
+    (:class:`~frictionid_core.model.dynamic_model.DynamicIdentificationModel`) is on every row.
     """
     plan = series if isinstance(series, FitPlan) else plan_fit(as_sources(series), as_system(system, joint_map))
     law = get_model(friction, asymmetric, elements)
     obs = observe_plan(plan, preprocessing, all_rows=law.is_dynamic)
     cls = IdentificationModel
     if law.is_dynamic:
-        from frictionid_core.dynamic_model import DynamicIdentificationModel
+        from frictionid_core.model import DynamicIdentificationModel
 
         obs, cls = obs.full, DynamicIdentificationModel
     return cls(obs, law, rigid_bounds=plan.system.parameter_bounds(plan.rows), bound_overrides=dict(bounds or {}),
@@ -157,7 +162,7 @@ def as_sources(series: Sources, window: tuple[float | None, float | None] | None
 
 
 def model_metrics(model: IdentificationModel, x) -> dict:
-    """:func:`~frictionid_core.metrics.observation_metrics` of the parameters ``x`` on the
+    """:func:`~frictionid_core.model.metrics.observation_metrics` of the parameters ``x`` on the
     model's metric observation (the recorded effort at the analysis instants, predicted from
     the unfiltered columns there; or the model's own filtered rows under the EMPS protocol)."""
     on = metric_model(model)

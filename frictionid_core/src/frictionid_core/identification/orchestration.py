@@ -9,14 +9,16 @@ from dataclasses import replace
 
 import numpy as np
 
-from frictionid_core import diagnostics
+from frictionid_core.consistency import plausibility_warnings
 from frictionid_core.drive import drive_from_dict, load_drive
 from frictionid_core.errors import FrictionIdError, InputError
+from frictionid_core.identification import diagnostics
 from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_rates
+from frictionid_core.identification.dynamic_fit import fit_dynamic
 from frictionid_core.identification.effort_sign import checked_effort_sign
 from frictionid_core.identification.identifiability import identifiability
 from frictionid_core.identification.linear_case import holdout_comparison, linear_fallback, with_data_bounds
-from frictionid_core.identification.load import fit_with_load
+from frictionid_core.identification.load_dependent_fit import fit_with_load
 from frictionid_core.identification.model_building import (
     Sources,
     as_sources,
@@ -33,14 +35,12 @@ from frictionid_core.identification.plausibility import (
 )
 from frictionid_core.identification.request import IdentifyRequest
 from frictionid_core.identification.result import IdentifyResult
-from frictionid_core.identification.solve import fit_model
+from frictionid_core.identification.solve import Fit, fit_static
 from frictionid_core.identification.stick import exclude_stick_phases
 from frictionid_core.identification.uncertainty import jacobian_std, robust_std, uncertainty_record, white_covariance
-from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.model import IdentificationModel
 from frictionid_core.parallel import single_threaded_libraries
-from frictionid_core.robots.consistency_check import plausibility_warnings
-from frictionid_core.systems import System, as_system, nominal_parameters
-from frictionid_core.systems.robot import LINK_TORQUE, KnownRigidBody, known_rigid_body
+from frictionid_core.systems import LINK_TORQUE, KnownRigidBody, System, as_system, known_rigid_body, nominal_parameters
 from frictionid_core.timeseries import JointSeries
 
 
@@ -124,12 +124,13 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
         model = replace(model, fixed={**fixed_request, **held})
     at_rule_rates = model
 
-    def fit(m: IdentificationModel, previous=None):
-        return fit_model(m, solver, progress, previous)
+    def fit(m: IdentificationModel, previous: Fit | None = None) -> Fit:
+        return (fit_dynamic if m.friction.is_dynamic else fit_static)(m, solver, progress, previous)
 
-    model, (x, std, cond, res) = fit_at_dip_rates(model, fit_settings, rebuild, fit)
+    model, first = fit_at_dip_rates(model, fit_settings, rebuild, fit)
     if request.load_dependent:  # Fc_load: the closed form alternated with the rigid-body torque
-        model, (x, std, cond, res) = fit_with_load(model, (x, std, cond, res), warnings, fit)
+        model, first = fit_with_load(model, first, warnings, fit)
+    x, std, cond, res = first.x, first.std, first.cond, first.optim
     inertia_warnings = list(sys_.robot.model.inertia_warnings) if sys_.robot is not None else []
     warnings = inertia_warnings + plan.warnings() + resolved.warning() + warnings + dip_warnings(model, x)
     if res is not None:
@@ -236,8 +237,7 @@ def consistent_parameters(model: IdentificationModel, x: np.ndarray, sys_: Syste
     metrics, the standard parameters per link) at the nonlinear shapes of ``x``; ``released``:
     the indices of parameters held only because the data do not resolve them (the program
     leaves the rigid-body ones to the prior)."""
-    from frictionid_core.robots.consistency_check import standard_record
-    from frictionid_core.robots.consistent_fit import consistent_fit
+    from frictionid_core.consistency import consistent_fit, standard_record
 
     use_prior = request.prior == "urdf"
     unconstrained = model_metrics(model, x)

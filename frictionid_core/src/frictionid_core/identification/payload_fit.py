@@ -8,11 +8,11 @@ r ≈ A·z + F·f. In order:
 1. every parameter free (least squares): the inertia about the centre of mass is *resolved*
    entry by entry when its σ is below :data:`INERTIA_SHARE` × m·ℓ² (ℓ = max(|c|,
    :data:`REACH_FLOOR_M`): the inertia of the payload's mass at its reach); the others are held
-   at the point mass' value (:func:`~frictionid_core.robots.payload.point_inertia`, off-diagonal 0);
+   at the point mass' value (:func:`~frictionid_core.robots.payload_model.point_inertia`, off-diagonal 0);
 2. with those held, a centre-of-mass coordinate is resolved when its σ is below
    :data:`COM_TOLERANCE_M`, else held at 0 (the link frame's origin); the mass must be resolved
    (σ below :data:`MASS_SHARE` of it), else the log cannot say what the payload is (an error);
-3. the consistent estimate (:func:`~frictionid_core.robots.payload_sdp.consistent_body`) with the
+3. the consistent estimate (:func:`~frictionid_core.consistency.payload_sdp.consistent_body`) with the
    held values, recomputed from its own mass and centre of mass until they agree.
 
 σ: the delta method on the Jacobian of the held-completed parameters at the solution, from the
@@ -29,10 +29,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from frictionid_core.consistency import consistent_body
 from frictionid_core.errors import InputError
 from frictionid_core.identification.uncertainty import hac_covariance
-from frictionid_core.robots.payload import INERTIA_ENTRIES, QUANTITIES, body_quantities, point_inertia
-from frictionid_core.robots.payload_sdp import consistent_body
+from frictionid_core.robots import INERTIA_ENTRIES, QUANTITIES, body_quantities, point_inertia
 
 MASS_SHARE = 0.05
 COM_TOLERANCE_M = 0.01
@@ -51,7 +51,7 @@ class PayloadFit:
 
     Attributes:
         z: standard parameters (10,), link frame; friction: the friction levels (nf,).
-        quantities, sigma: :data:`~frictionid_core.robots.payload.QUANTITIES` and their σ (NaN: held).
+        quantities, sigma: :data:`~frictionid_core.robots.payload_model.QUANTITIES` and their σ (NaN: held).
         friction_sigma: σ of the friction levels (nf,).
         resolved: the quantities the data resolve; held: {quantity: value} of the others.
         record: the ``fit`` block (SDP, iterations, thresholds, σ kind, cost increase).

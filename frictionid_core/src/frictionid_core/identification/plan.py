@@ -22,8 +22,7 @@ import numpy as np
 
 from frictionid_core.errors import InputError
 from frictionid_core.preprocess import MOVING_FACTOR, noise_density
-from frictionid_core.systems import System
-from frictionid_core.systems.robot import restricted_system
+from frictionid_core.systems import System, restricted_system
 from frictionid_core.timeseries import JointSeries
 
 # A moving joint's effort is unusable when its spread (σ over the samples where it moves) is below

@@ -7,12 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from frictionid_core.consistency import link_plausibility, projection, standard_from_record
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.identification_model import IdentificationModel
-from frictionid_core.metrics import check_finite
-from frictionid_core.robots.consistency_check import link_plausibility, projection, standard_from_record
-from frictionid_core.systems import System
-from frictionid_core.systems.robot import LINK_TORQUE, KnownRigidBody
+from frictionid_core.model import IdentificationModel, check_finite
+from frictionid_core.systems import LINK_TORQUE, KnownRigidBody, System
 
 # A fit whose relative error on its own data exceeds this (10 × predicting nothing) is absurd: an error.
 ABSURD_RELERR_PCT = 1000.0
@@ -21,7 +19,7 @@ ABSURD_RELERR_PCT = 1000.0
 def check_fit(model: IdentificationModel, x: np.ndarray, metrics: dict, source: str) -> None:
     """FrictionIdError (one line, exit 2) for a fit with a non-finite parameter or an absurd
     relative error (:func:`check_absurd`): never a silent absurd result. Non-finite metrics are
-    the caller's (:func:`frictionid_core.metrics.check_finite`)."""
+    the caller's (:func:`frictionid_core.model.metrics.check_finite`)."""
     bad = [n for n, v in zip(model.names, x) if not np.isfinite(v)]
     if bad:
         raise FrictionIdError(f"{source}: the fit ended with non-finite {', '.join(bad[:8])}; check the data and "
@@ -40,7 +38,7 @@ def check_absurd(metrics: dict, what: str) -> None:
 
 def check_metrics(metrics: dict, what: str) -> None:
     """FrictionIdError naming ``what`` (``"the cross-test of r.json on log"``) for non-finite metrics
-    (:func:`~frictionid_core.metrics.check_finite`) or an absurd relative error."""
+    (:func:`~frictionid_core.model.metrics.check_finite`) or an absurd relative error."""
     check_finite(metrics, what)
     check_absurd(metrics, what)
 

@@ -49,7 +49,7 @@ class IdentifyRequest:
         joints: the data joints to fit, in this order (None: every joint of the data).
         joint_map: {data joint: model joint} of a robot system where the names differ.
         drive: the log's transmission: a drive YAML file or bundled name (``tx40``), or the
-            drive's keys (:func:`frictionid_core.drive.drive_from_dict`); None: a joint-side log.
+            drive's keys (:func:`frictionid_core.drive.transmission.drive_from_dict`); None: a joint-side log.
         friction: the friction law (one of :data:`frictionid_core.friction.FRICTIONS`).
         asymmetric: separate parameters for v > 0 and v < 0.
         solver: the solver and its options (a method name alone is ``SolverOptions(method=name)``).
@@ -220,7 +220,7 @@ def _nested(path: str, value, cls, shorthand: str | None = None):
 def read_request(path: str | Path) -> IdentifyRequest:
     """The request in a YAML (or JSON) file: a request's mapping (:meth:`IdentifyRequest.to_dict`),
     or an identification result holding one (its ``request`` key)."""
-    from frictionid_core.yamlfile import read_yaml
+    from frictionid_core.files import read_yaml
 
     data = read_yaml(path, "an identification request")
     if "request" in data and "params" in data:  # a result of 'frictionid identify --json'
@@ -232,6 +232,6 @@ def write_request(path: str | Path, request: IdentifyRequest) -> Path:
     """Write ``request`` as YAML to ``path`` atomically; returns the absolute path."""
     import yaml
 
-    from frictionid_core.jsonfile import write_text
+    from frictionid_core.files import write_text
 
     return write_text(path, yaml.safe_dump(request.to_dict(), sort_keys=False, allow_unicode=True))

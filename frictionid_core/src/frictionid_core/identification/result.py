@@ -38,11 +38,11 @@ class IdentifyResult:
             determined or held at a bound), SI units; σ assumes white residuals.
         std_robust: {name: σ} robust to coloured and heteroscedastic residuals (HAC; same names,
             same conventions); ``uncertainty`` says how both were obtained.
-        metrics: fit metrics on the estimation data (see :mod:`frictionid_core.metrics`), with
+        metrics: fit metrics on the estimation data (see :mod:`frictionid_core.model.metrics`), with
             ``cost`` and ``cond``; per joint under ``per_joint``.
         wall_s: the identification's wall time [s].
         warnings, notes: what the user should know (one line each), and what the data said.
-        drive: the drive's keys (:meth:`frictionid_core.drive.Drive.to_dict`), or None.
+        drive: the drive's keys (:meth:`frictionid_core.drive.transmission.Drive.to_dict`), or None.
         window: (start_s, end_s) of every source [s from its first sample], or None.
         fixed: {full parameter name: value} held fixed.
         bounds: the user's bounds {name: (lo, hi)} as requested.
@@ -67,7 +67,7 @@ class IdentifyResult:
         holdout: a nonlinear law against its linear special case (Coulomb) on held-back rows:
             {held_back_rows, law_relerr_pct, linear_relerr_pct, beats_linear[, returned]}.
         plausibility: robot systems: the links (fitted or reconstructed) against the robot model's,
-            with the thresholds used (:func:`frictionid_core.robots.consistency_check.link_plausibility`).
+            with the thresholds used (:func:`frictionid_core.consistency.check.link_plausibility`).
     """
 
     system: str
@@ -161,6 +161,6 @@ def read_result(path: str | Path) -> IdentifyResult:
     """The identification result in the file ``path`` (JSON written by ``frictionid identify``, or
     the YAML of ``frictionid export --yaml``): the one reader of a result file; FrictionIdError
     naming the file and the key at fault."""
-    from frictionid_core.jsonfile import read_json
+    from frictionid_core.files import read_json
 
     return IdentifyResult.from_dict(read_json(path, "an identification result"), where=str(path))

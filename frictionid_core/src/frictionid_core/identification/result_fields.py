@@ -164,7 +164,7 @@ INERTIA_KEYS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
 
 def _standard_parameters(key: str, value) -> dict:
     """Per link {mass, com [x, y, z], inertia {ixx … izz}, rotor, rotor_inertia}
-    (:func:`frictionid_core.robots.consistency_check.standard_record`), every number finite."""
+    (:func:`frictionid_core.consistency.check.standard_record`), every number finite."""
     for link, record in mapping(key, value).items():
         where = f"{key}.{link}"
         record = mapping(where, record)

@@ -1,22 +1,32 @@
-"""Solver glue: one fit of an identification model by its request's solver (closed form, an
-optimiser of :mod:`frictionid_core.optim`, or a polish from a previous point) and the problems the
-optimisers see (a law's linear special case, the bounds it grounds and the fallback to it:
-:mod:`.linear_case`)."""
+"""Solver glue: one fit (:class:`Fit`) of a static law's identification model by its request's
+solver (closed form, an optimiser of :mod:`frictionid_core.optim`, or a polish from a previous
+point) and the problems the optimisers see. A dynamic law's fit is :mod:`.dynamic_fit`; a law's
+linear special case, the bounds it grounds and the fallback to it are :mod:`.linear_case`."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from frictionid_core.identification.settings import SolverOptions
-from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.model import IdentificationModel
 
 if TYPE_CHECKING:
-    from frictionid_core.optim.problem import OptimResult, Problem
+    from frictionid_core.optim import OptimResult, Problem
 
-# A fit: (parameters (k,), σ {name: σ} or None, condition number or None, the optimiser's result or None).
-Fit = tuple[np.ndarray, "dict[str, float] | None", "float | None", "OptimResult | None"]
+
+
+@dataclass(frozen=True)
+class Fit:
+    """One fit of an identification model: its parameters ``x`` (k,); for a closed form, σ by name
+    (``std``) and the condition number (``cond``); for an optimiser, its result (``optim``)."""
+
+    x: np.ndarray
+    std: dict[str, float] | None = None
+    cond: float | None = None
+    optim: OptimResult | None = None
 
 
 def is_closed_form(model: IdentificationModel, solver: SolverOptions) -> bool:
@@ -25,26 +35,21 @@ def is_closed_form(model: IdentificationModel, solver: SolverOptions) -> bool:
     return solver.method == "ls" or bool(solver.varpro and model.searched_nonlinear_index.size == 0)
 
 
-def fit_model(model: IdentificationModel, solver: SolverOptions, progress=None,
-              previous: tuple[np.ndarray, OptimResult] | None = None) -> Fit:
-    """``solver`` (its ``varpro`` resolved) on ``model``: closed form (with σ and the condition
-    number) or an optimiser. With ``previous`` (the point and result of a coarser round of the
-    dip refit), a local solver (lm, hybrid's polish) only polishes from that point: the finer
-    rates move the optimum, not its basin. A dynamic law: :func:`~.dynamic_fit.fit_dynamic`."""
-    if model.friction.is_dynamic:
-        from frictionid_core.identification.dynamic_fit import fit_dynamic
-
-        return fit_dynamic(model, solver, progress, previous)
+def fit_static(model: IdentificationModel, solver: SolverOptions, progress=None, previous: Fit | None = None) -> Fit:
+    """``solver`` (its ``varpro`` resolved) on ``model`` of a static law: closed form (with σ and
+    the condition number) or an optimiser. With ``previous`` (the fit of a coarser round of the
+    dip refit, by an optimiser), a local solver (lm, hybrid's polish) only polishes from its point:
+    the finer rates move the optimum, not its basin."""
     if is_closed_form(model, solver):
-        return (*model.fit_linear(), None)
+        return Fit(*model.fit_linear())
     if previous is not None and solver.method in ("lm", "hybrid"):
         polish = solver if solver.method == "lm" else SolverOptions(  # hybrid: the options of its polish
             "lm", solver.seed, calls=solver.calls, varpro=solver.varpro,
             options=solver.options.get("polish_options") or {})
-        x, res = solve_model(model, polish, progress=progress, start=previous[0])
-        return x, None, None, previous[1].refined(res, "dip refit at the finer rates: lm from this point")
+        x, res = solve_model(model, polish, progress=progress, start=previous.x)
+        return Fit(x, optim=previous.optim.refined(res, "dip refit at the finer rates: lm from this point"))
     x, res = solve_model(model, solver, progress=progress)
-    return x, None, None, res
+    return Fit(x, optim=res)
 
 
 def solve_model(model: IdentificationModel, solver: SolverOptions, *, progress=None,
@@ -90,7 +95,7 @@ def start_point(model: IdentificationModel, rng: np.random.Generator, samples: i
 
 def full_problem(model: IdentificationModel) -> Problem:
     """The problem over every parameter that is not fixed."""
-    from frictionid_core.optim.problem import Problem
+    from frictionid_core.optim import Problem
 
     lo, hi = model.bounds()
     free = model.free_index
@@ -105,7 +110,7 @@ def full_problem(model: IdentificationModel) -> Problem:
 
 def varpro_problem(model: IdentificationModel) -> Problem:
     """The reduced problem over the nonlinear parameters that are not fixed."""
-    from frictionid_core.optim.problem import Problem
+    from frictionid_core.optim import Problem
 
     lo, hi = model.bounds()
     nl = model.searched_nonlinear_index

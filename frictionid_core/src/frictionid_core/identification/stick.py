@@ -33,9 +33,9 @@ import numpy as np
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import get_model
-from frictionid_core.identification_model import IdentificationModel
-from frictionid_core.observation import Observation
+from frictionid_core.model import IdentificationModel, Observation
 from frictionid_core.preprocess import REVERSAL_PERIODS, Preprocessing
+from frictionid_core.systems import exclude_rows, reversal_rows
 
 STICK_BIN_SHARE = 0.01  # rows per speed bin, as a share of the joint's rows …
 STICK_BIN_ROWS = 50  # … and at least this many
@@ -88,8 +88,6 @@ def leave_out_reversal_rows(obs: Observation, periods: float) -> None:
     their joint's cut-off of its reversals out (:func:`frictionid_core.systems.system.reversal_rows`:
     the rows a rebuild with ``reversal_periods`` leaves out), count them in the report
     (``reversal_rows``, and in ``slow_rows_excluded``) and set ``reversal_periods``."""
-    from frictionid_core.systems.system import exclude_rows, reversal_rows
-
     used = obs.used.reshape(len(obs.joints), obs.n_samples).T
     near = used & reversal_rows(obs, ~used, replace(obs.preprocessing, reversal_periods=periods))
     for o in (obs, obs.sampled):
@@ -108,8 +106,6 @@ def leave_out_stick_rows(obs: Observation, speeds: dict[str, float]) -> None:
     """Leave the rows of ``obs`` (and of its sampled observation) slower than ``speeds`` ({row joint:
     speed}) out, as :func:`frictionid_core.systems.system.exclude_rows` does for slow rows; count
     them in the report (``stick_rows``, and in ``slow_rows_excluded``) and set ``stick_speed``."""
-    from frictionid_core.systems.system import exclude_rows
-
     limit = np.array([speeds.get(j, 0.0) for j in obs.joints])
     used = obs.used.reshape(len(obs.joints), obs.n_samples).T
     stick = used & (np.abs(obs.velocity) < limit)
@@ -236,8 +232,6 @@ def regains_level(speed: np.ndarray, share: np.ndarray, stick: float) -> bool:
 
 def without_rows(obs: Observation, speeds: dict[str, float]) -> Observation:
     """A copy of ``obs`` (without its sampled rows) with the rows slower than ``speeds`` left out."""
-    from frictionid_core.systems.system import exclude_rows
-
     copy = replace(obs, y=obs.y.copy(), rigid=obs.rigid.copy(), velocity=obs.velocity.copy(),
                    columns=[{k: c.copy() for k, c in cols.items()} for cols in obs.columns], used=obs.used.copy(),
                    sampled=None)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from frictionid_core.identification_model import IdentificationModel
+from frictionid_core.model import IdentificationModel
 
 # Newey–West (1994) bandwidth selection for the Bartlett kernel.
 NW_PILOT_FACTOR = 4.0  # pilot lags n = 4·(T/100)^(2/9)

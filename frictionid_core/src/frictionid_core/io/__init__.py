@@ -1,86 +1,31 @@
-"""Loaders: every source becomes one :class:`~frictionid_core.timeseries.JointSeries`.
+"""Loaders: every source becomes one :class:`~frictionid_core.timeseries.JointSeries` (:func:`load`,
+:mod:`.loader`; readers: :mod:`.mat`, :mod:`.csv`, :mod:`.layout`, :mod:`.bag`, :mod:`.cdr`).
 
 Also public: the checks of a series (:func:`check_series`, :func:`stamp_gaps`, ``MIN_SAMPLES``), the
-alignment of a separate effort stream (:func:`align_effort`) and the bag helpers of other readers
-(:func:`open_reader`, :func:`joint_state_topic`, :func:`topic_listing`, the message type names
-``JOINT_STATE`` and ``FLOAT_ARRAY``). rosbags is imported when a bag is opened.
+alignment of a separate effort stream (:func:`align_effort`), the bag helpers of other readers
+(:func:`open_reader`, :func:`joint_state_topic`, :func:`topic_listing`, :func:`first_bag_stamp`, the
+message type names ``JOINT_STATE`` and ``FLOAT_ARRAY``) and writers of test data
+(:func:`write_joint_state_bag`, :func:`save_csv`). rosbags is imported when a bag is opened.
 """
 
-from __future__ import annotations
+from frictionid_core import lazy
 
-from pathlib import Path
-from typing import TYPE_CHECKING
+# Public names -> the module that defines them (loaded on first use).
+_LAZY = {
+    **dict.fromkeys(("align_effort",), "frictionid_core.io.align"),
+    **dict.fromkeys((
+        "first_bag_stamp", "FLOAT_ARRAY", "JOINT_STATE", "joint_state_topic", "list_topics", "load_bag",
+        "open_reader", "topic_listing", "write_joint_state_bag",
+    ), "frictionid_core.io.bag"),
+    **dict.fromkeys(("check_series", "MIN_SAMPLES", "stamp_gaps"), "frictionid_core.io.checks"),
+    **dict.fromkeys(("read_table", "save_csv"), "frictionid_core.io.csv"),
+    **dict.fromkeys(("Layout", "load_layout"), "frictionid_core.io.layout"),
+    **dict.fromkeys(("BAG_SUFFIXES", "load"), "frictionid_core.io.loader"),
+    **dict.fromkeys(("load_emps_mat",), "frictionid_core.io.mat"),
+}
 
-from frictionid_core.errors import InputError
-from frictionid_core.io.align import align_effort
-from frictionid_core.io.bag import FLOAT_ARRAY, JOINT_STATE, joint_state_topic, open_reader, topic_listing
-from frictionid_core.io.checks import MIN_SAMPLES, check_series, stamp_gaps
-from frictionid_core.timeseries import JointSeries
+__all__ = ["BAG_SUFFIXES", "FLOAT_ARRAY", "JOINT_STATE", "Layout", "MIN_SAMPLES", "align_effort", "check_series",
+           "first_bag_stamp", "joint_state_topic", "list_topics", "load", "load_bag", "load_emps_mat", "load_layout",
+           "open_reader", "read_table", "save_csv", "stamp_gaps", "topic_listing", "write_joint_state_bag"]
 
-if TYPE_CHECKING:
-    from frictionid_core.io.layout import Layout
-
-__all__ = ["FLOAT_ARRAY", "JOINT_STATE", "MIN_SAMPLES", "align_effort", "check_series", "joint_state_topic", "load",
-           "open_reader", "stamp_gaps", "topic_listing"]
-BAG_SUFFIXES = (".mcap", ".db3", ".bag")
-
-
-def load(
-    source: str | Path,
-    *,
-    topic: str | None = None,
-    joints: list[str] | None = None,
-    effort_topic: str | None = None,
-    strict_time: bool = False,
-    extras: dict[str, tuple[str, str]] | None = None,
-    layout: str | Path | Layout | None = None,
-    strict_rows: bool = False,
-) -> JointSeries:
-    """Load joint measurements from a MAT (EMPS), CSV, rosbag2 (MCAP/sqlite3) or ROS 1 bag.
-
-    Args:
-        source: file or rosbag2 directory.
-        topic: JointState topic of a bag (default: /joint_states, else the only JointState topic).
-        joints: joint names to keep, in this order (default: all).
-        effort_topic: separate effort topic of a bag (JointState or Float64MultiArray);
-            default: the JointState's effort field.
-        strict_time: fail on duplicated or out-of-order stamps instead of repairing them.
-        extras: bags only: {name: (topic, field)} side JointState signals kept in ``series.extras``.
-        layout: a CSV (or other delimited text file) not in frictionid's own format: a
-            :class:`~frictionid_core.io.layout.Layout` or its YAML file (see that module).
-        strict_rows: CSV and other text files: refuse a broken row (malformed, not numeric or
-            truncated) instead of skipping broken rows with a warning.
-
-    Raises:
-        InputError: naming the file, topic, joint or field at fault.
-    """
-    path = Path(source)
-    if not path.exists():
-        raise InputError(f"{path}: no such file or directory")
-    suffix = path.suffix.lower()
-    if layout is not None:
-        from frictionid_core.io.layout import Layout, load_layout, read_with_layout
-
-        if path.is_dir() or suffix == ".mat" or suffix in BAG_SUFFIXES:
-            raise InputError(f"{path}: a layout applies to CSV and other delimited text files, not to "
-                             f"{'a directory' if path.is_dir() else repr(suffix)}")
-        series = read_with_layout(path, layout if isinstance(layout, Layout) else load_layout(layout),
-                                  strict_rows=strict_rows)
-    elif suffix == ".mat":
-        from frictionid_core.io.mat import load_emps_mat
-
-        series = load_emps_mat(path)
-    elif suffix == ".csv":
-        from frictionid_core.io.csv import load_csv
-
-        series = load_csv(path, strict_rows=strict_rows)
-    elif path.is_dir() or suffix in BAG_SUFFIXES:
-        from frictionid_core.io.bag import load_bag
-
-        series = load_bag(path, topic=topic, effort_topic=effort_topic, extras=extras)
-    else:
-        raise InputError(f"{path}: unknown format '{suffix}'; expected .mat, .csv, .mcap, .db3, .bag or a rosbag2 "
-                         "directory")
-    if joints:
-        series = series.select(joints)
-    return check_series(series, strict_time=strict_time)
+__getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

@@ -374,3 +374,18 @@ def write_joint_state_bag(
                                  velocity=row.get("velocity", empty), effort=row.get("effort", empty))
                 writer.write(conn, ns, ts.serialize_cdr(msg, JOINT_STATE))
     return path
+
+
+def first_bag_stamp(path: Path, topic: str | None) -> int:
+    """The stamp (ns) of the first message of a bag's JointState topic (the bag time where the
+    stamp is zero), as :func:`frictionid_core.io.load` counts its time from."""
+    reader = open_reader(path)
+    try:
+        topics = {name: info.msgtype for name, info in reader.topics.items()}
+        name = joint_state_topic(path, topics, topic)
+        conns = [c for c in reader.connections if c.topic == name]
+        for conn, bag_ns, raw in reader.messages(connections=conns):
+            return _stamp(reader.deserialize(raw, conn.msgtype), int(bag_ns))
+    finally:
+        reader.close()
+    raise InputError(f"{path}: topic '{name}' has no messages")

@@ -12,7 +12,7 @@ A layout is stated in YAML (:func:`load_layout`)::
     effort_file: other.csv        # optional: efforts in a second file with the same rows, beside the source
     delimiter: ";"                # optional: , ; tab or whitespace (default: detected per file)
 
-Values are taken as recorded (a motor-side log is converted by :mod:`frictionid_core.drive`).
+Values are taken as recorded (a motor-side log is converted by :mod:`frictionid_core.drive.transmission`).
 """
 
 from __future__ import annotations
@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from frictionid_core.errors import InputError
+from frictionid_core.files import check_keys, joint_names, read_yaml
 from frictionid_core.io.csv import read_table
 from frictionid_core.timeseries import JointSeries
-from frictionid_core.yamlfile import check_keys, joint_names, read_yaml
 
 LAYOUT_KEYS = ("header", "time", "rate_hz", "joints", "position", "velocity", "effort", "effort_file",
                "delimiter")

@@ -29,6 +29,7 @@ import numpy as np
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import StateFriction, get_model
+from frictionid_core.robots import Payload, build_tx40, default_link, load_urdf, robot_with_payload, tx40
 
 DT = 1e-3  # simulation step [s]
 SIM_EPS = 1e-3  # sign smoothing of the hidden friction [rad/s | m/s]
@@ -48,8 +49,6 @@ PAYLOAD_COM_M = (0.01, 0.0, 0.06)
 def loop_payload(robot, mass: float):
     """The loop's payload of ``mass`` [kg] on ``robot``'s last link (a :class:`~frictionid_core.robots.Payload`):
     a solid cube of :data:`PAYLOAD_EDGE_M` centred at :data:`PAYLOAD_COM_M`."""
-    from frictionid_core.robots.payload import Payload, default_link
-
     if not mass > 0:
         raise FrictionIdError(f"payload mass must be > 0 kg, got {mass}")
     moment = mass * PAYLOAD_EDGE_M**2 / 6.0
@@ -59,9 +58,6 @@ def loop_payload(robot, mass: float):
 
 def load_robot(spec: str):
     """The robot of ``spec``: ``tx40`` or ``urdf:PATH`` (a :class:`RobotModel`)."""
-    from frictionid_core.robots.robot_model import load_urdf
-    from frictionid_core.robots.tx40 import build_tx40
-
     if spec == "tx40":
         return build_tx40()
     if spec.startswith("urdf:"):
@@ -74,9 +70,7 @@ def hidden_friction(spec: str, joints: list[str]) -> np.ndarray:
     table (docs/reference.md#tx40) or :data:`URDF_FRICTION` on every joint."""
     names = get_model("stribeck").names
     if spec == "tx40":
-        from frictionid_core.robots.tx40 import FRICTION
-
-        return np.array([[FRICTION[n][k] for n in names] for k in range(len(joints))], dtype=float)
+        return np.array([[tx40.FRICTION[n][k] for n in names] for k in range(len(joints))], dtype=float)
     return np.tile([URDF_FRICTION[n] for n in names], (len(joints), 1)).astype(float)
 
 
@@ -196,8 +190,6 @@ class SimArm:
         """Fix ``payload`` (a :class:`~frictionid_core.robots.Payload`) to its link from now on: the
         MuJoCo model is rebuilt from the robot model with it, the state (q, q̇, t) carried over."""
         import mujoco
-
-        from frictionid_core.robots.payload import robot_with_payload
 
         old = self.data
         model = mujoco.MjModel.from_xml_string(mjcf(robot_with_payload(self.robot, payload)))

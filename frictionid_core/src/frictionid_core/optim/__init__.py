@@ -25,149 +25,18 @@ result), keeps every point inside the bounds, treats NaN/inf costs as the worst 
 Population methods evaluate each generation with a single ``batch_cost`` call.
 """
 
-from __future__ import annotations
+from frictionid_core import lazy
 
-from collections.abc import Callable, Iterator, Mapping
-from importlib import import_module
-from typing import TYPE_CHECKING
+# Public names -> the module that defines them (loaded on first use).
+_LAZY = {
+    **dict.fromkeys(("OptimResult", "Problem"), "frictionid_core.optim.problem"),
+    **dict.fromkeys((
+        "BUDGETS", "call_method", "CALL_METHODS", "METHOD_IDS", "method_options", "METHODS", "minimize",
+        "POPULATION_METHODS", "SOLVERS",
+    ), "frictionid_core.optim.suite"),
+}
 
-from frictionid_core.errors import OptimError
+__all__ = ["BUDGETS", "CALL_METHODS", "METHODS", "METHOD_IDS", "OptimResult", "POPULATION_METHODS", "Problem",
+           "SOLVERS", "call_method", "method_options", "minimize"]
 
-if TYPE_CHECKING:
-    import numpy as np
-
-    from frictionid_core.optim.problem import OptimResult, Problem
-
-# The optimisers, one module ``optim/<id>.py`` each (a new solver: its module and its id here).
-METHOD_IDS = ("lm", "ga", "aco", "bbo", "de", "pso", "bo", "dt", "hybrid")
-POPULATION_METHODS = ("ga", "aco", "bbo", "de", "pso")
-# Methods whose budget is a number of cost calls (the population methods count generations).
-CALL_METHODS = ("lm", "bo", "dt")
-# Every solver id of identify(): "ls" (closed-form least squares) then the optimisers.
-SOLVERS = ("ls", *METHOD_IDS)
-BUDGETS = ("pop", "generations", "calls")
-
-
-class _Methods(Mapping):
-    """Method id → its ``solve`` function; each method's module (``optim/<id>.py``) is
-    imported on first use, so importing this package stays light."""
-
-    _ids = METHOD_IDS
-
-    def __getitem__(self, method: str) -> Callable[..., OptimResult]:
-        if method not in self._ids:
-            raise KeyError(method)
-        return import_module(f"{__name__}.{method}").solve
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._ids)
-
-    def __len__(self) -> int:
-        return len(self._ids)
-
-    def __contains__(self, method: object) -> bool:
-        return method in self._ids
-
-
-METHODS: Mapping[str, Callable[..., OptimResult]] = _Methods()
-
-__all__ = ["CALL_METHODS", "METHODS", "POPULATION_METHODS", "SOLVERS", "OptimResult", "Problem", "method_options",
-           "minimize"]
-
-
-def __getattr__(name: str):
-    """``Problem`` and ``OptimResult`` from :mod:`frictionid_core.optim.problem`, imported on first use."""
-    if name in ("Problem", "OptimResult"):
-        from frictionid_core.optim import problem
-
-        return getattr(problem, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def _keyword_options(solve: Callable) -> frozenset[str]:
-    import inspect
-
-    return frozenset(
-        name for name, p in inspect.signature(solve).parameters.items() if p.kind is p.KEYWORD_ONLY
-    )
-
-
-def method_options(method: str) -> frozenset[str]:
-    """The keywords ``method``'s ``solve`` takes (its budgets among them): what :func:`minimize`
-    accepts for it."""
-    return _keyword_options(METHODS[method])
-
-
-def call_method(
-    problem: Problem,
-    method: str,
-    rng: np.random.Generator,
-    *,
-    pop: int | None,
-    generations: int | None,
-    calls: int | None,
-    options: dict,
-) -> OptimResult:
-    """Run METHODS[method] with the budgets it uses; unused budgets are noted in the message."""
-    solve = METHODS[method]
-    accepted = _keyword_options(solve)
-    unknown = sorted(set(options) - accepted)
-    if unknown:
-        raise OptimError(
-            f"{method}: unknown option(s) {unknown}; it accepts {sorted(accepted)}"
-        )
-    kwargs = dict(options)
-    ignored = []
-    for name, value in (("pop", pop), ("generations", generations), ("calls", calls)):
-        if value is None:
-            continue
-        if name not in accepted:
-            ignored.append(name)
-            continue
-        if name in kwargs:
-            raise OptimError(f"{method}: {name} given twice (as a budget and in the options)")
-        kwargs[name] = value
-    result = solve(problem, rng, **kwargs)
-    if ignored:
-        result.message += f"; ignored {', '.join(ignored)} (not used by {method})"
-    return result
-
-
-def minimize(
-    problem: Problem,
-    method: str,
-    *,
-    seed: int | np.random.Generator | None = 0,
-    pop: int | None = None,
-    generations: int | None = None,
-    calls: int | None = None,
-    **options,
-) -> OptimResult:
-    """Minimise ``problem.batch_cost`` within the bounds with ``method``.
-
-    Args:
-        problem: parameters, bounds and cost (validated again here).
-        method: one of :data:`METHODS` (ga, aco, bbo, de, pso, lm, bo, dt, hybrid).
-        seed: integer seed (or a Generator) for ``numpy.random.default_rng``.
-        pop: population size of population methods (default 50).
-        generations: generations of population methods, the initial one included (default 100).
-        calls: cost calls of bo/dt (default 100) or evaluation budget of lm / the hybrid polish.
-        **options: method-specific settings (see each module's ``solve``), e.g. F=0.5 for de.
-
-    Budgets a method does not use are ignored and mentioned in the result's message.
-
-    Raises:
-        OptimError: unknown method or option, bad bounds, bad budget, or every
-            evaluation returned NaN/inf.
-    """
-    import numpy as np
-
-    from frictionid_core.optim.problem import Problem
-
-    if method not in METHODS:
-        raise OptimError(f"unknown optimiser {method!r}; available: {', '.join(METHODS)}")
-    if not isinstance(problem, Problem):
-        raise OptimError(f"minimize needs a Problem, got {type(problem).__name__}")
-    problem.check()
-    rng = np.random.default_rng(seed)
-    return call_method(problem, method, rng, pop=pop, generations=generations, calls=calls, options=options)
+__getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

@@ -16,6 +16,7 @@ import numpy as np
 from frictionid_core.errors import OptimError
 from frictionid_core.optim import lm
 from frictionid_core.optim.problem import OptimResult, Problem
+from frictionid_core.optim.suite import METHODS, call_method
 
 
 def solve(
@@ -38,7 +39,7 @@ def solve(
         global_options: extra keyword options for the global method (e.g. {"F": 0.5}).
         polish_options: extra keyword options for ``lm`` (e.g. {"ftol": 1e-12}).
     """
-    from frictionid_core.optim import METHODS, call_method  # late: the registry imports this module
+
 
     t_start = time.perf_counter()
     if global_method in ("lm", "hybrid") or global_method not in METHODS:

@@ -6,85 +6,32 @@ and of the torque. Irregular stamps are first resampled onto a uniform grid.
 
 One module per concern: ``settings`` (:class:`Preprocessing`, :class:`Prepared`, the rule's
 constants), ``filters``, ``rule`` (the settings chosen from the data: read its docstring for the
-rule), ``prepare`` (a log to prepared signals; :func:`preprocess`).
+rule), ``preparation`` (a log to prepared signals; :func:`preprocess`).
 """
 
-from frictionid_core.preprocess.filters import (
-    central_difference,
-    decimate,
-    decimation_indices,
-    filtfilt,
-    lowpass_position,
-    near_reversals,
-)
-from frictionid_core.preprocess.prepare import (
-    column_stride,
-    dip_needs,
-    prepare,
-    preprocess,
-    resample_uniform,
-    reversal_acceleration,
-    subsample,
-    thinned_rows,
-)
-from frictionid_core.preprocess.rule import (
-    choose_preprocessing,
-    clean_acceleration_cutoff,
-    cutoff_grid,
-    cutoff_interval,
-    differentiated_noise_var,
-    motion_bandwidth,
-    noise_density,
-    prediction_cutoffs,
-    recorded_velocity,
-    risk_cutoffs,
-    rule_decimation,
-    rule_interval,
-)
-from frictionid_core.preprocess.settings import (
-    ALIAS_BAND_PER_CUTOFF,
-    ALIAS_BAND_SHARE,
-    ANALYSIS_PER_CUTOFF,
-    BANDWIDTH_SHARE,
-    CUTOFF_GRID,
-    CUTOFF_PER_BANDWIDTH,
-    CUTOFFS_PER_DECADE,
-    DIP_CUTOFF_FACTOR,
-    DIP_FACTOR,
-    DIP_WINDOW,
-    FILTERS,
-    JITTER_TOLERANCE,
-    MAX_CUTOFF_SHARE,
-    MAX_TRIM_SHARE,
-    METRIC_EFFORTS,
-    MIN_CUTOFF_BINS,
-    MIN_SPEED_SHARE,
-    MIN_SPEED_SIGMAS,
-    MOVING_FACTOR,
-    NOISE_BAND,
-    PREDICTION_ROWS,
-    PREDICTION_TOLERANCE,
-    REVERSAL_PERIODS,
-    SMOOTH_RATE_PER_CUTOFF,
-    THIN_MARGIN,
-    TRIM_PERIODS,
-    Prepared,
-    Preprocessing,
-    TooFewSamples,
-    cutoff_range,
-    joint_cutoffs,
-)
+from frictionid_core import lazy
 
-__all__ = [
-    "ALIAS_BAND_PER_CUTOFF", "ALIAS_BAND_SHARE", "ANALYSIS_PER_CUTOFF", "BANDWIDTH_SHARE", "CUTOFFS_PER_DECADE",
-    "CUTOFF_GRID", "CUTOFF_PER_BANDWIDTH", "DIP_CUTOFF_FACTOR", "DIP_FACTOR", "DIP_WINDOW", "FILTERS",
-    "JITTER_TOLERANCE", "MAX_CUTOFF_SHARE", "MAX_TRIM_SHARE", "METRIC_EFFORTS", "MIN_CUTOFF_BINS",
-    "MIN_SPEED_SHARE", "MIN_SPEED_SIGMAS", "MOVING_FACTOR", "NOISE_BAND", "PREDICTION_ROWS", "PREDICTION_TOLERANCE",
-    "REVERSAL_PERIODS",
-    "Prepared", "Preprocessing", "SMOOTH_RATE_PER_CUTOFF", "THIN_MARGIN", "TRIM_PERIODS", "TooFewSamples",
-    "central_difference", "choose_preprocessing", "clean_acceleration_cutoff", "column_stride", "cutoff_grid",
-    "cutoff_interval", "cutoff_range", "decimate", "decimation_indices", "differentiated_noise_var", "dip_needs",
-    "filtfilt", "joint_cutoffs", "lowpass_position", "motion_bandwidth", "near_reversals", "noise_density",
-    "prediction_cutoffs", "prepare", "preprocess", "recorded_velocity", "resample_uniform", "reversal_acceleration",
-    "risk_cutoffs", "rule_decimation", "rule_interval", "subsample", "thinned_rows",
-]
+# Public names -> the module that defines them (loaded on first use).
+_LAZY = {
+    **dict.fromkeys((
+        "central_difference", "decimate", "decimation_indices", "lowpass_position", "near_reversals",
+    ), "frictionid_core.preprocess.filters"),
+    **dict.fromkeys((
+        "column_stride", "dip_needs", "prepare", "preprocess", "resample_uniform", "subsample", "thinned_rows",
+    ), "frictionid_core.preprocess.preparation"),
+    **dict.fromkeys((
+        "choose_preprocessing", "cutoff_interval", "noise_density", "rule_decimation",
+    ), "frictionid_core.preprocess.rule"),
+    **dict.fromkeys((
+        "cutoff_range", "DIP_WINDOW", "MOVING_FACTOR", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT",
+        "REVERSAL_PERIODS", "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
+    ), "frictionid_core.preprocess.settings"),
+}
+
+__all__ = ["DIP_WINDOW", "MOVING_FACTOR", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS",
+           "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES", "central_difference", "choose_preprocessing",
+           "column_stride", "cutoff_interval", "cutoff_range", "decimate", "decimation_indices", "dip_needs",
+           "lowpass_position", "near_reversals", "noise_density", "prepare", "preprocess", "resample_uniform",
+           "rule_decimation", "subsample", "thinned_rows"]
+
+__getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

@@ -85,6 +85,7 @@ from frictionid_core.preprocess.settings import (
     NOISE_BAND,
     PREDICTION_ROWS,
     PREDICTION_TOLERANCE,
+    QDD_NOISE_SHARE_LIMIT,
     TRIM_PERIODS,
     Preprocessing,
     cutoff_range,
@@ -223,7 +224,6 @@ def clean_acceleration_cutoff(q: np.ndarray, fs: float, n0: np.ndarray, order: i
     """(J,) the highest cut-off (Hz, on the risk grid; nan if none) at which the position noise
     makes up at most QDD_NOISE_SHARE_LIMIT of each column's filtered q̈ variance (q̈ after
     ``differences`` central differences of the filtered signal q (N, J) of noise density n0)."""
-    from frictionid_core.diagnostics import QDD_NOISE_SHARE_LIMIT  # diagnostics imports the model, which imports us
 
     f, P = signal.periodogram(q, fs, window="hann", detrend="linear", axis=0)
     weight = (fs * np.sin(2 * np.pi * f / fs)) ** (2 * differences)

@@ -7,8 +7,15 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
-from frictionid_core.errors import FrictionIdError, InputError
-from frictionid_core.options import VELOCITY_SOURCES, check_choice
+from frictionid_core.errors import FrictionIdError, InputError, check_choice
+
+# Where identification takes q̇ from: the central difference of the filtered position, or the
+# logged velocity low-passed the same way.
+VELOCITY_SOURCES = ("position", "recorded")
+# q̈ is noise-dominated when differentiated position noise makes up more than this share of its
+# filtered variance (inertias then come out low by about 1.5–2 × the share): the cut-off rule's limit
+# and the warning's.
+QDD_NOISE_SHARE_LIMIT = 0.02
 
 # Stamps whose spacing deviates from the mean period by more than this fraction are
 # treated as jittered and resampled onto a uniform grid.

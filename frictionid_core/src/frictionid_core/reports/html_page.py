@@ -1,4 +1,4 @@
-"""Pieces shared by the HTML reports (:mod:`frictionid_core.reports.emps_report`,
+"""Pieces shared by the HTML reports (:mod:`frictionid_core.emps.report`,
 :mod:`frictionid_core.reports.result_report`): the page style, tables, PNG bytes and the
 friction-vs-velocity axes."""
 

@@ -28,9 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
+from frictionid_core.compare import check_result, flatten
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.jsonfile import write_bytes, write_json, write_text
-from frictionid_core.metrics import check_finite, fit_metrics
+from frictionid_core.files import write_bytes, write_json, write_text
+from frictionid_core.identification import metric_model, model_from_result
+from frictionid_core.model import check_finite, fit_metrics
 from frictionid_core.reports.html_page import MAX_PLOT_POINTS, PAGE_STYLE, friction_axes, html_table, png_bytes
 from frictionid_core.timeseries import JointSeries
 
@@ -73,8 +75,6 @@ class JointTrace:
 def joint_traces(series: JointSeries, result: dict) -> tuple[list[JointTrace], list[JointTrace], object]:
     """Per joint of ``series``: what the report plots and measures (see :class:`JointTrace`) on the
     rows its system keeps, and on every analysis row; also the model's friction law (a FrictionModel)."""
-    from frictionid_core.identification import metric_model, model_from_result
-
     fitted, x = model_from_result(series, result)
     model = metric_model(fitted)  # the recorded effort at the analysis instants
     every = model if model.obs.full is None else type(model)(model.obs.full, model.friction, model.offset,
@@ -214,8 +214,6 @@ def build_fit_report(result: dict, sources: list[tuple[str, JointSeries]], out_d
 
     Returns the report.json dict.
     """
-    from frictionid_core.robots.compare import check_result
-
     check_result(result, result_file or "the result")
     if not sources:
         raise FrictionIdError("the report needs at least one source to show the fit on")
@@ -261,8 +259,6 @@ def _slug(name: str) -> str:
 
 
 def _html(rep: dict) -> str:
-    from frictionid_core.robots.compare import flatten
-
     esc = lambda v: html.escape(str(v))
     source = ", ".join(rep["source"]) if isinstance(rep["source"], list) else rep["source"]
     head = (f"{rep['system']} · {rep['friction']}{' (asymmetric)' if rep['asymmetric'] else ''} · solver "

@@ -1,26 +1,39 @@
-"""Manipulators on Pinocchio: models, base parameters, excitation, synthetic data, checks.
+"""Manipulators on Pinocchio: models and base parameters.
 
-* :mod:`~frictionid_core.robots.robot_model` — :class:`RobotModel` (any fixed-base URDF via
-  :func:`load_urdf`), inverse dynamics, the standard-parameter regressor (+ rotor inertias).
-* :mod:`~frictionid_core.robots.tx40` — the Stäubli TX40 of docs/reference.md#tx40 (:func:`build_tx40`) and
-  the thesis joint-2 model equivalents.
-* :mod:`~frictionid_core.robots.base` — base parameters by QR with column pivoting, the
-  excitation (rank) test naming unidentifiable parameters. The identification systems
-  ``tx40`` and ``urdf:PATH`` built on them are in :mod:`frictionid_core.systems.robot`.
-* :mod:`~frictionid_core.robots.excitation` — Fourier excitation optimised for the condition
-  number (``frictionid excite``).
-* :mod:`~frictionid_core.robots.synth` — synthetic JointState data (``frictionid synth``).
-* :mod:`~frictionid_core.robots.consistency_check` — physical consistency of identified base
-  parameters (``frictionid consistency``).
-* :mod:`~frictionid_core.robots.compare` — results vs ground truth and the noise floor
-  (``frictionid compare``).
-* :mod:`~frictionid_core.robots.payload` — a payload fixed to a link (:class:`Payload`, the model
-  with it: :func:`robot_with_payload`); its identification is ``frictionid payload``.
+* :mod:`.robot_model` — :class:`RobotModel` (any fixed-base URDF via :func:`load_urdf`), inverse
+  dynamics, the standard-parameter regressor (+ rotor inertias).
+* :mod:`.tx40` — the Stäubli TX40 of docs/reference.md#tx40 (:func:`build_tx40`) and the thesis
+  joint-2 model equivalents (the module itself is public: ``robots.tx40``).
+* :mod:`.base` — base parameters by QR with column pivoting, the excitation (rank) test.
+* :mod:`.motor_side` — motor-side columns of a coupled drive.
+* :mod:`.payload_model` — a payload fixed to a link (:class:`Payload`, the model with it).
 
 Pinocchio is imported only when a robot model is built.
 """
 
-from frictionid_core.robots.payload import Payload, default_link, robot_with_payload
-from frictionid_core.robots.robot_model import RobotModel, example_robot_data_dir, load_urdf
+from frictionid_core import lazy
 
-__all__ = ["Payload", "RobotModel", "default_link", "example_robot_data_dir", "load_urdf", "robot_with_payload"]
+# Public names -> the module that defines them (loaded on first use).
+_LAZY = {
+    **dict.fromkeys((
+        "base_parameter_names", "random_samples", "restricted_base_parameters", "robot_base_parameters",
+    ), "frictionid_core.robots.base"),
+    **dict.fromkeys(("MotorSide",), "frictionid_core.robots.motor_side"),
+    **dict.fromkeys((
+        "body_quantities", "default_link", "frame_map", "INERTIA_ENTRIES", "link_frame", "link_name", "PAYLOAD",
+        "Payload", "payload_link", "PAYLOAD_NAMES", "point_inertia", "QUANTITIES", "robot_with_payload",
+        "with_payload",
+    ), "frictionid_core.robots.payload_model"),
+    **dict.fromkeys((
+        "BODY_PARAMS", "example_robot_data_dir", "load_urdf", "RobotModel", "ROTOR_PARAM",
+    ), "frictionid_core.robots.robot_model"),
+    **dict.fromkeys(("build_tx40", "tx40"), "frictionid_core.robots.tx40"),
+}
+
+__all__ = ["BODY_PARAMS", "INERTIA_ENTRIES", "MotorSide", "PAYLOAD", "PAYLOAD_NAMES", "Payload", "QUANTITIES",
+           "ROTOR_PARAM", "RobotModel", "base_parameter_names", "body_quantities", "build_tx40", "default_link",
+           "example_robot_data_dir", "frame_map", "link_frame", "link_name", "load_urdf", "payload_link",
+           "point_inertia", "random_samples", "restricted_base_parameters", "robot_base_parameters",
+           "robot_with_payload", "tx40", "with_payload"]
+
+__getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

@@ -1,7 +1,7 @@
 """A robot seen from its motors: the regressor of a drive whose friction acts on the motors
 (docs/reference.md#idm-motor-side).
 
-With ``friction_on: motor`` (:mod:`frictionid_core.drive`) each motor's friction and rotor inertia
+With ``friction_on: motor`` (:mod:`frictionid_core.drive.transmission`) each motor's friction and rotor inertia
 act on its referred velocity ``w = C·q̇``. In the referred motor torques ``u = C⁻ᵀ·τ`` every
 motor's terms then sit in its own row:
 

@@ -35,8 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from frictionid_core.friction import DEFAULT_BOUNDS
-from frictionid_core.friction.laws import parameter_base
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.friction import DEFAULT_BOUNDS, parameter_base
 
 # Largest |effort| and |velocity| of the identification data × this = the limits of a joint without
 # a robot model: a friction that alone needs twice the largest effort the data holds is not that
@@ -78,8 +78,6 @@ class Limit:
     def from_dict(cls, data: Mapping, where: str = "limit") -> Limit:
         """The limit of its :meth:`to_dict`; FrictionIdError naming ``where`` unless ``effort`` is a
         finite number > 0 and ``speed`` one ≥ 0 (or nan, unknown)."""
-        from frictionid_core.errors import FrictionIdError
-
         try:
             effort, speed = float(data["effort"]), float(data.get("speed", math.nan))
             source = str(data.get("source", ""))
@@ -243,7 +241,7 @@ def result_refusals(result, limits: Mapping[str, Limit] | None = None, *, max_ab
 def effort_sign_refusals(result, drive=None) -> list[str]:
     """One line per joint whose effort the result (an IdentifyResult or its JSON) was identified
     with negated (its drive's ``effort_scale`` < 0: a driver's sign opposite to the model's axis)
-    where ``drive`` (the feed-forward's: a :class:`~frictionid_core.drive.Drive`, None: none) keeps it,
+    where ``drive`` (the feed-forward's: a :class:`~frictionid_core.drive.transmission.Drive`, None: none) keeps it,
     or the reverse: the feed-forward of that joint would have the wrong sign and add to its friction."""
     keys = _getter(result)("drive") if result is not None else None
     own = dict(zip(keys["joints"], keys.get("effort_scale") or [])) if keys else {}

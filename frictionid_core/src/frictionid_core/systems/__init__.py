@@ -1,16 +1,30 @@
 """Inverse dynamic models ("systems"): rigid-body columns, joints and pre-processing presets.
 
-* :mod:`~frictionid_core.systems.system` — the :class:`System` type and :func:`observe`.
-* :mod:`~frictionid_core.systems.emps` — one-joint systems (``emps``).
-* :mod:`~frictionid_core.systems.friction_only` — ``friction-only``.
-* :mod:`~frictionid_core.systems.tx40_j2` — the thesis model of TX40 joint 2 (``tx40-j2``).
-* :mod:`~frictionid_core.systems.robot` — full robots on Pinocchio (``tx40``, ``urdf:PATH``).
-* :mod:`~frictionid_core.systems.registry` — systems by name (:func:`get_system`).
+* :mod:`.system` — the :class:`System` type and :func:`observe`.
+* :mod:`.emps` — one-joint systems (``emps``, ``joint``).
+* :mod:`.friction_only` — ``friction-only``.
+* :mod:`.tx40_j2` — the thesis model of TX40 joint 2 (``tx40-j2``).
+* :mod:`.robot` — full robots on Pinocchio (``tx40``, ``urdf:PATH``).
+* :mod:`.registry` — systems by name (:func:`get_system`).
 """
 
-from frictionid_core.systems.registry import SYSTEM_NAMES, as_system, get_system, result_system
-from frictionid_core.systems.robot import nominal_parameters
-from frictionid_core.systems.system import RobotInfo, System, observe, parse_joint_map
+from frictionid_core import lazy
 
-__all__ = ["SYSTEM_NAMES", "RobotInfo", "System", "as_system", "get_system", "nominal_parameters", "observe",
-           "parse_joint_map", "result_system"]
+# Public names -> the module that defines them (loaded on first use).
+_LAZY = {
+    **dict.fromkeys((
+        "as_system", "FIXED_SYSTEMS", "get_system", "result_system", "SYSTEM_NAMES", "URDF_PREFIX",
+    ), "frictionid_core.systems.registry"),
+    **dict.fromkeys((
+        "known_rigid_body", "KnownRigidBody", "LINK_TORQUE", "nominal_parameters", "restricted_system",
+    ), "frictionid_core.systems.robot"),
+    **dict.fromkeys((
+        "exclude_rows", "observe", "parse_joint_map", "reversal_rows", "RobotInfo", "System",
+    ), "frictionid_core.systems.system"),
+}
+
+__all__ = ["FIXED_SYSTEMS", "KnownRigidBody", "LINK_TORQUE", "RobotInfo", "SYSTEM_NAMES", "System", "URDF_PREFIX",
+           "as_system", "exclude_rows", "get_system", "known_rigid_body", "nominal_parameters", "observe",
+           "parse_joint_map", "restricted_system", "result_system", "reversal_rows"]
+
+__getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

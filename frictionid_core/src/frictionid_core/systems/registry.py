@@ -9,8 +9,7 @@ from pathlib import Path
 
 from frictionid_core.drive import Drive, result_drive
 from frictionid_core.errors import FrictionIdError
-from frictionid_core.robots.robot_model import load_urdf
-from frictionid_core.robots.tx40 import build_tx40
+from frictionid_core.robots import build_tx40, load_urdf
 from frictionid_core.systems.emps import JOINT_GRAVITY, ONE_JOINT
 from frictionid_core.systems.friction_only import FRICTION_ONLY
 from frictionid_core.systems.robot import robot_system
@@ -31,7 +30,7 @@ def get_system(name: str, joint_map: dict[str, str] | None = None, drive: Drive 
     ``gravity``: ``joint`` with a gravity term per joint (``g_sin``, ``g_cos``).
 
     ``joint_map`` {data joint: model joint} renames data joints for the robot systems; ``drive``
-    (:mod:`frictionid_core.drive`) converts the log to the joint side, and with friction on the
+    (:mod:`frictionid_core.drive.transmission`) converts the log to the joint side, and with friction on the
     motors makes the motors the fit rows. A robot system is built once per name, URDF
     modification time, joint map and motor-side drive (its base parameters are computed once).
     """

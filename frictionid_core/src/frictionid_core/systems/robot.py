@@ -18,7 +18,7 @@ import numpy as np
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.preprocess import Prepared, Preprocessing
-from frictionid_core.robots.base import base_parameter_names, restricted_base_parameters, robot_base_parameters
+from frictionid_core.robots import MotorSide, base_parameter_names, restricted_base_parameters, robot_base_parameters
 from frictionid_core.systems.system import RobotInfo, System
 
 # Robot data: every setting chosen from the data (frictionid_core.preprocess): the cut-off from
@@ -42,8 +42,6 @@ def robot_system(robot, name: str, joint_map: dict[str, str] | None = None, base
     one rotor inertia per motor on ẇ) and the base parameters are those of that regressor."""
     rows = None
     if drive is not None and drive.friction_on == "motor":
-        from frictionid_core.robots.motor_side import MotorSide
-
         rows = MotorSide(robot, drive)
     base = base or robot_base_parameters(robot, rows=rows)
     info = RobotInfo(robot, base, rows)

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from frictionid_core.errors import InputError
-from frictionid_core.observation import Observation, build_observation, concat_observations, keep_all_rows
+from frictionid_core.model import Observation, build_observation, concat_observations, keep_all_rows
 from frictionid_core.preprocess import (
     TRIM_PERIODS,
     Prepared,
@@ -23,6 +23,7 @@ from frictionid_core.preprocess import (
     choose_preprocessing,
     column_stride,
     cutoff_range,
+    near_reversals,
     preprocess,
     resample_uniform,
     subsample,
@@ -189,7 +190,7 @@ def observe(series: JointSeries, system: System, settings: Preprocessing | None 
     system's columns still see the motion of the others. ``held``: {model joint: position (rad
     or m)} of a robot system's joints the data lack, held still (q̇ = q̈ = 0) in its columns.
     ``all_rows``: keep the fit rows' copy with every row too
-    (:func:`~frictionid_core.observation.keep_all_rows`: a dynamic law's model).
+    (:func:`~frictionid_core.model.observation.keep_all_rows`: a dynamic law's model).
 
     A system with a drive first takes the log to the joint side (:meth:`Drive.to_joint_side`).
     With friction on the motors the rows are the referred motor torques u = C⁻ᵀ·τ, named after
@@ -352,8 +353,6 @@ def reversal_rows(obs: Observation, left_out: np.ndarray, settings: Preprocessin
     lowest cut-off of the joints it turns with, a joint without a cut-off of its own the highest."""
     if not settings.reversal_periods:
         return np.zeros_like(left_out)
-    from frictionid_core.preprocess import near_reversals
-
     given = settings.cutoff_hz
     joints = list(obs.data_joints or obs.joints)
     cutoffs = (np.array([given.get(j, max(given.values())) for j in joints]) if isinstance(given, dict)

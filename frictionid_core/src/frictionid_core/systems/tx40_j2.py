@@ -11,14 +11,14 @@ from __future__ import annotations
 import numpy as np
 
 from frictionid_core.preprocess import Prepared
-from frictionid_core.robots.tx40 import DH, joint2_columns
+from frictionid_core.robots import tx40
 from frictionid_core.systems.robot import ROBOT_PREPROCESSING
 from frictionid_core.systems.system import System
 
 
 def _columns(p: Prepared, joints: list[str]) -> np.ndarray:
     # The thesis formula is written in the DH angle θ₂ = q₂ + θoffset₂.
-    return joint2_columns(p.q[:, 0] + DH[1][3], p.qdd[:, 0])
+    return tx40.joint2_columns(p.q[:, 0] + tx40.DH[1][3], p.qdd[:, 0])
 
 
 TX40_J2 = System("tx40-j2", 1, _columns, ("ZZ", "MX", "MY"),

@@ -1,0 +1,208 @@
+"""A result reloaded on other data: its model (:func:`model_from_result`) with the pre-processing
+settings the result chose from its data chosen again from these where they can
+(:func:`validation_settings`), and the cross-test (:func:`validate`)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+
+import numpy as np
+
+from frictionid_core.drive import result_drive
+from frictionid_core.errors import FrictionIdError, InputError
+from frictionid_core.friction import elements_of
+from frictionid_core.identification.model_building import Sources, as_sources, build_model, metric_model, model_metrics
+from frictionid_core.identification.plan import Holds, plan_fit
+from frictionid_core.identification.result import IdentifyResult
+from frictionid_core.identification.settings import PreprocessingOverrides
+from frictionid_core.model import LOAD_NAME, IdentificationModel
+from frictionid_core.preprocess import Preprocessing, cutoff_interval, resample_uniform
+from frictionid_core.systems import System, as_system, result_system
+from frictionid_core.timeseries import JointSeries
+
+# The settings a result may have chosen from its data (its ``preprocessing.from_data``), and the
+# one its identification found in its data (the stick phases: a property of the robot, kept).
+DATA_SETTINGS = ("cutoff_hz", "decimate", "trim_start_s", "trim_end_s", "min_speed")
+FOUND_SETTINGS = ("stick_speed",)
+FIXED_WHY = "fixed in the identification"
+FOUND_WHY = "found by the identification (the robot's stick phases)"
+REVERSAL_WHY = "the identification's (rows near reversals left out)"
+
+
+def validation_settings(record: Mapping, series: JointSeries, overrides: PreprocessingOverrides | None = None
+                        ) -> tuple[Preprocessing, dict]:
+    """The pre-processing to cross-test a result with, from its ``preprocessing`` block ``record``
+    and the data ``series`` (the first source as the rule sees it: :func:`rule_series`): its
+    settings, those it chose from its data (``from_data``) chosen again from ``series`` — but a
+    joint's cut-off is kept where these data resolve the rule less finely than the identification's
+    (a shorter record: coarser periodogram, fewer cycles) and that cut-off lies within the rule's
+    bounds on them (:func:`frictionid_core.preprocess.cutoff_interval`: it keeps their motion and
+    stays below their noise) — and ``overrides`` (the user's) over all (a min speed given replaces
+    the stick phases, as on ``identify``).
+
+    Returns the settings and which were ``rechosen``, ``kept`` (with ``kept_why``: {setting:
+    reason}) and ``set``; the cut-off may be in both ``rechosen`` and ``kept`` (per joint). A
+    decimation chosen again drops the result's row thinning (set for its own dips and rates)."""
+    settings = Preprocessing.from_dict(record, 1.0 / series.dt)
+    given = (overrides or PreprocessingOverrides()).changes()
+    from_data = record.get("from_data", [])
+    chosen = [name for name in DATA_SETTINGS if name in from_data and name not in given]
+    values: dict = dict.fromkeys(chosen)
+    why = {name: FIXED_WHY for name in DATA_SETTINGS
+           if name not in from_data and name not in given and getattr(settings, name) is not None}
+    if "min_speed" in given:  # the user's slow rows replace those the identification left out
+        values["stick_speed"] = None
+        if "reversal_periods" not in given:
+            values["reversal_periods"] = 0.0
+    else:
+        if settings.stick_speed:
+            why["stick_speed"] = FOUND_WHY
+        if settings.reversal_periods and "reversal_periods" not in given:
+            why["reversal_periods"] = REVERSAL_WHY
+    if "cutoff_hz" in chosen:
+        kept, reason = kept_cutoffs(record, settings.cutoff_hz, series, settings.order)
+        values["cutoff_hz"] = kept or None
+        if kept:
+            why["cutoff_hz"] = reason
+        if set(kept) >= set(series.joints):
+            chosen.remove("cutoff_hz")
+    if "decimate" in chosen:
+        values.update(thin=1, dip_scale=None)
+    settings = replace(settings, **values, **given)
+    return settings, {"rechosen": chosen, "kept": list(why), "kept_why": why, "set": sorted(given)}
+
+
+def kept_cutoffs(record: Mapping, cutoff_hz: float | dict[str, float], series: JointSeries, order: int
+                 ) -> tuple[dict[str, float], str]:
+    """({joint: Hz} of the result's cut-off ``cutoff_hz`` kept on ``series``, why): those the
+    identification's user fixed (not in its ``cutoff_from_data``), and those of the rule where
+    ``series`` is shorter than the identification's record (``record_s``) and the cut-off lies within
+    the rule's bounds on ``series``; results without ``record_s`` (earlier versions) keep only the first."""
+    joints = list(series.joints)
+    result = cutoff_hz if isinstance(cutoff_hz, dict) else dict.fromkeys(joints, cutoff_hz)
+    result = {j: float(v) for j, v in result.items() if j in joints}
+    by_rule = record.get("cutoff_from_data")
+    by_rule = joints if by_rule is None else by_rule
+    kept = {j: v for j, v in result.items() if j not in by_rule}
+    reasons = [f"{', '.join(kept)}: {FIXED_WHY}"] if kept else []
+    record_s, here_s = record.get("record_s"), float(series.t[-1] - series.t[0])
+    if record_s is not None and here_s < record_s:
+        interval = cutoff_interval(series, order)
+        suits = {j: v for j, v in result.items()
+                 if j in by_rule and j in interval and interval[j][0] <= v <= interval[j][1]}
+        if suits:
+            kept.update(suits)
+            reasons.append(f"{', '.join(suits)}: these {here_s:.3g} s of data resolve the rule less finely than the "
+                           f"identification's {record_s:.3g} s, and its cut-off lies within the rule's bounds on them")
+    return kept, "; ".join(reasons)
+
+
+def rule_series(series: JointSeries, system: System) -> JointSeries:
+    """``series`` as the pre-processing rule sees it (:func:`frictionid_core.systems.observe`): on
+    the joint side, its longest segment, on uniform stamps."""
+    if system.drive is not None:
+        series = system.drive.to_joint_side(series, system.joint_map)
+    return resample_uniform(max(series.segments(), key=len))
+
+
+def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, system: str | None = None,
+                      joint_map: dict[str, str] | None = None, joints: list[str] | None = None,
+                      preprocessing: PreprocessingOverrides | None = None,
+                      window: tuple[float | None, float | None] | None = None, payload=None
+                      ) -> tuple[IdentificationModel, np.ndarray]:
+    """The model of an identification ``result`` (an :class:`IdentifyResult` or its JSON, also one
+    written by hand or by an earlier version) on ``series`` (one source or several) and its
+    identified parameters (k,).
+
+    System, joint map, joints, friction, drive, pre-processing and held joints come from the
+    result, the settings it chose from its data chosen again from ``series`` where they can
+    (:func:`validation_settings`; which: the observation report's ``rechosen``, ``kept``,
+    ``kept_why``, ``set``); each argument given overrides its part (``preprocessing``: settings
+    the user fixes; ``joint_map`` goes with ``system`` when both are given). ``window`` cuts
+    ``series`` (s from the first sample); the result's own window is not reused. The joints the
+    result held still are held again where it held them (the base parameters are those of that
+    regressor; a logged column of such a joint is not used). ``payload``: a
+    :class:`~frictionid_core.robots.payload_model.Payload` whose ten columns (``payload.<p>``) and values
+    the model adds (:func:`~frictionid_core.robots.payload_model.with_payload`).
+    """
+    if isinstance(result, IdentifyResult):
+        result = result.to_dict()
+    try:
+        if system is not None:
+            sys_ = as_system(system, joint_map, result_drive(result))
+        elif joint_map is not None:
+            sys_ = as_system(result_system(result).name, joint_map, result_drive(result))
+        else:
+            sys_ = result_system(result)
+        friction, asymmetric = result["friction"], bool(result["asymmetric"])
+        elements = elements_of(friction, result["params"])  # a Maxwell-slip law's, from its k1 … kn
+        joints = joints or result.get("joints")  # None (a hand-written file): the data's joints
+        values = result["params"]
+        asked = result.get("request") or {}
+        held = dict(result.get("held_joints") or {})
+    except KeyError as exc:
+        raise FrictionIdError(f"parameter file lacks {exc}; expected the JSON written by "
+                              "'frictionid identify'") from None
+    sources = as_sources(series, window)  # on the recorded side: the system's drive converts them
+    holds = Holds({**(asked.get("hold") or {}), **held}, bool(asked.get("hold_missing")))
+    plan = plan_fit(sources, sys_, list(joints) if joints else None, holds, structure=held, judge_effort=False)
+    if result.get("preprocessing"):
+        settings, which = validation_settings(result["preprocessing"], rule_series(plan.sources[0].series, sys_),
+                                              preprocessing)
+    else:  # a hand-written file: the system's pre-processing, the user's settings over it
+        settings, which = (preprocessing or PreprocessingOverrides()).apply(sys_.preprocessing), None
+    if payload is not None:
+        from frictionid_core.robots import with_payload
+
+        plan = replace(plan, system=with_payload(plan.system, payload.link))
+        values = {**values, **payload.parameters()}
+    try:
+        model = build_model(plan, plan.system, friction, asymmetric, settings, elements=elements)
+    except InputError as exc:  # these data cannot choose (nothing moves): the result's own settings
+        if which is None or not which["rechosen"] or "cannot be chosen from the data" not in str(exc):
+            raise
+        given = (preprocessing or PreprocessingOverrides()).changes()
+        settings = replace(Preprocessing.from_dict(result["preprocessing"], 1.0 / sources[0].dt), **given)
+        why = {**which["kept_why"], **dict.fromkeys(which["rechosen"], "these data cannot choose it")}
+        which = {"rechosen": [], "kept": list(why), "kept_why": why, "set": which["set"]}
+        model = build_model(plan, plan.system, friction, asymmetric, settings, elements=elements)
+    if any(n.rsplit("/", 1)[-1] == LOAD_NAME for n in values):  # load-dependent: τ_rigid of its rigid body
+        model = replace(model, load_rigid=np.array([values.get(n, 0.0) for n in model.obs.rigid_names], dtype=float))
+    if which is not None:
+        model.obs.report.update(which)
+    missing = [n for n in model.names if n not in values]
+    if missing:
+        raise FrictionIdError(f"parameter file lacks parameter(s) {missing} of the model (it has {list(values)}); "
+                              "expected the JSON written by 'frictionid identify' for this system, joints and friction")
+    return model, np.array([values[n] for n in model.names], dtype=float)
+
+
+def validate(series: Sources, result: IdentifyResult | Mapping, *, system: str | None = None,
+             joint_map: dict[str, str] | None = None, joints: list[str] | None = None,
+             preprocessing: PreprocessingOverrides | None = None,
+             window: tuple[float | None, float | None] | None = None) -> dict[str, float]:
+    """Cross-test: metrics of the identified parameters of ``result`` on ``series``, with the
+    identification's system, joint map, joints, friction, drive and pre-processing; the other
+    arguments override them as for :func:`model_from_result`."""
+    model, x = model_from_result(series, result, system=system, joint_map=joint_map, joints=joints,
+                                 preprocessing=preprocessing, window=window)
+    return validation_metrics(model, x, [s.source for s in as_sources(series)])
+
+
+def validation_metrics(model: IdentificationModel, x: np.ndarray, names: list[str]) -> dict[str, float]:
+    """The cross-test metrics of parameters ``x`` on ``model`` (of :func:`model_from_result` on the
+    sources ``names``); an error when no sample is left to test on."""
+    if not metric_model(model).obs.used.any():
+        raise FrictionIdError(f"{', '.join(names)}: no sample left to cross-test on (every one slower than the min "
+                              "speed of the pre-processing, or trimmed away)")
+    return model_metrics(model, x)
+
+
+def validation_record(model: IdentificationModel) -> dict:
+    """The ``preprocessing`` block of a cross-test of ``model`` (of :func:`model_from_result`): the
+    settings used, what the data said, and which settings were re-chosen, kept and set."""
+    obs = model.obs
+    record = obs.preprocessing.to_dict()
+    record.update({k: v for k, v in obs.report.items() if not k.startswith("_")})
+    return record
