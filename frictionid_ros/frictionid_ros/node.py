@@ -69,7 +69,7 @@ from frictionid_ros.config import NODE_NAME
 from frictionid_ros.inputs import Inputs
 from frictionid_ros.messages import diagnostic_array, fill_payload, inertia_msg, parameters_msg
 from frictionid_ros.online import Online
-from frictionid_ros.parameters import changed_config, declare_parameters
+from frictionid_ros.ros_parameters import changed_config, declare_parameters
 from frictionid_ros.payload import PayloadService
 from frictionid_ros.realtime import schedule_this_thread
 from frictionid_ros.runner import check_unique_name, make_input_executor, make_input_node, run
