@@ -13,7 +13,7 @@ import sys
 import textwrap
 from pathlib import Path
 
-from frictionid_ros.config import PARAMETERS, Parameter
+from frictionid_ros.parameters import PARAMETERS, Parameter
 
 PACKAGE = Path(__file__).resolve().parents[1]  # the frictionid_ros source folder
 YAML_FILE = PACKAGE / "config" / "frictionid.yaml"

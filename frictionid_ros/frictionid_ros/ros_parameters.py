@@ -20,7 +20,7 @@ with warnings.catch_warnings():
     from rclpy.parameter import Parameter as RosParameter
 
 from frictionid_core import FrictionIdError
-from frictionid_ros.config import PARAMETERS, Config, Parameter, make_config
+from frictionid_ros.parameters import PARAMETERS, Config, Parameter, make_config
 
 INT64 = (-(2**63), 2**63 - 1)  # the bounds of an integer parameter
 # The parameters a client may change at runtime (the defaults of ~/identify and of the windows, smoothing_eps).

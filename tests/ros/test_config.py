@@ -13,8 +13,8 @@ with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
 
 from frictionid_core import FrictionIdError
-from frictionid_ros.config import PARAMETERS, make_config
 from frictionid_ros.parameter_docs import PAGE, TABLE_END, TABLE_START, YAML_FILE, defaults_yaml, markdown_table
+from frictionid_ros.parameters import PARAMETERS, make_config
 from support.node_parts import node_config
 
 # What a client on the ROS domain may change at runtime (docs/node.md, "Security"); every

@@ -147,7 +147,7 @@ def test_feedforward_clamp_and_ramp():
     feedforward_ramp_s (half-way after half of it), then hold."""
     import time
 
-    from frictionid_ros.feedforward import FeedForward
+    from frictionid_ros.inputs import FeedForward
     from frictionid_ros.store import JointParams
 
     def params(fc: float) -> dict:
@@ -171,7 +171,7 @@ def test_feedforward_clamp_and_ramp():
 
 
 def test_online_split_holds_back_the_newest_share():
-    from frictionid_ros.online import split
+    from frictionid_ros.identification import split
 
     fit, held = split(_joint(4.0, 3), 0.25)
     assert len(fit.t) == 3000 and len(held.t) == 1000 and held.t[0] > fit.t[-1]
@@ -181,7 +181,7 @@ def test_loop_command_registers_in_the_core_cli():
     """The ``frictionid.commands`` entry point target adds ``loop`` with its defaults (no ROS start)."""
     import argparse
 
-    from frictionid_ros.loop_command import register
+    from frictionid_ros.loop import register
 
     sub = argparse.ArgumentParser(prog="frictionid").add_subparsers(dest="command")
     handler = register(sub)
