@@ -1,26 +1,45 @@
-"""Node parameters, each declared once, and their validation (no ROS import).
+"""Every node parameter, declared once: the parameter table, the validated :class:`Config`, the
+declaration on ROS and the docs (no ROS import when loaded: rclpy is imported by the functions that
+declare the parameters on a node).
 
 Every node parameter is a field of :class:`Config` whose metadata holds its :class:`Parameter`:
-default (its type is the ROS type), unit, description, range or choices, read-only flag and parser.
-From these declarations :mod:`.parameters` declares the ROS parameters with their descriptors,
-:func:`make_config` validates a set of values, and :mod:`.parameter_docs` writes
-``config/frictionid.yaml`` and the table of ``README.md`` (tests check both agree). A bad value is a
-:class:`~frictionid_core.FrictionIdError` with one line naming the parameter, reported at startup.
+default (its type is the ROS type), unit, description, range or choices, read-only flag and parser;
+:data:`PARAMETERS` is the table of them. From these declarations
+
+* :func:`make_config` validates a set of values: a bad value is a
+  :class:`~frictionid_core.FrictionIdError` with one line naming the parameter, reported at startup;
+* :func:`declare_parameters` declares the ROS parameters, each with a descriptor (``ros2 param
+  describe``): its description and unit, read-only flag, allowed values as text and, for a bounded
+  number, an rclpy ``IntegerRange`` or ``FloatingPointRange``, so rclpy itself refuses a value
+  outside. Runtime changes go through the same validation (:func:`changed_config`);
+* :func:`defaults_yaml` and :func:`markdown_table` write the defaults file ``config/frictionid.yaml``
+  and the parameter table of ``docs/node.md`` (tests check both agree with the declarations)::
+
+    python -m frictionid_ros.parameters      # rewrite both after changing a declaration
 """
 
 from __future__ import annotations
 
+import json
 import math
 import os
+import sys
+import textwrap
+import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from frictionid_core import FRICTIONS, Drive, FrictionIdError, IdentifyRequest, budget_field, check_choice, load_drive
 from frictionid_core.io import MIN_SAMPLES
 from frictionid_core.optim import SOLVERS
 from frictionid_ros.runtime import parse_priority
+
+if TYPE_CHECKING:
+    from rcl_interfaces.msg import ParameterDescriptor
+    from rclpy.node import Node
+    from rclpy.parameter import Parameter as RosParameter
 
 NODE_NAME = "frictionid"
 
@@ -312,3 +331,146 @@ def make_config(values: dict) -> Config:
     config = Config(**settings, drive=_drive(settings["drive_file"]))
     config.solve  # noqa: B018 - the core's validation of the identification defaults, as for a request
     return config
+
+
+# ----------------------------------------------------------------------------- on ROS
+INT64 = (-(2**63), 2**63 - 1)  # the bounds of an integer parameter
+# The parameters a client may change at runtime (the defaults of ~/identify and of the windows, smoothing_eps).
+RUNTIME = tuple(name for name, p in PARAMETERS.items() if not p.read_only)
+
+
+def descriptor(declaration: Parameter) -> ParameterDescriptor:
+    """The ROS descriptor of a parameter's ``declaration``."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # lark, pulled in by rosidl on some versions
+        from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+
+    p = declaration
+    d = ParameterDescriptor(description=p.description + (f" [{p.unit}]" if p.unit else ""), read_only=p.read_only,
+                            dynamic_typing=p.dynamic_typing, additional_constraints=p.rule)
+    if (p.low is None and p.high is None) or isinstance(p.default, bool):
+        return d
+    if isinstance(p.default, int):
+        low, high = INT64
+        d.integer_range = [IntegerRange(from_value=low if p.low is None else p.low,
+                                        to_value=high if p.high is None else p.high, step=1)]
+    else:
+        d.floating_point_range = [FloatingPointRange(from_value=-math.inf if p.low is None else float(p.low),
+                                                     to_value=math.inf if p.high is None else float(p.high))]
+    return d
+
+
+def declare_parameters(node: Node) -> Config:
+    """Declare every node parameter on ``node``; their values validated. FrictionIdError: one line naming
+    the parameter at fault."""
+    from rclpy.exceptions import InvalidParameterValueException
+    from rclpy.parameter import Parameter as RosParameter
+
+    values = {}
+    for name, p in PARAMETERS.items():
+        d = descriptor(p)
+        default = RosParameter.Type.STRING_ARRAY if isinstance(p.default, list) else p.default  # [] has no type
+        try:
+            values[name] = node.declare_parameter(name, default, d).value
+        except InvalidParameterValueException as exc:  # outside the range: the declaration's own message
+            d.integer_range, d.floating_point_range = [], []
+            p.config_value(name, node.declare_parameter(name, default, d).value)
+            raise FrictionIdError(f"parameter '{name}': {exc}") from None
+        except Exception as exc:  # e.g. InvalidParameterTypeException for "30" where 30.0 is expected
+            raise FrictionIdError(f"parameter '{name}': {exc} (default {p.default!r}: "
+                                  f"{type(p.default).__name__})") from None
+    return make_config(values)
+
+
+def changed_config(node: Node, cfg: Config, changes: list[RosParameter]) -> Config:
+    """``cfg`` with the runtime parameters set to ``node``'s values updated by ``changes`` (an
+    ``on_set_parameters`` callback's list), all checked together; FrictionIdError if refused."""
+    values = {name: node.get_parameter_or(name).value for name in PARAMETERS}  # unset joints: None (the default)
+    new = make_config({**values, **{p.name: p.value for p in changes}})
+    return replace(cfg, **{name: getattr(new, name) for name in RUNTIME})
+
+
+# ----------------------------------------------------------------------------- written out
+PACKAGE = Path(__file__).resolve().parents[1]  # the frictionid_ros source folder
+YAML_FILE = PACKAGE / "config" / "frictionid.yaml"
+PAGE = PACKAGE.parent / "docs" / "node.md"  # the node's page of the repository's docs
+TABLE_START = "<!-- parameter table: written by python -m frictionid_ros.parameters -->"
+TABLE_END = "<!-- end of the parameter table -->"
+
+YAML_HEAD = """\
+# Parameters of the frictionid node at their defaults (copy this file to set others), written from
+# their declarations in frictionid_ros/parameters.py by `python -m frictionid_ros.parameters`.
+#   python -m frictionid_ros.node --params-file config/frictionid.yaml
+#   frictionid_node --ros-args --params-file config/frictionid.yaml
+/**/frictionid:    # the node in any namespace (a bare "frictionid:" matches only "/frictionid")
+  ros__parameters:
+"""
+
+
+def yaml_value(value) -> str:
+    """``value`` as a YAML literal of its ROS type (``30.0`` stays a double, ``"0"`` a string)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (str, list)):
+        return json.dumps(value, ensure_ascii=False)
+    return repr(value)
+
+
+def ros_type(p: Parameter) -> str:
+    """The parameter's type as ``ros2 param`` shows it."""
+    if p.dynamic_typing:
+        return "string or integer"
+    return {bool: "bool", int: "integer", float: "double", str: "string", list: "string array"}[type(p.default)]
+
+
+def summary(p: Parameter) -> str:
+    """One line: the description, the unit, the allowed values and whether a client may change it."""
+    text = p.description + (f" [{p.unit}]" if p.unit else "")
+    text += f"; allowed: {p.rule}" if p.rule else ""
+    return text + ("" if p.read_only else "; may be changed at runtime")
+
+
+def defaults_yaml() -> str:
+    """The text of ``config/frictionid.yaml``: every parameter at its default, each after its summary."""
+    lines = []
+    for name, p in PARAMETERS.items():
+        lines.append(textwrap.fill(summary(p), width=110, initial_indent="    # ", subsequent_indent="    # ",
+                                   break_on_hyphens=False))
+        if isinstance(p.default, list):  # rcl ignores an empty list: leave it unset or name the values
+            lines.append(f'    # {name}: ["name_1", "name_2"]    (unset by default)')
+        else:
+            lines.append(f"    {name}: {yaml_value(p.default)}")
+    return YAML_HEAD + "\n".join(lines) + "\n"
+
+
+def markdown_table() -> str:
+    """The markdown table of every parameter (between the markers of ``docs/node.md``)."""
+
+    def cell(text: str) -> str:
+        return text.replace("|", "\\|")
+
+    rows = ["| parameter | type | default | unit | allowed | runtime | description |", "|---|---|---|---|---|---|---|"]
+    for name, p in PARAMETERS.items():
+        rows.append(f"| `{name}` | {ros_type(p)} | `{cell(yaml_value(p.default))}` | {cell(p.unit)} | "
+                    f"{cell(p.rule)} | {'' if p.read_only else 'yes'} | {cell(p.description)} |")
+    return "\n".join(rows) + "\n"
+
+
+def page_with_table(page: str) -> str:
+    """``page`` with the text between its table markers replaced by :func:`markdown_table`."""
+    head, found, rest = page.partition(TABLE_START + "\n")
+    _, found_end, tail = rest.partition(TABLE_END)
+    if not found or not found_end:
+        raise ValueError(f"{PAGE.name} has no '{TABLE_START}' ... '{TABLE_END}' section")
+    return head + TABLE_START + "\n" + markdown_table() + TABLE_END + tail
+
+
+def main() -> int:
+    YAML_FILE.write_text(defaults_yaml(), encoding="utf-8")
+    PAGE.write_text(page_with_table(PAGE.read_text(encoding="utf-8")), encoding="utf-8")
+    print(f"wrote {YAML_FILE} and the parameter table of {PAGE}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -67,8 +67,7 @@ from frictionid_ros.identification import IdentifyService, Online, PayloadServic
 from frictionid_ros.inputs import NS, Inputs
 from frictionid_ros.node.action import identify_action, payload_action
 from frictionid_ros.node.messages import diagnostic_array, fill_payload, inertia_msg, parameters_msg
-from frictionid_ros.parameters import NODE_NAME
-from frictionid_ros.ros_parameters import changed_config, declare_parameters
+from frictionid_ros.parameters import NODE_NAME, changed_config, declare_parameters
 from frictionid_ros.runtime import schedule_this_thread
 from frictionid_ros.runtime.runner import check_unique_name, make_input_executor, make_input_node, run
 from frictionid_ros.store import ActiveParameters, Results, Screen
