@@ -66,7 +66,7 @@ def test_a_child_whose_node_stopped_reading_while_it_started_exits_quietly():
     import subprocess
     import sys
 
-    child = subprocess.Popen([sys.executable, "-m", "frictionid_ros.worker.worker_process"], stdin=subprocess.PIPE,
+    child = subprocess.Popen([sys.executable, "-m", "frictionid_ros.worker.child"], stdin=subprocess.PIPE,
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     child.stdout.close()  # before it is ready: imports and warm-up take a while
     child.stdin.close()
