@@ -1,4 +1,4 @@
-"""Active parameters per joint and the results file (no ROS import).
+"""The active parameters per joint and the results file that holds them (no ROS import).
 
 The results file is JSON: the last identification exactly as ``IdentifyResult.to_dict()``
 (system, friction, asymmetric, solver, source, joints, params, std, metrics, wall_s), plus
@@ -15,9 +15,6 @@ A plain ``frictionid identify --json`` file (no ``per_joint``), or its YAML from
 is accepted by :func:`read_results`.
 Files are written atomically (temporary file + ``os.replace``), never over a file the node did
 not write; requests name files inside the node's results folder only (:func:`request_path`).
-:class:`ActiveParameters` holds the node's active parameters and saves them; every set it is given
-(an identification, ``~/load``, the ``results_file`` at start, an online candidate) passes the
-safety screen first (:class:`Screen`, :func:`frictionid_core.safety.screen_parameters`).
 """
 
 from __future__ import annotations
@@ -25,25 +22,13 @@ from __future__ import annotations
 import json
 import math
 import os
-import threading
-import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
-
-import numpy as np
 
 from frictionid_core import YAML_SUFFIXES, FrictionIdError, IdentifyResult, get_model, read_json, write_json
 from frictionid_core.friction import elements_of
 from frictionid_core.robots import Payload
-from frictionid_core.safety import (
-    Limit,
-    effort_sign_refusals,
-    explicit_bounds,
-    payload_refusals,
-    robot_limits,
-    screen_parameters,
-)
-from frictionid_ros.parameters import PARAMETERS
+from frictionid_core.safety import Limit
 
 FORMAT = "frictionid_ros/1"
 # Keys of the results file around the last identification's.
@@ -241,161 +226,3 @@ def read_results(path: Path) -> Results:
     payload = None if data.get("payload") is None else Payload.from_dict(data["payload"], f"{path}: key 'payload'")
     return Results(per_joint, last, int(data.get("window_start_ns", 0)), int(data.get("window_end_ns", 0)),
                    int(data.get("window_samples", 0)), int(data.get("stamp_ns", 0)), payload)
-
-
-class Screen:
-    """The node's safety screen and the feed-forward's clamp.
-
-    A set identified with an effort's sign other than the node's drive gives it is refused
-    (:func:`frictionid_core.safety.effort_sign_refusals`). Every parameter set that would become active passes
-    :func:`frictionid_core.safety.screen_parameters`
-    with ``max_abs`` (gate_max_abs) against a limit per joint: the robot model's (``system``, a robot
-    system: :func:`frictionid_core.safety.robot_limits`), else the one recorded with the parameters (the
-    data they were identified on), else ``feedforward_max``. The feed-forward of a joint is clamped
-    to ±min(feedforward_max, that limit) (:meth:`clamp`).
-    """
-
-    def __init__(self, system=None, feedforward_max: float = PARAMETERS["feedforward_max"].default,
-                 max_abs: float = PARAMETERS["gate_max_abs"].default, drive=None):
-        self.system = system
-        self.drive = drive  # the feed-forward's (the node's drive_file): the signs a result must share
-        self.feedforward_max = float(feedforward_max)
-        self.max_abs = float(max_abs)
-        self.default = Limit(self.feedforward_max, math.nan, "the node's feedforward_max")
-
-    @classmethod
-    def of(cls, cfg) -> Screen:
-        """The screen of a node's :class:`~frictionid_ros.config.Config`: its system (with its drive),
-        ``feedforward_max`` and ``gate_max_abs``."""
-        from frictionid_core.systems import get_system
-
-        try:
-            system = get_system(cfg.system, drive=cfg.drive)
-        except FrictionIdError:  # a drive that does not fit the system: identifications say so
-            system = get_system(cfg.system)
-        return cls(system, cfg.feedforward_max, cfg.gate_max_abs, cfg.drive)
-
-    def limits(self, per_joint: dict[str, JointParams]) -> dict[str, Limit]:
-        """{joint (or motor): its Limit} of ``per_joint``'s owners."""
-        robot = robot_limits(self.system, list(per_joint)) if self.system is not None else {}
-        return {j: robot.get(j) or p.limit or self.default for j, p in per_joint.items()}
-
-    def refusals(self, results: Results) -> list[str]:
-        """The screen's refusals of ``results`` (its joints' parameters and the shared ones of its
-        identification), one line each; empty: accepted."""
-        last = results.last
-        single = last is not None and len(last.friction_rows()) == 1
-        bounds = explicit_bounds(last)
-        params, allowed, std = {}, {}, {}
-        for j, p in results.per_joint.items():
-            std.update((f"{j}/{k}", v) for k, v in p.std.items())
-            for k, v in p.params.items():
-                params[f"{j}/{k}"] = v
-                own = bounds.get(f"{j}/{k}") or (bounds.get(k) if single else None)
-                if own is not None:
-                    allowed[f"{j}/{k}"] = own
-        for k, v, sigma in zip(*shared_parameters(last)):
-            params[k], std[k] = v, sigma
-            if k in bounds:
-                allowed[k] = bounds[k]
-        return effort_sign_refusals(last, self.drive) + screen_parameters(
-            params, self.limits(results.per_joint), bounds=allowed, max_abs=self.max_abs, default=self.default, std=std)
-
-    def check(self, results: Results) -> None:
-        """FrictionIdError naming the parameters at fault and their limits when ``results`` (its
-        payload included) is refused."""
-        refusals = self.refusals(results)
-        if results.payload is not None:
-            refusals += payload_refusals(results.payload, self.system, max_abs=self.max_abs)
-        if refusals:
-            more = f" (and {len(refusals) - 3} more)" if len(refusals) > 3 else ""
-            raise FrictionIdError("refused by the safety screen: " + "; ".join(refusals[:3]) + more)
-
-    def clamp(self, joints: list[str], per_joint: dict[str, JointParams], drive=None) -> np.ndarray:
-        """The feed-forward's clamp of each of ``joints`` [N·m | N]: feedforward_max, lowered to the
-        joint's own effort limit (not under a ``drive``: the feed-forward is then in recorded units)."""
-        out = np.full(len(joints), self.feedforward_max)
-        if drive is None:
-            limits = self.limits({j: per_joint[j] for j in joints if j in per_joint})
-            for k, j in enumerate(joints):
-                if j in limits:
-                    out[k] = min(out[k], limits[j].effort)
-        return out
-
-
-class ActiveParameters:
-    """The node's active parameters, merged per joint over identifications and loads.
-
-    Every set is screened first (``screen``, :class:`Screen`: refused → FrictionIdError, nothing
-    changed); every change goes to ``on_change(results)`` (feed-forward, publication) under
-    :attr:`lock` and is saved to ``path`` (the ``results_file``); ``log`` reports a failed save
-    (``.error``). Requests name files in ``folder`` (default: the folder of ``path``).
-    """
-
-    def __init__(self, path: Path, on_change, log, folder: Path | None = None, screen: Screen | None = None):
-        self.path = Path(path)
-        self.folder = Path(folder) if folder is not None else self.path.parent
-        self._on_change = on_change
-        self._log = log
-        self.screen = screen or Screen()
-        self.lock = threading.Lock()
-        self.results = Results()
-
-    def file(self, name: str) -> Path:
-        """A service request's file (:func:`request_path` in :attr:`folder`); empty: :attr:`path`."""
-        return request_path(self.folder, name) if name else self.path
-
-    def restore(self) -> None:
-        """Read ``path`` if it exists and the screen accepts it (at start; ``on_change`` is not called)."""
-        if self.path.exists():
-            try:
-                results = read_results(self.path)
-                self.screen.check(results)
-            except FrictionIdError as exc:
-                self._log.error(f"parameters not restored: {self.path}: {exc}")
-                return
-            self.results = results
-
-    def activate(self, results: Results, save: bool = True) -> str:
-        """Merge ``results`` into the active parameters and save them (a set without a payload keeps
-        the active one); returns a note for the reply. FrictionIdError (nothing changed) when the
-        screen refuses them."""
-        self.screen.check(results)
-        with self.lock:
-            self.results = replace(results, per_joint={**self.results.per_joint, **results.per_joint},
-                                   payload=results.payload or self.results.payload)
-            self._on_change(self.results)
-            if not save:
-                return ""
-            try:
-                return f"; saved to {write_results(self.path, self.results)}"
-            except FrictionIdError as exc:
-                self._log.error(str(exc))
-                return f"; NOT saved: {exc}"
-
-    def save(self, path: Path) -> tuple[bool, str]:
-        """Write the active parameters to ``path``: (success, message)."""
-        with self.lock:
-            results = self.results
-        if not results.per_joint:
-            return False, "no active parameters to save (identify or load first)"
-        try:
-            write_results(path, results)
-        except FrictionIdError as exc:
-            return False, str(exc)
-        return True, f"saved parameters of {sorted(results.per_joint)} to {path}"
-
-    def load(self, path: Path) -> tuple[bool, str]:
-        """Activate the parameters of ``path`` (saved to :attr:`path` unless it is that file): (success, message)."""
-        try:
-            loaded = read_results(path)
-        except FrictionIdError as exc:
-            return False, str(exc)
-        if not loaded.per_joint:
-            return False, f"{path}: no parameters in the file"
-        try:
-            note = self.activate(replace(loaded, stamp_ns=loaded.stamp_ns or time.time_ns()),
-                                 save=Path(path) != self.path)
-        except FrictionIdError as exc:
-            return False, f"{path}: not loaded: {exc}; active parameters unchanged"
-        return True, f"loaded parameters of {sorted(loaded.per_joint)} from {path}{note}"
