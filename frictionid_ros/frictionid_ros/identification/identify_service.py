@@ -55,7 +55,7 @@ class IdentifyService:
     identification runs in ``worker`` (a child process) or, without one, a thread, while the
     caller's thread waits; it is stopped by :meth:`cancel_running`, by the wall-time limit
     ``max_wall_s`` and when :attr:`stopping` is set. ``settings()`` returns the node's current
-    :class:`~frictionid_ros.config.Config`; ``topics`` the resolved ``joint_states`` (and
+    :class:`~frictionid_ros.parameters.Config`; ``topics`` the resolved ``joint_states`` (and
     ``effort``) topic names; ``log`` has ``.error``. The last answer is kept for the diagnostics
     (:attr:`last_ok`, :attr:`last_status`), and the last cancel's latency (cancel → identification
     stopped) in :attr:`last_cancel_ms`.
@@ -222,7 +222,7 @@ class IdentifyService:
                 ) -> tuple[IdentifyResult, Decision | None, Selection]:
         """Identify the job's window (or ``sel``'s series): (the core's result, the safety gate's
         decision with a ``gate``, else None, the window); with ``gate.candidate`` that result is
-        judged instead of identifying one (:func:`.worker.run_identification`: in the worker)."""
+        judged instead of identifying one (:func:`frictionid_ros.worker.run_identification`: in the worker)."""
         sel = sel or self.window(job)
         reply = (self._worker.run(sel.series, job.request, control, gate) if self._worker is not None
                  else run_identification(sel.series, job.request, control.report, gate))

@@ -8,7 +8,7 @@ would otherwise take the GIL from the 1 kHz inputs), decides whether the candida
 active parameters (it must predict the held-back slice better). ``~/load`` goes through the
 same gate while online re-identification is on (:meth:`Online.offer`). A re-identification yields
 to a requested one (``~/identify``, ``~/identify_payload``): it holds the slot as a background job,
-which the request cancels (:meth:`~frictionid_ros.service.IdentifyService.slot`). Every decision is
+which the request cancels (:meth:`~frictionid_ros.identification.IdentifyService.slot`). Every decision is
 kept for ``/diagnostics`` (:meth:`Online.status`) and logged.
 """
 

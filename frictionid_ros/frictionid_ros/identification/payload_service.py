@@ -55,7 +55,7 @@ def base_result(results: Results) -> IdentifyResult:
 
 class PayloadService:
     """Answers IdentifyPayload requests (service or action goal) on the buffer of ``service``
-    (:class:`~frictionid_ros.service.IdentifyService`, whose slot and window it shares) in
+    (:class:`~frictionid_ros.identification.IdentifyService`, whose slot and window it shares) in
     ``worker`` (or a thread); ``joints()``: the buffered joints. A new payload reaches the node
     through ``active`` (its ``on_change``)."""
 

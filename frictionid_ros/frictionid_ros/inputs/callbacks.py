@@ -39,7 +39,7 @@ class Inputs:
     Buffers are created when the joints are known (:meth:`setup`: from the configuration or the
     first joint state). ``v`` is the velocity of the feed-forward [rad/s | m/s], ``ff_stamp`` the
     stamp of the message that set it [ns]. ``settings()`` returns the node's current
-    :class:`~frictionid_ros.config.Config`; ``warn`` logs a rejected message (once per reason);
+    :class:`~frictionid_ros.parameters.Config`; ``warn`` logs a rejected message (once per reason);
     ``clamp(joints, per_joint)``: the feed-forward's clamp per joint (default: ``feedforward_max``).
     """
 

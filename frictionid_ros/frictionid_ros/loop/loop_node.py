@@ -39,7 +39,7 @@ class LoopNode(Node):
 
 
 def run_node(node_class, argv: list[str] | None = None) -> int:
-    """Run the :class:`LoopNode` ``node_class()`` until SIGINT/SIGTERM (:func:`.runner.serve`):
+    """Run the :class:`LoopNode` ``node_class()`` until SIGINT/SIGTERM (:func:`frictionid_ros.runtime.runner.serve`):
     its input node in rclpy's EventsExecutor, itself in a SingleThreadedExecutor."""
     rclpy.init(args=list(sys.argv if argv is None else argv))
     sys.setswitchinterval(GIL_SWITCH_INTERVAL)

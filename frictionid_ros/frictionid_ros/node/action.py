@@ -4,8 +4,8 @@ feedback and cancel (rclpy.action).
 Every goal is accepted and answered in its result (``success``, ``message``) like the service:
 "busy", a refused request or a failure end the goal as aborted, a client's cancel as canceled
 (the active parameters stay untouched), the wall-time limit and ``~/reset`` as aborted with the
-reason in the message. The work is :class:`frictionid_ros.service.IdentifyService`'s (and
-:class:`frictionid_ros.payload.PayloadService`'s).
+reason in the message. The work is :class:`frictionid_ros.identification.IdentifyService`'s (and
+:class:`frictionid_ros.identification.PayloadService`'s).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ CANCELLED_BY_CLIENT = "cancelled by the client"
 
 class ServedAction:
     """An action ``name`` of type ``action`` on ``node`` whose goals ``handle(goal, control,
-    on_wait)`` answers (an :class:`~frictionid_ros.service.Answer`); ``feedback(control, elapsed_s)``
+    on_wait)`` answers (an :class:`~frictionid_ros.identification.Answer`); ``feedback(control, elapsed_s)``
     builds its feedback, ``fill(result, answer)`` its result beyond success and message;
     ``log(ok, message)`` reports each answer."""
 
@@ -99,7 +99,7 @@ def identify_action(node, service: IdentifyService, joints, log, callback_group)
 
 
 def payload_action(node, service, log, callback_group) -> ServedAction:
-    """``~/identify_payload``: served by ``service`` (a :class:`~frictionid_ros.payload.PayloadService`)."""
+    """``~/identify_payload``: served by ``service`` (a :class:`~frictionid_ros.identification.PayloadService`)."""
     from frictionid_interfaces.action import IdentifyPayload
 
     from frictionid_ros.node.messages import fill_payload

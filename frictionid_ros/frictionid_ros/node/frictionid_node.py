@@ -13,10 +13,10 @@ Topics (``~`` = ``/frictionid``):
   stamp = the stamp of the joint state that triggered it), ``/diagnostics`` (~1 Hz).
 
 Services: ``~/identify`` (Identify), ``~/identify_payload`` (IdentifyPayload: a payload with the
-active robot parameters as the base, :mod:`.payload`), ``~/reset`` (std_srvs/Trigger: clear the buffer, cancel a
-running identification), ``~/save`` and ``~/load`` (ParametersFile: files of the results folder
-only). Actions: ``~/identify`` (frictionid_interfaces/action/Identify: feedback, cancel) and
-``~/identify_payload``.
+active robot parameters as the base, :mod:`frictionid_ros.identification.payload_service`),
+``~/reset`` (std_srvs/Trigger: clear the buffer, cancel a running identification), ``~/save`` and
+``~/load`` (ParametersFile: files of the results folder only). Actions: ``~/identify``
+(frictionid_interfaces/action/Identify: feedback, cancel) and ``~/identify_payload``.
 
 Lifecycle: a managed node (rclpy LifecycleNode): ``configure`` creates the subscriptions,
 publishers, services, action, worker and restores the parameters; ``activate``/``deactivate``
@@ -24,21 +24,23 @@ start/stop the feed-forward; ``cleanup``/``shutdown`` cancel a running identific
 what ``configure`` created. With ``--lifecycle`` the node starts unconfigured and offers the
 lifecycle services; without it (the default) it configures and activates itself.
 
-Online re-identification (``online_period_s`` > 0, :mod:`.online`): the recent window is identified
-and its result activated only if the safety gate accepts it; ``~/load`` is gated too; every
-decision is in ``/diagnostics`` ("safety gate"). Every parameter set passes the safety screen first
-and the feed-forward is clamped (:class:`.store.Screen`); a node of the same name on the graph at
-start: refused (``unique_name``).
+Online re-identification (``online_period_s`` > 0, :mod:`frictionid_ros.identification.online`): the
+recent window is identified and its result activated only if the safety gate accepts it;
+``~/load`` is gated too; every decision is in ``/diagnostics`` ("safety gate"). Every parameter set
+passes the safety screen first and the feed-forward is clamped (:class:`frictionid_ros.store.Screen`);
+a node of the same name on the graph at start: refused (``unique_name``).
 
 Concurrency: the input callbacks (joint states, effort, reference, feed-forward) run on a hidden
 helper node ``_frictionid_input`` spun in its own thread by rclpy's EventsExecutor (or a
 SingleThreadedExecutor, ``input_executor``), the only writer of the ring buffers. With
-``realtime_priority`` that thread runs SCHED_FIFO where the OS allows (:mod:`.realtime`). Services, the
-action, online updates and diagnostics run on this node in a MultiThreadedExecutor (:mod:`.runner`);
-a second ``~/identify`` is answered "busy" at once while the first waits for the identification
-in a low-priority worker process (:mod:`.worker`) or thread. The callbacks' logic is in ROS-free
-modules: :mod:`.inputs`, :mod:`.service` (:mod:`.request`, :mod:`.window`), :mod:`.store`,
-:mod:`.online`; :mod:`.messages` builds the outputs.
+``realtime_priority`` that thread runs SCHED_FIFO where the OS allows
+(:mod:`frictionid_ros.runtime.realtime`). Services, the action, online updates and diagnostics run
+on this node in a MultiThreadedExecutor (:mod:`frictionid_ros.runtime.runner`); a second
+``~/identify`` is answered "busy" at once while the first waits for the identification in a
+low-priority worker process (:mod:`frictionid_ros.worker`) or thread. The callbacks' logic is in
+the ROS-free subpackages: :mod:`frictionid_ros.inputs`, :mod:`frictionid_ros.identification` (the
+services, requests, windows, online re-identification), :mod:`frictionid_ros.store`;
+:mod:`.messages` builds the outputs.
 """
 
 from __future__ import annotations
@@ -191,7 +193,7 @@ class FrictionIdNode(LifecycleNode):
                              self._log)
         self.payload_service = PayloadService(lambda: self.cfg, self.identify_service, self.active, self._worker,
                                               lambda: self.inputs.joints, self._log)
-        if cfg.online_period_s > 0.0:  # re-identification behind the safety gate (:mod:`.online`)
+        if cfg.online_period_s > 0.0:  # re-identification behind the safety gate (identification.online)
             self._keep(self.destroy_timer, self.create_timer(cfg.online_period_s, self._on_online,
                                                              callback_group=MutuallyExclusiveCallbackGroup()))
         # Deep request queues: a burst of calls is answered (most of them "busy"), not dropped by DDS.
@@ -264,7 +266,8 @@ class FrictionIdNode(LifecycleNode):
     # ------------------------------------------------------------------ inputs and feed-forward
 
     def schedule_input_thread(self) -> None:
-        """In the input thread before it spins: ``realtime_priority`` (:mod:`.realtime`), logged."""
+        """In the input thread before it spins: ``realtime_priority`` (:mod:`frictionid_ros.runtime.realtime`),
+        logged."""
         self.scheduling = schedule_this_thread(self.cfg.realtime_priority, self._log,
                                                others=self.cfg.identification_worker == "process")
 
@@ -382,7 +385,7 @@ class FrictionIdNode(LifecycleNode):
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the node until SIGINT/SIGTERM (see :func:`frictionid_ros.runner.run`)."""
+    """Run the node until SIGINT/SIGTERM (see :func:`frictionid_ros.runtime.runner.run`)."""
     return run(FrictionIdNode, argv)
 
 

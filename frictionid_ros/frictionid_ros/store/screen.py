@@ -42,7 +42,7 @@ class Screen:
 
     @classmethod
     def of(cls, cfg) -> Screen:
-        """The screen of a node's :class:`~frictionid_ros.config.Config`: its system (with its drive),
+        """The screen of a node's :class:`~frictionid_ros.parameters.Config`: its system (with its drive),
         ``feedforward_max`` and ``gate_max_abs``."""
         from frictionid_core.systems import get_system
 
