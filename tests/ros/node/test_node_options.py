@@ -2,7 +2,7 @@
 topic with a reference velocity and a thread worker; the full TX40 replayed from its bag.
 
 A module of their own: each starts its own node, and none shares the CPU with the module-scoped
-node of tests/ros/test_node.py (a replay must arrive whole); the publishers are processes of their own, as a user
+node of tests/ros/node/test_node.py (a replay must arrive whole); the publishers are processes of their own, as a user
 runs them.
 """
 
