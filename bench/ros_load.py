@@ -74,7 +74,7 @@ from _load import Competitors
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.files import write_json
-from frictionid_ros.realtime import realtime_priority
+from frictionid_ros.runtime import realtime_priority
 
 ROOT = Path(__file__).resolve().parents[1]
 NS = 1_000_000_000

@@ -49,7 +49,7 @@ def test_validate_and_plot_prints_the_cross_test_and_saves_the_figure(tmp_path):
 
 def _node_feedforward(result_file: Path, joints: list[str], eps: float, v: np.ndarray) -> np.ndarray:
     """The ROS node's feed-forward (frictionid_ros.feedforward, no rclpy) at one velocity per joint."""
-    from frictionid_ros.feedforward import FeedForward
+    from frictionid_ros.inputs import FeedForward
     from frictionid_ros.store import read_results
 
     ff = FeedForward(joints, eps)

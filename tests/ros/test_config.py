@@ -13,8 +13,16 @@ with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
 
 from frictionid_core import FrictionIdError
-from frictionid_ros.config import PARAMETERS, make_config
-from frictionid_ros.parameter_docs import PAGE, TABLE_END, TABLE_START, YAML_FILE, defaults_yaml, markdown_table
+from frictionid_ros.parameters import (
+    PAGE,
+    PARAMETERS,
+    TABLE_END,
+    TABLE_START,
+    YAML_FILE,
+    defaults_yaml,
+    make_config,
+    markdown_table,
+)
 from support.node_parts import node_config
 
 # What a client on the ROS domain may change at runtime (docs/node.md, "Security"); every
@@ -108,7 +116,7 @@ def test_checks_across_parameters():
 
 
 def test_yaml_defaults_and_docs_table_are_written_from_the_declarations():
-    """Regenerate with ``python -m frictionid_ros.parameter_docs`` after changing a declaration."""
+    """Regenerate with ``python -m frictionid_ros.parameters`` after changing a declaration."""
     assert YAML_FILE.read_text(encoding="utf-8") == defaults_yaml()
     page = PAGE.read_text(encoding="utf-8")
     table = page.split(TABLE_START + "\n", 1)[1].split(TABLE_END, 1)[0]

@@ -18,8 +18,7 @@ with warnings.catch_warnings():
     from rclpy.parameter import Parameter
 
 from frictionid_core import FrictionIdError
-from frictionid_ros.config import PARAMETERS
-from frictionid_ros.parameters import changed_config, declare_parameters
+from frictionid_ros.parameters import PARAMETERS, changed_config, declare_parameters
 
 pytestmark = [pytest.mark.ros, pytest.mark.filterwarnings("ignore::DeprecationWarning")]
 

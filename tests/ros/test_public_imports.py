@@ -26,9 +26,10 @@ def private_core_imports(source: str) -> list[str]:
 
 
 def test_the_ros_package_imports_only_public_core_names():
-    modules = sorted(ROS_PACKAGE.glob("*.py"))
+    modules = sorted(ROS_PACKAGE.rglob("*.py"))
     assert len(modules) >= 20
-    private = {path.name: names for path in modules if (names := private_core_imports(path.read_text()))}
+    private = {str(path.relative_to(ROS_PACKAGE)): names for path in modules
+               if (names := private_core_imports(path.read_text()))}
     assert private == {}
 
 

@@ -1,6 +1,6 @@
 """``frictionid replay``: bag reading (MCAP, sqlite3, ROS 1), re-stamping, and the CLI plugin.
 
-Publishing with real rclpy across processes is covered in test_ros_node.py (the node is fed by
+Publishing with real rclpy across processes is covered in node/test_node.py (the node is fed by
 :func:`frictionid_ros.replay.publish_stream`) and here by the CLI round trip.
 """
 

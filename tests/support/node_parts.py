@@ -15,12 +15,10 @@ with warnings.catch_warnings():
     from frictionid_interfaces.srv import Identify
     from sensor_msgs.msg import JointState
 
-from frictionid_ros.config import PARAMETERS, make_config
+from frictionid_ros.identification import IdentifyService, parse_request, window_series
 from frictionid_ros.inputs import Inputs
-from frictionid_ros.request import parse_request
-from frictionid_ros.service import IdentifyService
+from frictionid_ros.parameters import PARAMETERS, make_config
 from frictionid_ros.store import ActiveParameters
-from frictionid_ros.window import window_series
 
 NS = 1_000_000_000
 

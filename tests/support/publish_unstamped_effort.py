@@ -1,4 +1,4 @@
-"""Publisher process of tests/ros/test_node_options.py: stamped joint states and an unstamped
+"""Publisher process of tests/ros/node/test_node_options.py: stamped joint states and an unstamped
 Float64MultiArray effort at 500 Hz, for two joints published in the order ``b, a``.
 
 A process of its own so that nothing else (the test's client executor) runs between the two

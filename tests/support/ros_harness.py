@@ -32,7 +32,7 @@ with warnings.catch_warnings():
     from std_msgs.msg import Float64MultiArray
     from std_srvs.srv import Trigger
 
-from frictionid_ros.ros_domain import DomainLease, reserve_domain
+from frictionid_ros.runtime import DomainLease, reserve_domain
 from support.waiting import wait_until
 
 ROOT = Path(__file__).resolve().parents[2]

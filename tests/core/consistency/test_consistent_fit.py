@@ -203,8 +203,8 @@ def test_node_parameters_consistent_and_prior_weight(tx40_fits, tmp_path):
     """The node's ``consistent``/``prior_weight`` parameters: refused on a system without bodies,
     turned into the node's IdentifyRequest, and the answer's text carries the consistency verdict."""
     from frictionid_core.identification import IdentifyResult
-    from frictionid_ros.config import PARAMETERS, make_config
-    from frictionid_ros.request import Job, consistency_text, node_request, summary
+    from frictionid_ros.identification import Job, consistency_text, node_request, summary
+    from frictionid_ros.parameters import PARAMETERS, make_config
 
     values = {name: p.default for name, p in PARAMETERS.items()}
     values["results_file"] = str(tmp_path / "p.json")

@@ -232,7 +232,7 @@ def test_friction_on_coupled_motors_is_recovered_and_rows_map_back_to_joints():
 def test_feedforward_of_motor_side_parameters_on_the_recorded_side():
     """Motor-side parameters: q̇ = R⁻¹·v, w = C·q̇, τ = Cᵀ·f(w), published as the recorded effort
     R⁻ᵀ·τ / effort_scale — which for a motor-side log is f_m(w_m) / (N_m·scale_m), w_m = v_m / N_m."""
-    from frictionid_ros.feedforward import FeedForward
+    from frictionid_ros.inputs import FeedForward
     from frictionid_ros.store import split_identification
 
     drive = Drive(**COUPLED2)
@@ -269,7 +269,7 @@ def test_feedforward_of_motor_side_parameters_on_the_recorded_side():
 
 
 def test_node_parameter_drive_file(tmp_path):
-    from frictionid_ros.config import PARAMETERS, make_config
+    from frictionid_ros.parameters import PARAMETERS, make_config
 
     defaults = {name: p.default for name, p in PARAMETERS.items()}
     assert make_config(defaults).drive is None
@@ -291,9 +291,9 @@ def test_node_identifies_through_its_drive_and_feeds_motor_friction_forward(tmp_
         from frictionid_interfaces.srv import Identify
         from sensor_msgs.msg import JointState
 
-    from frictionid_ros.config import PARAMETERS, make_config
+    from frictionid_ros.identification import IdentifyService
     from frictionid_ros.inputs import Inputs
-    from frictionid_ros.service import IdentifyService
+    from frictionid_ros.parameters import PARAMETERS, make_config
     from frictionid_ros.store import ActiveParameters
 
     (tmp_path / "coupled2.yaml").write_text(json.dumps(COUPLED2))

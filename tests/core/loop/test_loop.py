@@ -97,7 +97,7 @@ def test_feedforward_clamp_and_ramp():
     feedforward_ramp_s (half-way after half of it), then hold."""
     import time
 
-    from frictionid_ros.feedforward import FeedForward
+    from frictionid_ros.inputs import FeedForward
     from frictionid_ros.store import JointParams
 
     def params(fc: float) -> dict:
@@ -124,7 +124,7 @@ def test_loop_command_registers_in_the_core_cli():
     """The ``frictionid.commands`` entry point target adds ``loop`` with its defaults (no ROS start)."""
     import argparse
 
-    from frictionid_ros.loop_command import register
+    from frictionid_ros.loop import register
 
     sub = argparse.ArgumentParser(prog="frictionid").add_subparsers(dest="command")
     handler = register(sub)

@@ -58,7 +58,7 @@ def test_gate_rejects_non_finite_and_huge_parameters(fitted, value, word):
 
 
 def test_online_split_holds_back_the_newest_share():
-    from frictionid_ros.online import split
+    from frictionid_ros.identification import split
 
     fit, held = split(_joint(4.0, 3), 0.25)
     assert len(fit.t) == 3000 and len(held.t) == 1000 and held.t[0] > fit.t[-1]

@@ -1,0 +1,74 @@
+"""The worker's watchdog: a child that stops responding (SIGSTOP) is killed at the wall-time limit and
+replaced, and no call waits on its pipe."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import pytest
+
+from frictionid_core.identification import IdentifyRequest
+from frictionid_ros.worker import JobControl, WorkerProcess
+from support.node_parts import ROOT
+from support.waiting import wait_until
+
+
+@pytest.mark.slow
+def test_a_worker_stopped_before_it_is_ready_is_killed_at_the_wall_time_limit():
+    """Stopped while it starts (imports, warm-up), the child never says ready: the job is answered at
+    its wall-time limit, the child killed, and the next job runs on a new one."""
+    from frictionid_core.io import load
+
+    emps = load(ROOT / "bags" / "emps_estimation").slice(0, 4000)
+    worker = WorkerProcess()
+    pid = None
+    try:
+        pid = wait_until(lambda: worker.pid, "the worker's child")
+        os.kill(pid, signal.SIGSTOP)
+        control = JobControl(wall_s=1.0)
+        assert worker.run(emps, IdentifyRequest(system="emps"), control) == (
+            "cancelled", "stopped: over the wall-time limit max_wall_s = 1 s")
+        assert control.overrun and control.killed
+        assert worker.run(emps, IdentifyRequest(system="emps"))[0] == "ok" and worker.pid not in (None, pid)
+    finally:
+        worker.stop()
+        if pid is not None:
+            try:
+                os.kill(pid, signal.SIGCONT)
+            except ProcessLookupError:
+                pass
+
+
+@pytest.mark.slow
+def test_a_job_that_overruns_while_the_child_starts_leaves_a_child_that_is_only_slow():
+    """A wall-time limit shorter than the child's start (imports and warm-up take well over 50 ms) answers the
+    job at once, but the child is not stuck: it is left to start and the next job runs on it."""
+    from frictionid_core.io import load
+
+    emps = load(ROOT / "bags" / "emps_estimation").slice(0, 4000)
+    worker = WorkerProcess()
+    try:
+        pid = wait_until(lambda: worker.pid, "the worker's child")
+        control = JobControl(wall_s=0.05)
+        assert worker.run(emps, IdentifyRequest(system="emps"), control) == (
+            "cancelled", "stopped: over the wall-time limit max_wall_s = 0.05 s")
+        assert control.overrun and not control.killed
+        assert worker.run(emps, IdentifyRequest(system="emps"))[0] == "ok" and worker.pid == pid
+    finally:
+        worker.stop()
+
+
+@pytest.mark.slow
+def test_a_child_whose_node_stopped_reading_while_it_started_exits_quietly():
+    """A node that stops (or replaces) its worker while the child starts closes the child's stdout: the
+    child's "ready" finds a broken pipe and it exits 0 without a traceback."""
+    import subprocess
+    import sys
+
+    child = subprocess.Popen([sys.executable, "-m", "frictionid_ros.worker.child"], stdin=subprocess.PIPE,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    child.stdout.close()  # before it is ready: imports and warm-up take a while
+    child.stdin.close()
+    assert child.wait(120) == 0
+    assert "Traceback" not in child.stderr.read().decode(), "the child printed a traceback"
