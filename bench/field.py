@@ -25,8 +25,10 @@ with one of the given names (``--only kinova`` runs the four Kinova cases). The 
 * ``ur10e`` (``ur10e_real``, RTDE CSV at 100 Hz without header, motor currents in A): a layout with
   indices (time column 0, positions 1–6, currents 13–18) and a drive whose ``effort_scale`` holds the
   data set's drive gains (N·m/A, joint side), ``--system urdf:ur10e.urdf``; identify on the unloaded
-  excitation ``ur-20_02_19_14harm50sec.csv``, validate on the README's validation log
-  ``ur-20_01_17-ptp_10_points.csv``. The baseline reads the CSVs itself and skips malformed rows.
+  excitation ``ur-20_02_19_14harm50sec.csv`` (``ur10e_12harm``: on ``ur-20_02_12-50sec_12harm.csv``, whose
+  stamps jitter throughout), validate on the README's validation log ``ur-20_01_17-ptp_10_points.csv``
+  (point to point: long standstills). The payload logs are left out (this compares unloaded fits). The
+  baseline reads the CSVs itself and skips malformed rows (rows of garbage, a cut last line).
 * ``widowx_default``, ``widowx_ros1``, ``widowx_mcap`` (``widowx_real``: the ROS 1 bag and its ROS 2
   MCAP, ~100 Hz, efforts in mA): a drive with ``effort_scale`` 0.00178 N·m/mA (the README's 1.78 N·m/A)
   for the log's eight joints, ``--system urdf:wx200.urdf --hold-missing``; identify on the first 70 %,
@@ -111,6 +113,7 @@ effort_scale: [{", ".join(f"{g:g}" for g in UR_GAINS)}]   # N·m/A
 """
 UR_COLUMNS = 31
 UR_ESTIMATION, UR_VALIDATION = "ur-20_02_19_14harm50sec.csv", "ur-20_01_17-ptp_10_points.csv"
+UR_ESTIMATION_2 = "ur-20_02_12-50sec_12harm.csv"  # the other unloaded excitation
 WX_JOINTS = ["waist", "shoulder", "elbow", "wrist_angle", "wrist_rotate", "gripper", "left_finger", "right_finger"]
 WX_SCALE = 0.00178  # N·m/mA: the README's 1.78 N·m/A of the XM430-W350 (approximate)
 WX_DRIVE = f"""\
@@ -293,8 +296,9 @@ def read_kinova(folder: Path, tmp: Path) -> list[Case]:
 
 
 def _ur_rows(path: Path) -> Piece:
-    """An RTDE CSV as the baseline reads it: rows of 31 finite numbers below 1e6 in magnitude, stamps
-    increasing (the garbage first rows and a cut last line of some files skipped); currents × gains."""
+    """An RTDE CSV as the baseline reads it: rows of 31 finite numbers below 1e6 in magnitude, then the
+    longest run of them whose stamps step forward by at most 1 s (the garbage first rows and a cut last
+    line of some files skipped); currents × gains."""
     good = []
     for line in path.read_text(errors="replace").splitlines():
         cells = line.split(",")
@@ -304,25 +308,33 @@ def _ur_rows(path: Path) -> Piece:
             row = [float(c) for c in cells]
         except ValueError:
             continue
-        if all(math.isfinite(v) and abs(v) < 1e6 for v in row) and (not good or row[0] > good[-1][0]):
+        if all(math.isfinite(v) and abs(v) < 1e6 for v in row):
             good.append(row)
     d = np.array(good)
+    step = np.diff(d[:, 0])
+    breaks = np.concatenate([[0], np.flatnonzero((step <= 0) | (step > 1.0)) + 1, [len(d)]])
+    longest = int(np.argmax(np.diff(breaks)))
+    d = d[breaks[longest]:breaks[longest + 1]]
     return Piece(d[:, 0], d[:, 1:7], d[:, 13:19] * np.array(UR_GAINS))
 
 
 def read_ur10e(folder: Path, tmp: Path) -> list[Case]:
-    """The UR10e RTDE logs: identify on an unloaded excitation, validate on the point-to-point log."""
+    """The UR10e RTDE logs: identify on each unloaded excitation, validate on the point-to-point log."""
     import pinocchio as pin
 
     files: dict[str, str] = {}
     layout = _write(tmp, "ur10e_layout.yaml", UR_LAYOUT, files)
     drive = _write(tmp, "ur10e_drive.yaml", UR_DRIVE, files)
     urdf = folder / "ur10e.urdf"
-    robot = Robot(pin.buildModelFromUrdf(str(urdf)), UR_JOINTS, np.eye(6), UR_JOINTS,
-                  [_ur_rows(folder / UR_ESTIMATION), _ur_rows(folder / UR_VALIDATION)], None)
-    return [Case("ur10e", "ur10e", folder,
-                 [str(folder / UR_ESTIMATION), "--layout", layout, "--drive", drive, "--system", f"urdf:{urdf}"],
-                 [str(folder / UR_VALIDATION), "--layout", layout], robot, files)]
+    model = pin.buildModelFromUrdf(str(urdf))
+    validation = _ur_rows(folder / UR_VALIDATION)
+    cases = []
+    for name, estimation in (("ur10e", UR_ESTIMATION), ("ur10e_12harm", UR_ESTIMATION_2)):
+        robot = Robot(model, UR_JOINTS, np.eye(6), UR_JOINTS, [_ur_rows(folder / estimation), validation], None)
+        cases.append(Case(name, "ur10e", folder,
+                          [str(folder / estimation), "--layout", layout, "--drive", drive, "--system", f"urdf:{urdf}"],
+                          [str(folder / UR_VALIDATION), "--layout", layout], robot, files))
+    return cases
 
 
 def _bag(path: Path) -> Piece:
@@ -560,6 +572,8 @@ def _verdict(name: str, tool: float | None, base: float) -> tuple[float | None, 
 
 def _range(values: object, fmt: str = "{:.3g}") -> str:
     if isinstance(values, dict):
+        if not values:
+            return "—"
         v = sorted(values.values())
         return fmt.format(v[0]) if v[0] == v[-1] else f"{fmt.format(v[0])}…{fmt.format(v[-1])}"
     return "—" if values is None else fmt.format(values)
@@ -602,9 +616,12 @@ def summary(runs: dict) -> str:
             pre, ident = res["preprocessing"], res["identifiability"]
             rows = f"{res['estimation'].get('samples')} of {res['estimation'].get('all_rows', {}).get('samples', '?')}"
             vrows = f"{val.get('samples')} of {val.get('all_rows', {}).get('samples', val.get('samples'))}"
-            lines.append(f"  tool: cut-off {_range(pre['cutoff_hz'])} Hz (noise-clean q̈ below "
-                         f"{_range(pre['qdd_clean_cutoff_hz'])} Hz), analysis {_range(pre['analysis_rate_hz'])} Hz, "
-                         f"min speed {_range(pre['min_speed'])}, rows used {rows} (validation {vrows})")
+            clean = (f" (the noise warning's cut-off {_range(pre['qdd_clean_cutoff_hz'])} Hz)"
+                     if pre["qdd_clean_cutoff_hz"] else "")
+            lines.append(f"  tool: cut-off {_range(pre['cutoff_hz'])} Hz{clean}, analysis "
+                         f"{_range(pre['analysis_rate_hz'])} Hz, min speed {_range(pre['min_speed'])}, rows used "
+                         f"{rows} (validation {vrows}), fit {res['wall_s_reported']:.1f} s of the "
+                         f"{tool['identify']['wall_s']:.1f} s process")
             lines.append(f"  tool: rank {ident.get('rank')} of {ident.get('columns')}, unresolved "
                          f"{ident.get('unresolved') or 'none'}, no usable effort {res['no_effort_joints'] or 'none'}, "
                          f"{len(res['held_joints'])} model joints held")
@@ -641,8 +658,10 @@ def main() -> int:
             if only and not any(case.name.startswith(o) for o in only):
                 continue
             print(f"== {case.name}", file=sys.stderr)
-            runs[case.name] = {"data": str(folder), "files": case.files, "tool": run_tool(case, tmp),
-                               "baseline": baseline(case)}
+            run = {"data": str(folder), "files": case.files, "tool": run_tool(case, tmp), "baseline": baseline(case)}
+            tool = (run["tool"].get("validation") or {}).get("relerr_pct")
+            run["ratio"], run["target"] = _verdict(case.name, tool, run["baseline"]["validation"]["relerr_pct"])
+            runs[case.name] = run
     if not runs:
         raise SystemExit("no case to run")
     publish("field_only" if only else "field", summary(runs), runs)
