@@ -123,11 +123,16 @@ class CollisionModel:
 
 
 def _pair_name(geom, model, i: int, j: int) -> str:
-    def link(k):
-        o = geom.geometryObjects[k]
-        return "floor" if o.name == "floor" else model.frames[o.parentFrame].name
+    """"a|b": each body by its link's name, or by its own (``<link>_<k>``) when its link has several."""
+    frames = [o.parentFrame for o in geom.geometryObjects if o.name != "floor" and "#mesh" not in o.name]
 
-    return f"{link(i)}|{link(j)}"
+    def body(k):
+        o = geom.geometryObjects[k]
+        if o.name == "floor":
+            return "floor"
+        return model.frames[o.parentFrame].name if frames.count(o.parentFrame) == 1 else o.name.split("#")[0]
+
+    return f"{body(i)}|{body(j)}"
 
 
 def load_collision_model(robot, urdf: str | Path, clearance: float = DEFAULT_CLEARANCE,

@@ -511,8 +511,9 @@ def _design(system, robot, limits, moving, hold, harmonics, period, duration, ra
     bounds = [(-r, r) for r in np.tile(reach, 2).ravel()] + list(zip(lo_s, hi_s))
     report, scaled, done_rounds = None, 1.0, 0
     for done_rounds in range(rounds + 1):
-        budget = evals - prob.evals if done_rounds == 0 else max(0, min(evals - prob.evals, 15 * (prob.n + 2)))
-        x = _slsqp(prob, x, bounds, max(budget, 3 * (prob.n + 2)), debug)
+        budget = evals - prob.evals if done_rounds == 0 else max(evals - prob.evals, 3 * (prob.n + 2))
+        if budget >= prob.n + 2:  # at least one SLSQP step (a gradient); a refinement round gets three
+            x = _slsqp(prob, x, bounds, budget, debug)
         report = verify(robot, limits, prob.trajectory(x), verify_rate, collision)
         if debug:
             print("round", done_rounds, prob.cost(x), report["max_ratio"], report.get("min_clearance_m"), flush=True)
@@ -563,19 +564,21 @@ def _slsqp(prob: _Problem, x: np.ndarray, bounds, budget: int, debug=None) -> np
 
     consider(x)
     end = prob.evals + budget
-    while prob.evals < end - (prob.n + 2):
+    last = x
+    while prob.evals <= end - (prob.n + 2):
         before = best[0]
         res = minimize(prob.cost, x, jac=prob.cost_gradient, method="SLSQP", bounds=bounds,
                        constraints=[{"type": "ineq", "fun": prob.constraints, "jac": prob.constraints_jac}],
                        options={"maxiter": max(1, (end - prob.evals) // (prob.n + 2)), "ftol": 1e-7},
                        callback=consider)
         consider(res.x)
+        last = res.x
         if debug:
             print(f"  SLSQP: {res.message} after {res.nit} iterations", flush=True)
         if res.status == 9 or not best[0] < before - 1e-4 or best[1] is None:  # 9: iteration limit
             break
         x = best[1]
-    return best[1] if best[1] is not None else res.x
+    return best[1] if best[1] is not None else last
 
 
 def _spread(times: np.ndarray, most: int) -> np.ndarray:
