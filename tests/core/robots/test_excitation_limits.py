@@ -236,6 +236,33 @@ def test_friction_of_a_result_enters_the_effort(tmp_path, arm3):
         result_friction(dict(result, drive={"friction_on": "motor"}), robot, "r.json")
 
 
+def test_excite_takes_the_friction_of_an_identification_result(tmp_path, capsys):
+    from support.data import BAGS
+
+    result = tmp_path / "j2.json"
+    assert main(["identify", str(BAGS / "tx40_j2_excitation"), "--joints", "joint_2", "--system", "tx40-j2",
+                 "--friction", "coulomb", "--solver", "ls", "--end", "6", "--json", str(result)]) == 0
+    fitted = json.loads(result.read_text())["params"]
+    code = main(["excite", "--system", "tx40-j2", "--params", str(result), "--harmonics", "2", "--period", "6",
+                 "--duration", "6", "--evals", "60", "--starts", "2", "--out", str(tmp_path / "t.npz"),
+                 "--json", str(tmp_path / "r.json")])
+    assert code == 0
+    r = json.loads((tmp_path / "r.json").read_text())
+    assert r["friction"]["joints"]["joint_2"] == {"law": "coulomb", "Fv": fitted["Fv"], "Fc": fitted["Fc"]}
+    assert r["friction"]["source"].startswith(f"{result} (coulomb); joint_1, joint_3")
+    assert f"friction from {result} (coulomb)" in capsys.readouterr().out
+    assert main(["excite", "--system", "tx40-j2", "--params", str(result), "--out", str(result)]) == 2
+    assert f"--out {result} is the input --params {result}: refusing to overwrite" in capsys.readouterr().err
+
+
+def test_no_start_pose_names_the_pairs(tmp_path, ur5_path, capsys):
+    code = main(["excite", "--system", f"urdf:{ur5_path}", "--floor", "0.2", "--out", str(tmp_path / "t.npz")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1
+    assert "no start pose at rest within the limits and clearances found near shoulder_pan_joint 0" in err
+    assert "pair wrist_3_link|floor at -248 mm (clearance 10 mm)" in err and "--floor" in err
+
+
 def test_tx40_j2_design_is_no_worse_than_the_limits_free_criterion(tmp_path):
     """The same duration and harmonics: the constrained design's cond (ramps, effort limits, the whole
     trajectory) is no worse than the optimiser that knew position, velocity and acceleration limits

@@ -608,13 +608,30 @@ def _start_pose(prob: _Problem, qs0: np.ndarray) -> np.ndarray:
                                      "jac": lambda qs: prob.constraints_jac(rest(qs))[:, -prob.nm :]}],
                        options={"maxiter": 200})
         if not prob.feasible(rest(res.x)):
-            worst = prob.constraints(rest(res.x)).min()
-            raise InputError(f"no start pose at rest within the limits and clearances found near "
-                             f"{dict(zip(prob.moving, np.round(qs0, 4).tolist()))} (worst constraint {worst:.3g}); "
-                             "try --hold, a lower --clearance or --floor")
+            near = ", ".join(f"{j} {v:.4g}" for j, v in zip(prob.moving, qs0))
+            raise InputError(f"no start pose at rest within the limits and clearances found near {near} rad; at the "
+                             f"closest, {_shortfalls(prob, res.x)}; try --hold, a lower --clearance or --floor")
         return res.x
     finally:
         prob.set_grid(saved)
+
+
+def _shortfalls(prob: _Problem, qs: np.ndarray) -> str:
+    """What the robot at rest with its moving joints at ``qs`` breaks (the optimisation's targets)."""
+    q = prob.q_hold.copy()
+    q[prob.mi] = qs
+    still = np.zeros((1, q.size))
+    out = []
+    for kind, r in motion_ratios(prob.robot, prob.limits, q[None], still, still).items():
+        out += [f"joint '{prob.robot.joints[k]}' {kind} at {r[0, k]:.3g} of its limit"
+                for k in np.flatnonzero(r[0] > prob.target)]
+    if prob.collision is not None:
+        col = prob.collision
+        d = col.distances(q[None])[0]
+        short = [p for p in np.argsort(d) if d[p] < col.clearance]
+        out += [f"pair {col.pairs[p]} at {d[p] * 1000:.3g} mm (clearance {col.clearance * 1000:.3g} mm)"
+                for p in short[:3]] + ([f"{len(short) - 3} more pairs"] if len(short) > 3 else [])
+    return "; ".join(out) or "every limit within a hair"
 
 
 def _scaled_start(prob: _Problem, c: np.ndarray, qs: np.ndarray, nonlinear: bool = True) -> np.ndarray:
