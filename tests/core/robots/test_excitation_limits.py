@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import re
 import time
 from pathlib import Path
 
@@ -305,7 +306,7 @@ def test_bad_excite_input_is_one_line(tmp_path, arm3, capsys, case):
 
 def test_collision_needs_collision_geometry(tmp_path, capsys):
     bare = tmp_path / "bare.urdf"
-    bare.write_text("\n".join(line for line in ARM3.splitlines() if "collision" not in line and "geometry>" not in line))
+    bare.write_text(re.sub(r"<collision>.*?</collision>", "", ARM3, flags=re.S))
     code = main(["excite", "--system", f"urdf:{bare}", "--collision", "--out", str(tmp_path / "t.npz")])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1
