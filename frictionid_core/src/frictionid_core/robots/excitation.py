@@ -433,7 +433,10 @@ class ExcitationResult:
 def optimise_excitation(system, robot, *, moving: list[str] | None = None, hold: dict[str, float] | None = None,
                         harmonics: int = 5, period: float = 10.0, duration: float = 20.0, evals: int = 1500,
                         starts: int = 20, seed: int = 0, margin: float = 0.05, samples: int = 200) -> ExcitationResult:
-    """Optimise a Fourier excitation for ``system`` (its rigid columns + friction columns).
+    """Optimise a Fourier excitation for ``system`` (its rigid columns + friction columns) within the
+    position, velocity and acceleration limits only (the design of the bundled TX40 bags,
+    ``tools/make_tx40_bags.py``); ``frictionid excite`` designs within every limit, effort and
+    collisions included, ramped from rest: :func:`.excitation_limits.design_excitation`.
 
     Args:
         system: a System from :func:`~frictionid_core.systems.get_system` (robot systems or tx40-j2).
