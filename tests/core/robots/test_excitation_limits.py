@@ -268,7 +268,8 @@ def test_tx40_j2_design_is_no_worse_than_the_limits_free_criterion(tmp_path):
     """The same duration and harmonics: the constrained design's cond (ramps, effort limits, the whole
     trajectory) is no worse than the optimiser that knew position, velocity and acceleration limits
     only (``optimise_excitation``, what excite ran before)."""
-    from frictionid_core.robots.excitation_limits import design_excitation, verify
+    from frictionid_core.robots.excitation_design import design_excitation
+    from frictionid_core.robots.excitation_limits import verify
     from frictionid_core.systems import get_system
 
     system = get_system("tx40-j2")

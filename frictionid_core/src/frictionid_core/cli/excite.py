@@ -79,13 +79,8 @@ def run(args) -> int:
 
     from frictionid_core.robots.collision import DEFAULT_CLEARANCE, load_collision_model
     from frictionid_core.robots.excitation import add_dwell, robot_of
-    from frictionid_core.robots.excitation_limits import (
-        design_excitation,
-        result_friction,
-        robot_limits,
-        verify,
-        violation_text,
-    )
+    from frictionid_core.robots.excitation_design import design_excitation
+    from frictionid_core.robots.excitation_limits import result_friction, robot_limits, verify, violation_text
     from frictionid_core.systems import get_system
 
     start = time.perf_counter()

@@ -23,7 +23,7 @@ A trajectory with ``ramp`` > 0 starts and ends at rest at its start pose p(0): t
 from p(0) is windowed, q(t) = p(0) + w(t)·(p(t) − p(0)), w rising from 0 to 1 over the first
 ``ramp`` seconds and back over the last as a quintic smoothstep (w′ = w″ = 0 at both ends), so q̇ and
 q̈ are zero at both ends. ``frictionid excite`` designs such a trajectory within every limit of the
-robot (position, velocity, acceleration, effort, collisions): :mod:`.excitation_limits`.
+robot (position, velocity, acceleration, effort, collisions): :mod:`.excitation_design`.
 """
 
 from __future__ import annotations
@@ -436,7 +436,7 @@ def optimise_excitation(system, robot, *, moving: list[str] | None = None, hold:
     """Optimise a Fourier excitation for ``system`` (its rigid columns + friction columns) within the
     position, velocity and acceleration limits only (the design of the bundled TX40 bags,
     ``tools/make_tx40_bags.py``); ``frictionid excite`` designs within every limit, effort and
-    collisions included, ramped from rest: :func:`.excitation_limits.design_excitation`.
+    collisions included, ramped from rest: :func:`.excitation_design.design_excitation`.
 
     Args:
         system: a System from :func:`~frictionid_core.systems.get_system` (robot systems or tx40-j2).
