@@ -125,8 +125,7 @@ def run(args) -> int:
                              + violation_text(design.report, args.margin))
     traj.save(args.out, args.rate)
     seconds = time.perf_counter() - start
-    initial = "rank-deficient" if design.cond_initial >= 1e19 else f"{design.cond_initial:.4g}"
-    print(f"excitation for {args.system} ({robot.name}): cond {initial} → {design.cond:.4g} "
+    print(f"excitation for {args.system} ({robot.name}): cond {design.cond_initial:.4g} → {design.cond:.4g} "
           f"after {design.evaluations} evaluations; written to {args.out} ({seconds:.1f} s)")
     for note in design.notes:
         print(note)

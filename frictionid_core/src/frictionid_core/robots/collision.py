@@ -45,7 +45,7 @@ def package_dirs(urdf: Path) -> list[str]:
     package tree), example-robot-data's ``share`` folder, ``ROS_PACKAGE_PATH``."""
     dirs = [str(p) for p in Path(urdf).resolve().parents]
     try:
-        from frictionid_core.robots.robot_model import example_robot_data_dir
+        from frictionid_core.robots import example_robot_data_dir
 
         dirs.append(str(example_robot_data_dir().parents[1]))
     except InputError:

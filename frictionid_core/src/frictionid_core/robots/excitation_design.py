@@ -259,9 +259,6 @@ def design_excitation(system, robot, *, limits: Limits | None = None, moving: li
 
 def _design(system, robot, limits, moving, hold, harmonics, period, duration, ramp, evals, starts, seed, samples,
             collision, verify_rate, rounds) -> Design:
-    import os
-
-    debug = os.environ.get("FRICTIONID_EXCITE_DEBUG")
     moving = list(robot.joints) if moving is None else list(moving)
     unknown = [j for j in moving + list(hold or {}) if j not in robot.joints]
     if unknown:
@@ -294,7 +291,7 @@ def _design(system, robot, limits, moving, hold, harmonics, period, duration, ra
     lo_s = limits.centre[prob.mi] - prob.target * limits.half[prob.mi]
     hi_s = limits.centre[prob.mi] + prob.target * limits.half[prob.mi]
     # random shapes, each scaled into the constraints (per joint to the linear limits, then as a whole)
-    best, initial = None, None
+    best = None
     ls = np.tile(np.arange(1, harmonics + 1), 2)
     for k in range(max(1, starts)):
         C = rng.uniform(-1, 1, (prob.nm, 2 * harmonics))
@@ -302,10 +299,14 @@ def _design(system, robot, limits, moving, hold, harmonics, period, duration, ra
             C = C / ls
         x = _scaled_start(prob, C.ravel(), qs)
         f = prob.cost(x)
-        initial = f if initial is None else initial
         if best is None or f < best[0]:
             best = (f, x)
     x = x_start = best[1]
+    t_rep = np.linspace(0.0, duration, max(REPORT_SAMPLES, int(round(REPORT_SAMPLES * duration / period))))
+
+    def cond(x) -> float:  # over the whole trajectory, sign(q̇) as such
+        return float(10 ** criterion(observation_columns(system, robot, t_rep, *prob.trajectory(x).evaluate(t_rep),
+                                                         moving)))
     # a trust region on the coefficients: a harmonic alone at the velocity and acceleration limits, twice
     wl = wf * np.arange(1, harmonics + 1)
     reach = 2.0 * np.minimum(limits.velocity[prob.mi][:, None], limits.acceleration[prob.mi][:, None] / wl)
@@ -314,10 +315,8 @@ def _design(system, robot, limits, moving, hold, harmonics, period, duration, ra
     for done_rounds in range(rounds + 1):
         budget = evals - prob.evals if done_rounds == 0 else max(evals - prob.evals, 3 * (prob.n + 2))
         if budget >= prob.n + 2:  # at least one SLSQP step (a gradient); a refinement round gets three
-            x = _slsqp(prob, x, bounds, budget, debug)
+            x = _slsqp(prob, x, bounds, budget)
         report = verify(robot, limits, prob.trajectory(x), verify_rate, collision)
-        if debug:
-            print("round", done_rounds, prob.cost(x), report["max_ratio"], report.get("min_clearance_m"), flush=True)
         if report["ok"] or done_rounds == rounds:
             break
         times = np.concatenate([v[3] for v in report["violations"]])
@@ -326,10 +325,7 @@ def _design(system, robot, limits, moving, hold, harmonics, period, duration, ra
     if not report["ok"]:
         x, scaled, report = _scale_into_limits(prob, [x, x_start], verify_rate)
         notes.append(f"scaled by {scaled:.3g} toward its start pose to hold every limit on the fine grid")
-    traj = prob.trajectory(x)
-    t_rep = np.linspace(0.0, duration, max(REPORT_SAMPLES, int(round(REPORT_SAMPLES * duration / period))))
-    final = criterion(observation_columns(system, robot, t_rep, *traj.evaluate(t_rep), moving))
-    return Design(traj, float(10**final), float(10**initial), prob.evals, report, limits, float(scaled),
+    return Design(prob.trajectory(x), cond(x), cond(x_start), prob.evals, report, limits, float(scaled),
                   done_rounds, notes)
 
 
@@ -348,7 +344,7 @@ def _scale_into_limits(prob: _Problem, designs: list[np.ndarray], rate: float):
                      + violation_text(report, prob.limits.margin))
 
 
-def _slsqp(prob: _Problem, x: np.ndarray, bounds, budget: int, debug=None) -> np.ndarray:
+def _slsqp(prob: _Problem, x: np.ndarray, bounds, budget: int) -> np.ndarray:
     """SLSQP from ``x`` for about ``budget`` criterion evaluations (restarted from the best point
     when it stops early): the best iterate (criterion) whose rows all hold within ACCEPT (inside the
     slack of the targets), else the last one."""
@@ -360,8 +356,6 @@ def _slsqp(prob: _Problem, x: np.ndarray, bounds, budget: int, debug=None) -> np
         f, worst = prob.cost(xk), prob.constraints(xk).min()
         if worst >= -ACCEPT and f < best[0]:
             best[:] = [f, np.array(xk, copy=True)]
-        if debug:
-            print(f"  f={f:.4f} worst row {worst:.3g} evaluations {prob.evals}", flush=True)
 
     consider(x)
     end = prob.evals + budget
@@ -374,8 +368,6 @@ def _slsqp(prob: _Problem, x: np.ndarray, bounds, budget: int, debug=None) -> np
                        callback=consider)
         consider(res.x)
         last = res.x
-        if debug:
-            print(f"  SLSQP: {res.message} after {res.nit} iterations", flush=True)
         if res.status == 9 or not best[0] < before - 1e-4 or best[1] is None:  # 9: iteration limit
             break
         x = best[1]
