@@ -427,11 +427,10 @@ def _shortfalls(prob: _Problem, qs: np.ndarray) -> str:
     return "; ".join(out) or "every limit within a hair"
 
 
-def _scaled_start(prob: _Problem, c: np.ndarray, qs: np.ndarray, nonlinear: bool = True) -> np.ndarray:
+def _scaled_start(prob: _Problem, c: np.ndarray, qs: np.ndarray) -> np.ndarray:
     """Coefficients ``c`` scaled per joint to the linear limits, then as a whole (bisection) until
     the effort and collision rows hold on the grid (the start pose holds them)."""
     lim, mi = prob.limits, prob.mi
-    x = np.concatenate([c, qs])
     zero_qs = np.concatenate([c, np.zeros_like(qs)])
     p, v, a = (np.abs(m) for m in prob.motion(zero_qs, prob.basis_con))
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -441,7 +440,7 @@ def _scaled_start(prob: _Problem, c: np.ndarray, qs: np.ndarray, nonlinear: bool
     s = np.where(np.isfinite(s), np.maximum(s, 0.0), 1.0)
     C = c.reshape(prob.nm, -1) * s[:, None]
     x = np.concatenate([C.ravel(), qs])
-    if not nonlinear or prob.feasible(x):
+    if prob.feasible(x):
         return x
     lo, hi = 0.0, 1.0
     for _ in range(8):
