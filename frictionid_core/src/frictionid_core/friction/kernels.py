@@ -62,6 +62,7 @@ from frictionid_core.friction.laws import (
     dip_level,
     state_level,
     substeps,
+    travel_substeps,
 )
 from frictionid_core.parallel import run_chunks
 
@@ -70,7 +71,7 @@ SOURCE_DIGEST = hashlib.sha256(b"".join(p.read_bytes() for p in sorted(Path(__fi
 for _fn in (dip_level, branch_force,
             *(f for law in LAWS.values() for f in (law.dip, law.dip_end, law.stiffness, law.damping) if f is not None)):
     register_jitable(inline="always")(_fn)
-for _fn in (state_level, substeps, bristle_advance, bristle_force):  # compiled once each, called (fast to compile)
+for _fn in (state_level, substeps, travel_substeps, bristle_advance, bristle_force):  # compiled once each, called (fast to compile)
     register_jitable(_fn)
 
 # Dip rows per thread below which a second thread costs more than it saves (≈ 0.5 ms of work;
@@ -327,23 +328,30 @@ def _state_rows_kernel(friction: str):
     digest = SOURCE_DIGEST
 
     @njit(cache=True, nogil=True)
-    def rows(asym, n, theta, v, which, t, reset, lo, hi, out):  # pragma: no cover - compiled
+    def rows(asym, n, theta, v, which, t, reset, path, shift, rest, lo, hi, out):  # pragma: no cover - compiled
         """Items lo..hi−1 of :func:`state_rows`, written into out (M, N)."""
         digest  # noqa: B018 - a cell of the closure: part of the cache key (module docstring)
         nb = theta.shape[1] // 2 if asym else 0
+        travelled = path.shape[0] > 0
         z = np.zeros(n)
         for m in range(lo, hi):
             p = theta[m]
-            vel = v[which[m]]
+            w = which[m]
+            vel = v[w]
             for r in range(vel.size):
                 vr = vel[r]
                 if reset[r]:  # the sliding states of this velocity (0 at rest)
                     z[:] = 0.0
-                    direction = (1.0 if vr > 0.0 else 0.0) - (1.0 if vr < 0.0 else 0.0)
-                    bristle_advance(z, n, math.inf, direction, abs(vr), abs(vr), p, nb if vr < 0.0 else 0, dip,
-                                    stiffness, math.exp, _exact_ratio_power, _pick)
+                    moving = abs(vr) > rest[w]
+                    direction = ((1.0 if vr > 0.0 else 0.0) - (1.0 if vr < 0.0 else 0.0)) if moving else 0.0
+                    bristle_advance(z, n, math.inf if moving else 0.0, direction, abs(vr), abs(vr), p,
+                                    nb if vr < 0.0 else 0, dip, stiffness, math.exp, _exact_ratio_power, _pick)
                 else:
-                    d1, s1, a1, e1, d2, s2, a2, e2 = substeps(vel[r - 1], vr, t[r] - t[r - 1], _pick)
+                    if travelled:
+                        d1, s1, a1, e1, d2, s2, a2, e2 = travel_substeps(vel[r - 1], vr, path[w, r], shift[w, r],
+                                                                         _pick)
+                    else:
+                        d1, s1, a1, e1, d2, s2, a2, e2 = substeps(vel[r - 1], vr, t[r] - t[r - 1], _pick)
                     bristle_advance(z, n, d1, s1, a1, e1, p, nb if s1 < 0.0 else 0, dip, stiffness, math.exp,
                                     _exact_ratio_power, _pick)
                     if d2 > 0.0:
@@ -356,20 +364,32 @@ def _state_rows_kernel(friction: str):
 
 
 def state_rows(friction: str, asymmetric: bool, elements: int, theta: np.ndarray, v: np.ndarray,
-               which: np.ndarray, t: np.ndarray, reset: np.ndarray) -> np.ndarray:
+               which: np.ndarray, t: np.ndarray, reset: np.ndarray, travel: tuple | None = None) -> np.ndarray:
     """The friction (M, N) of M items of a dynamic law, item m with parameters ``theta[m]`` (M, k)
     at the velocities ``v[which[m]]`` ((V, N), rad/s or m/s) sampled at ``t`` (N,) (s), its
-    states reset to their sliding values where ``reset`` (N,) (the first sample, gaps)."""
+    states reset where ``reset`` (N,) (the first sample, gaps) to their sliding values.
+
+    ``travel``: None (each step's distance from its velocities, taken linear), or (path, shift,
+    rest): each step's path length and net displacement ((V, N) each, the measured travel from
+    the previous sample: :func:`~frictionid_core.friction.laws.travel_substeps`) and the speed
+    (V,) at or below which a reset starts at rest (states 0) rather than sliding."""
     kernel = _state_rows_kernel(friction)
     theta = np.ascontiguousarray(theta, dtype=float)
     v = np.ascontiguousarray(v, dtype=float)
     which = np.ascontiguousarray(which, dtype=np.int64)
     t = np.ascontiguousarray(t, dtype=float)
     reset = np.ascontiguousarray(reset, dtype=np.bool_)
+    if travel is None:
+        path = shift = np.zeros((0, v.shape[1]))
+        rest = np.zeros(v.shape[0])
+    else:
+        path, shift, rest = (np.ascontiguousarray(a, dtype=float) for a in travel)
+        if path.shape != v.shape or shift.shape != v.shape or rest.shape != (v.shape[0],):
+            raise ValueError(f"travel {path.shape}, {shift.shape}, {rest.shape} for velocities {v.shape}")
     out = np.empty((theta.shape[0], v.shape[1]))
 
     def chunk(lo: int, hi: int) -> None:
-        kernel(bool(asymmetric), int(elements), theta, v, which, t, reset, lo, hi, out)
+        kernel(bool(asymmetric), int(elements), theta, v, which, t, reset, path, shift, rest, lo, hi, out)
 
     run_chunks(chunk, theta.shape[0], min_items=max(1, -(-MIN_CHUNK_ROWS // max(v.shape[1], 1))))
     return out

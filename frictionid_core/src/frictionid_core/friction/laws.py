@@ -196,6 +196,26 @@ def substeps(v0, v1, h, where):
             d2, where(reverses, s1, 0.0), 0.0 * a1, where(reverses, a1, 0.0))
 
 
+def travel_substeps(v0, v1, path, shift, where):
+    """The two sub-steps of a step along a measured travel instead of the velocities: ``path`` ≥ 0
+    the distance travelled over the step, ``shift`` the net displacement (|shift| ≤ path). A path
+    longer than the shift (by more than 1e-6 of it) reverses once: first d1 = (path + s·shift)/2 in the direction s of v0
+    (else −sign(v1), else that of the shift), then the rest back, the speed passing 0 at the
+    reversal; otherwise one sub-step in the shift's direction, the speed going from |v0| to |v1|.
+    Returns what :func:`substeps` does."""
+    a0, a1 = abs(v0), abs(v1)
+    s_shift = where(shift > 0.0, 1.0, 0.0) - where(shift < 0.0, 1.0, 0.0)
+    s_v0 = where(v0 > 0.0, 1.0, 0.0) - where(v0 < 0.0, 1.0, 0.0)
+    s_v1 = where(v1 > 0.0, 1.0, 0.0) - where(v1 < 0.0, 1.0, 0.0)
+    first = where(s_v0 != 0.0, s_v0, where(s_v1 != 0.0, -s_v1, s_shift))
+    back = path - abs(shift)
+    reverses = back > 1e-6 * path  # a path longer than the shift beyond rounding
+    d1 = where(reverses, 0.5 * (path + first * shift), path)
+    d2 = where(reverses, 0.5 * (path - first * shift), 0.0)
+    return (d1, where(reverses, first, s_shift), a0, where(reverses, 0.0, a1),
+            d2, where(reverses, -first, 0.0), 0.0 * a1, where(reverses, a1, 0.0))
+
+
 def bristle_advance(z, n, distance, direction, speed0, speed1, p, o, dip, stiffness, exp, ratio_power, where):
     """Move the ``n`` element states ``z`` in place along ``distance`` ≥ 0 travelled in
     ``direction`` (±1; 0 with distance 0 leaves them) while the speed goes from ``speed0`` to

@@ -57,11 +57,13 @@ def state_torque(model, params: np.ndarray, v: np.ndarray, t: np.ndarray) -> np.
     return out[0] if single else out
 
 
-def joint_state_rows(model, params: np.ndarray, velocity: np.ndarray, t: np.ndarray) -> np.ndarray:
+def joint_state_rows(model, params: np.ndarray, velocity: np.ndarray, t: np.ndarray,
+                     travel: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """The friction (P, J, N) of J joints for P parameter sets: ``params`` (P, J, k) (joint j's
     parameters of set p), ``velocity`` (N, J) (an observation's), sampled at ``t`` (N,). A joint's
     states are integrated once per distinct parameter set of it: a finite-difference Jacobian's sets
-    differ from their centre in one joint each."""
+    differ from their centre in one joint each. ``travel``: None, or each joint's measured travel
+    (path (N, J), shift (N, J), rest speed (J,)): see :func:`~frictionid_core.friction.kernels.state_rows`."""
     from frictionid_core.friction.kernels import state_rows
 
     p = np.asarray(params, dtype=float)
@@ -69,8 +71,11 @@ def joint_state_rows(model, params: np.ndarray, velocity: np.ndarray, t: np.ndar
     items = p.reshape(n_pop * nj, k)
     keyed = np.hstack([np.tile(np.arange(nj, dtype=float), n_pop)[:, None], items])
     distinct, where = np.unique(keyed, axis=0, return_inverse=True)
+    if travel is not None:
+        path, shift, rest = travel
+        travel = (np.asarray(path, dtype=float).T, np.asarray(shift, dtype=float).T, np.asarray(rest, dtype=float))
     out = state_rows(model.name, model.asymmetric, model.elements, distinct[:, 1:],
-                     np.asarray(velocity, dtype=float).T, distinct[:, 0].astype(np.int64), t, resets(t))
+                     np.asarray(velocity, dtype=float).T, distinct[:, 0].astype(np.int64), t, resets(t), travel)
     return out[where.ravel()].reshape(n_pop, nj, -1)
 
 

@@ -38,16 +38,18 @@ def build_model(series: Sources | FitPlan, system: str | System, friction: str, 
 
     ``preprocessing`` overrides the system's default; ``bounds`` are the user's bounds and
     ``fixed`` the parameters held at a value (see ``IdentificationModel``). A dynamic law's model
-    (:class:`~frictionid_core.model.dynamic_model.DynamicIdentificationModel`) is on every row.
+    (:class:`~frictionid_core.model.dynamic_model.DynamicIdentificationModel`) is on every row of the
+    metric observation (:attr:`Observation.metric`): its states run through, and its fit counts, the
+    rows its metrics count.
     """
     plan = series if isinstance(series, FitPlan) else plan_fit(as_sources(series), as_system(system, joint_map))
     law = get_model(friction, asymmetric, elements)
     obs = observe_plan(plan, preprocessing, all_rows=law.is_dynamic)
     cls = IdentificationModel
-    if law.is_dynamic:
+    if law.is_dynamic:  # every row, those the metrics count: the recorded effort at the analysis instants
         from frictionid_core.model import DynamicIdentificationModel
 
-        obs, cls = obs.full, DynamicIdentificationModel
+        obs, cls = obs.full.metric, DynamicIdentificationModel
     return cls(obs, law, rigid_bounds=plan.system.parameter_bounds(plan.rows), bound_overrides=dict(bounds or {}),
                fixed=dict(fixed or {}))
 
@@ -121,6 +123,7 @@ def _on_rows(obs: Observation, joints: list[str], names: list[str], per_joint: b
     rigid, velocity = np.zeros((nj * nd, len(names))), np.zeros((nd, nj))
     columns = [{k: np.zeros(nd) for k in VELOCITY_COLUMNS} for _ in joints]
     moving = None if obs.moving is None else np.zeros(nj * nd, dtype=bool)
+    travel = None if obs.path is None else (np.zeros((nd, nj)), np.zeros((nd, nj)))
     for j, joint in enumerate(obs.joints):
         k = joints.index(joint)
         src, dst = slice(j * nd, (j + 1) * nd), slice(k * nd, (k + 1) * nd)
@@ -128,10 +131,13 @@ def _on_rows(obs: Observation, joints: list[str], names: list[str], per_joint: b
         rigid[dst, cols] = obs.rigid[src]
         if moving is not None:
             moving[dst] = obs.moving[src]
+        if travel is not None:
+            travel[0][:, k], travel[1][:, k] = obs.path[:, j], obs.shift[:, j]
     sampled, full = (None if o is None else _on_rows(o, joints, names, per_joint, settings)
                      for o in (obs.sampled, obs.full))
     return Observation(list(joints), y, rigid, list(names), velocity, columns, obs.t, settings, obs.report,
-                       list(obs.notes), used, sampled, obs.coupling, obs.data_joints, obs.weight, full, moving)
+                       list(obs.notes), used, sampled, obs.coupling, obs.data_joints, obs.weight, full, moving,
+                       *(travel or (None, None)))
 
 
 def _merged_report(reports: list[dict]) -> dict:

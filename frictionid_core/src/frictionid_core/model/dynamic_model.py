@@ -4,8 +4,9 @@ The parameter vector is that of :class:`~frictionid_core.model.identification_mo
 (rigid body, per joint the law's parameters, offsets). The rigid-body parameters, Fv and the
 offsets enter linearly (their columns as for a static law); every other friction parameter
 (Fc, Fs, vs and the pre-sliding ones: σ0, σ1 or k1 … kn) shapes the law's state-dependent part,
-integrated along each row joint's velocity at the observation's times
-(:func:`~frictionid_core.friction.states.joint_state_rows`), and is nonlinear. Variable projection
+integrated along each row joint's travel (the observation's ``path`` and ``shift``, else its
+velocity) at the observation's times (:func:`~frictionid_core.friction.states.joint_state_rows`),
+and is nonlinear. Variable projection
 (:meth:`DynamicIdentificationModel.solve_linear`) solves the linear ones in closed form for given
 nonlinear ones, within the same box as for a static law.
 
@@ -43,6 +44,10 @@ class DynamicIdentificationModel(IdentificationModel):
         if obs.weight is not None:
             scale = scale * obs.weight[None, :]
         self._row_scale = scale
+        self._travel = None
+        if obs.path is not None:  # a reset starts at rest below the joint's min speed
+            rest = obs.report.get("min_speed_rows") or {}
+            self._travel = (obs.path, obs.shift, np.array([rest.get(j) or 0.0 for j in obs.joints], dtype=float))
 
     def state_rows(self, params: np.ndarray) -> np.ndarray:
         """The law's state-dependent friction (all but Fv·v) on the rows, for parameters (P, k) →
@@ -50,7 +55,7 @@ class DynamicIdentificationModel(IdentificationModel):
         p = np.atleast_2d(np.asarray(params, dtype=float))
         theta = p[:, self.joint_index]  # (P, J, nf)
         theta[:, :, self._viscous] = 0.0  # Fv·v is a linear column
-        rows = joint_state_rows(self.friction, theta, self.obs.velocity, self.obs.t) * self._row_scale[None]
+        rows = joint_state_rows(self.friction, theta, self.obs.velocity, self.obs.t, self._travel) * self._row_scale[None]
         return rows.reshape(p.shape[0], -1)
 
     def predict(self, params: np.ndarray) -> np.ndarray:

@@ -18,7 +18,7 @@ import numpy as np
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.parallel import run_chunks
-from frictionid_core.preprocess import Prepared, Preprocessing, decimate, decimation_indices, thinned_rows
+from frictionid_core.preprocess import Prepared, Preprocessing, decimate, decimation_indices, thinned_rows, travel_rows
 
 VELOCITY_COLUMNS = ("V", "S", "V_pos", "S_pos", "V_neg", "S_neg", "one")
 # Joints are decimated in parallel threads when each has at least this many values to filter.
@@ -60,6 +60,10 @@ class Observation:
             rows of a static law's observation with sampled rows).
         moving: in a ``full`` observation, (J·Nd,) the rows the observation it was kept from
             uses (the moving rows); None elsewhere.
+        path, shift: (Nd, J) each row joint's travel from the previous instant, for a dynamic
+            law's states (:mod:`frictionid_core.preprocess.travel`): the distance travelled along
+            its denoised filtered position, and the net displacement (0 at the first instant);
+            None: the states take the travel from the velocity.
     """
 
     joints: list[str]
@@ -79,6 +83,8 @@ class Observation:
     weight: np.ndarray | None = None
     full: Observation | None = None
     moving: np.ndarray | None = None
+    path: np.ndarray | None = None
+    shift: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.used is None:
@@ -135,7 +141,8 @@ def velocity_columns(qd: np.ndarray) -> np.ndarray:
 
 
 def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndarray,
-                      rigid_names: list[str], settings: Preprocessing, stride: int = 1) -> Observation:
+                      rigid_names: list[str], settings: Preprocessing, stride: int = 1,
+                      travel_noise: np.ndarray | None = None) -> Observation:
     """Decimate torque, rigid columns (J·N, R) and velocity columns in one pass per joint, and
     sample them at the same instants without the anti-alias filter (``sampled``).
 
@@ -203,8 +210,12 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
     obs = observation(parts, prepared.t[kept[select]])
     if settings.thin > 1:
         obs.weight = weight
+    elif travel_noise is not None:
+        obs.path, obs.shift = travel_rows(prepared.q, kept, travel_noise)
     # without decimation or thinning: the same rows
     obs.sampled = observation(raw, prepared.t[metric_rows]) if settings.decimate > 1 or settings.thin > 1 else None
+    if obs.sampled is not None and obs.path is not None:  # the same instants
+        obs.sampled.path, obs.sampled.shift = obs.path, obs.shift
     return obs
 
 

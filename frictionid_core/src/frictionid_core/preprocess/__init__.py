@@ -6,7 +6,8 @@ and of the torque. Irregular stamps are first resampled onto a uniform grid.
 
 One module per concern: ``settings`` (:class:`Preprocessing`, :class:`Prepared`, the rule's
 constants), ``filters``, ``rule`` (the settings chosen from the data: read its docstring for the
-rule), ``preparation`` (a log to prepared signals; :func:`preprocess`).
+rule), ``preparation`` (a log to prepared signals; :func:`preprocess`), ``travel`` (the travel a
+dynamic friction law's states follow).
 """
 
 from frictionid_core import lazy
@@ -22,16 +23,20 @@ _LAZY = {
     **dict.fromkeys((
         "choose_preprocessing", "cutoff_interval", "noise_density", "rule_decimation",
     ), "frictionid_core.preprocess.rule"),
+    **dict.fromkeys(("PLAY_SIGMAS", "play", "travel_noise", "travel_rows"),
+                    "frictionid_core.preprocess.travel"),
     **dict.fromkeys((
         "cutoff_range", "DIP_WINDOW", "MOVING_FACTOR", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT",
         "REVERSAL_PERIODS", "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
     ), "frictionid_core.preprocess.settings"),
 }
 
-__all__ = ["DIP_WINDOW", "MOVING_FACTOR", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS",
-           "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES", "central_difference", "choose_preprocessing",
-           "column_stride", "cutoff_interval", "cutoff_range", "decimate", "decimation_indices", "dip_needs",
-           "lowpass_position", "near_reversals", "noise_density", "prepare", "preprocess", "resample_uniform",
-           "rule_decimation", "subsample", "thinned_rows"]
+__all__ = ["DIP_WINDOW", "MOVING_FACTOR", "PLAY_SIGMAS", "Prepared", "Preprocessing",
+           "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES",
+           "central_difference", "choose_preprocessing", "column_stride", "cutoff_interval", "cutoff_range",
+           "decimate", "decimation_indices", "dip_needs", "lowpass_position",
+           "near_reversals", "noise_density", "play", "prepare", "preprocess", "resample_uniform",
+           "rule_decimation", "subsample", "thinned_rows", "travel_noise",
+           "travel_rows"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

@@ -27,6 +27,7 @@ from frictionid_core.preprocess import (
     preprocess,
     resample_uniform,
     subsample,
+    travel_noise,
 )
 from frictionid_core.timeseries import SEGMENT_GAP_PERIODS, SEGMENT_GAP_S, JointSeries
 
@@ -313,12 +314,15 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
                            tau=prepared.tau[:, pick])
     row_names = rows
     min_speed = np.array([resolved.min_speed[j] for j in rows])
+    noise = travel_noise(report, resolved, rows, 1.0 / prepared.dt) if all_rows else None  # a dynamic law's travel
     if system.motor_rows:
-        prepared = replace(prepared, qd=drive.motor_velocity(prepared.qd), qdd=drive.motor_velocity(prepared.qdd),
-                           tau=drive.referred_motor_torque(prepared.tau))
+        prepared = replace(prepared, q=drive.motor_velocity(prepared.q), qd=drive.motor_velocity(prepared.qd),
+                           qdd=drive.motor_velocity(prepared.qdd), tau=drive.referred_motor_torque(prepared.tau))
         row_names = drive.motor_names()
         min_speed = np.array([min_speed[drive.C[m] != 0.0].max() for m in range(len(joints))])
-    obs = build_observation(prepared, row_names, rigid, system.parameter_names(rows), resolved, stride)
+        if noise is not None:  # a motor's position C·q: the joints' independent noises combined
+            noise = np.sqrt((drive.C**2) @ noise**2)
+    obs = build_observation(prepared, row_names, rigid, system.parameter_names(rows), resolved, stride, noise)
     obs.report, obs.notes = report, notes
     slow = np.abs(obs.velocity) < min_speed
     stick_speed = np.array([(resolved.stick_speed or {}).get(j, 0.0) for j in row_names])
