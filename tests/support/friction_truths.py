@@ -279,7 +279,7 @@ def dynamic_log(law: str, p: dict, *, seed: int = 0, rate: float = 1000.0, secon
 # The thesis joint-2 model's effective values of the bundled TX40 (bags/tx40_truth.json) and one
 # joint-2 Fourier excitation (harmonics of 0.1 Hz, rad/s), q = q0 + Σ a_l/ω_l·sin − b_l/ω_l·cos.
 TX40_J2 = {"ZZ": 1.3648, "MX": 2.8868, "MY": 0.0399, "offset": 0.2}
-TX40_J2_FRICTION = {"Fv": 5.6948, "Fc": 7.8301, "Fs": 9.5, "vs": 0.05}
+TX40_J2_FRICTION = {"Fv": 5.6948, "Fc": 7.8301, "Fs": 7.97, "vs": 0.05}  # docs/reference.md#tx40-friction
 _J2_A = (-0.4820, -0.3418, 0.3040, 0.5274, 0.2085)
 _J2_B = (-0.0148, -0.4372, -0.5830, -0.1026, 0.3716)
 _J2_WF = 2 * np.pi / 10.0

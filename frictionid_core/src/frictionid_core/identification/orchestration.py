@@ -98,8 +98,7 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
     t0 = time.perf_counter()
     sys_ = request_system(request)
     settings = request.preprocessing.apply(sys_.preprocessing)
-    solver = request.solver if request.solver.varpro is not None else replace(request.solver,
-                                                                               varpro=sys_.robot is not None)
+    solver = request.solver.resolved(sys_.robot is not None, request.friction)
     sources = request_sources(series, request)
     where = sources[0].source if len(sources) == 1 else ", ".join(s.source for s in sources)
     plan = plan_fit(sources, sys_, request.joints, Holds(dict(request.hold), request.hold_missing))

@@ -4,7 +4,7 @@ settings it overrides (:class:`PreprocessingOverrides`)."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.identification.checks import FieldError, choice, flag, integer, mapping
@@ -32,7 +32,11 @@ class SolverOptions:
         varpro: variable projection: only the nonlinear friction parameters (vs, delta, v0) are
             searched, every other one solved in closed form per candidate. None: on for the
             robot systems (tx40, urdf:PATH), whose tens of base parameters a global search over
-            every parameter does not find; off otherwise (the thesis protocol).
+            every parameter does not find, and for a law with a dip (a population of 50 over
+            100 generations stops short of the optimum in the nine dimensions of a TX40
+            joint-2 Stribeck fit, in its two shape parameters it converges); off with
+            ``warm_start`` off (the thesis protocol: every parameter searched from a random start)
+            and otherwise (:meth:`resolved`).
         warm_start: global methods evaluate the closed-form start point first (no result worse
             than the nested linear model); False: a purely random start, the thesis protocol.
         options: the method's own keywords (see its module's ``solve``), e.g. ``{"F": 0.5}`` for de.
@@ -46,6 +50,16 @@ class SolverOptions:
     varpro: bool | None = None
     warm_start: bool = True
     options: dict = field(default_factory=dict)
+
+    def resolved(self, robot: bool, friction: str) -> SolverOptions:
+        """These options with ``varpro`` decided (see the attribute) for a robot system or not
+        and the law ``friction``."""
+        if self.varpro is not None:
+            return self
+        from frictionid_core.friction import LAWS
+
+        shaped = bool(LAWS[friction].nonlinear) if friction in LAWS else False
+        return replace(self, varpro=robot or (shaped and self.warm_start))
 
     def __post_init__(self) -> None:
         from frictionid_core.optim import SOLVERS
