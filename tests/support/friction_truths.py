@@ -37,7 +37,7 @@ G = 9.81
 @dataclass(frozen=True)
 class Segment:
     """One piece of motion, at rest at both ends. ``kind``: ``sines`` (v = Σ c_k·sin(ω_k·τ)),
-    ``plateau`` (raised-cosine ramp to ``speed`` over ``ramp`` s, hold, ramp back) or ``rest``."""
+    ``plateau`` (a quintic-smoothstep ramp to ``speed`` over ``ramp`` s, hold, ramp back) or ``rest``."""
 
     kind: str
     duration: float
@@ -61,19 +61,24 @@ class Segment:
                 a += c * w * np.cos(w * tau)
                 q += c * (1.0 - np.cos(w * tau)) / w
             return q, v, a
-        # plateau: up over [0, r], hold, down over [T − r, T]
+        # plateau: up over [0, r] (v = V·S(τ/r), S the quintic smoothstep: q̈ and its rate continuous),
+        # hold, down over [T − r, T]
         r, big_v, T = self.ramp, self.speed, self.duration
         hold = T - 2.0 * r
-        up = np.clip(tau, 0.0, r)
-        q_up = big_v * (up / 2.0 - r * np.sin(np.pi * up / r) / (2.0 * np.pi))
+        up = np.clip(tau, 0.0, r) / r
+        down = np.clip(tau - r - hold, 0.0, r) / r
         mid = np.clip(tau - r, 0.0, hold)
-        down = np.clip(tau - r - hold, 0.0, r)
-        q_down = big_v * (down / 2.0 + r * np.sin(np.pi * down / r) / (2.0 * np.pi))
-        q = q_up + big_v * mid + q_down
-        v = np.where(tau < r, big_v * (1 - np.cos(np.pi * up / r)) / 2.0,
-                     np.where(tau <= r + hold, big_v, big_v * (1 + np.cos(np.pi * down / r)) / 2.0))
-        a = np.where(tau < r, big_v * np.pi / (2 * r) * np.sin(np.pi * up / r),
-                     np.where(tau <= r + hold, 0.0, -big_v * np.pi / (2 * r) * np.sin(np.pi * down / r)))
+
+        def s_q(x):  # ∫S: r·(2.5x⁴ − 3x⁵ + x⁶)
+            return r * (2.5 * x**4 - 3.0 * x**5 + x**6)
+
+        q = big_v * (s_q(up) + mid + np.where(tau > r + hold, r * down - s_q(down), 0.0))
+        s_up = 10 * up**3 - 15 * up**4 + 6 * up**5
+        s_down = 10 * down**3 - 15 * down**4 + 6 * down**5
+        v = big_v * np.where(tau < r, s_up, np.where(tau <= r + hold, 1.0, 1.0 - s_down))
+        a_up = 30 * up**2 - 60 * up**3 + 30 * up**4
+        a_down = 30 * down**2 - 60 * down**3 + 30 * down**4
+        a = big_v / r * np.where(tau < r, a_up, np.where(tau <= r + hold, 0.0, -a_down))
         return q, v, a
 
     @property
@@ -143,7 +148,7 @@ def presliding_motion(seed: int, seconds: float = 30.0, top_speed: float = 0.6, 
     for share in np.geomspace(0.2, 8.0, 5) * rng.uniform(0.85, 1.15, 5):
         speed = float(share * vs)
         hold = float(np.clip(0.05 / speed, 0.4, 1.2))  # at least 0.05 rad of travel where slow enough
-        ramp = 0.15
+        ramp = max(0.15, 25.0 / rate)  # at least 25 samples: a log at this rate follows it
         pieces.append([plateau(speed, hold, ramp), Segment("rest", 0.3), plateau(-speed, hold, ramp),
                        Segment("rest", 0.3)])
     order = rng.permutation(len(pieces))
@@ -272,7 +277,8 @@ def dynamic_log(law: str, p: dict, *, seed: int = 0, rate: float = 1000.0, secon
     qn = q + position_noise * rng.standard_normal(t.size)
     truth = {"J": inertia, **p, "offset": offset, "torque_noise": sigma, "position_noise": position_noise,
              "rate_hz": rate, "law": law, "seed": seed}
-    return JointSeries(t, [joint], qn[:, None], tau[:, None], source=f"synthetic {law} (seed {seed}, {rate:g} Hz)"), truth
+    series = JointSeries(t, [joint], qn[:, None], tau[:, None], source=f"synthetic {law} (seed {seed}, {rate:g} Hz)")
+    return series, truth
 
 
 # ------------------------------------------------------------- TX40 joint-2-like logs

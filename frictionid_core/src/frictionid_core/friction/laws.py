@@ -199,9 +199,10 @@ def substeps(v0, v1, h, where):
 def travel_substeps(v0, v1, path, shift, where):
     """The two sub-steps of a step along a measured travel instead of the velocities: ``path`` ≥ 0
     the distance travelled over the step, ``shift`` the net displacement (|shift| ≤ path). A path
-    longer than the shift (by more than 1e-6 of it) reverses once: first d1 = (path + s·shift)/2 in the direction s of v0
-    (else −sign(v1), else that of the shift), then the rest back, the speed passing 0 at the
-    reversal; otherwise one sub-step in the shift's direction, the speed going from |v0| to |v1|.
+    longer than the shift (by more than 1e-6 of it) reverses once: first d1 = (path + s·shift)/2 in
+    the direction s of v0 (else −sign(v1), else that of the shift), then the rest back, the speed
+    passing 0 at the reversal; otherwise one sub-step in the shift's direction, the speed going from
+    |v0| to |v1|.
     Returns what :func:`substeps` does."""
     a0, a1 = abs(v0), abs(v1)
     s_shift = where(shift > 0.0, 1.0, 0.0) - where(shift < 0.0, 1.0, 0.0)

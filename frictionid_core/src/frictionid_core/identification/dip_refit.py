@@ -1,6 +1,8 @@
 """The dip-refit policy: a friction dip (Stribeck, Threlfall) that the pre-processing rates chosen
 from the data cannot follow makes the identification refit at the rates its estimate needs
-(:func:`fit_at_dip_rates`), or warns when the user set those rates (:func:`dip_warnings`)."""
+(:func:`fit_at_dip_rates`), or warns when the user set those rates (:func:`dip_warnings`). A
+dynamic law refits at the cut-off at which it predicts the effort best instead
+(:mod:`.dynamic_rates`)."""
 
 from __future__ import annotations
 
@@ -9,6 +11,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from frictionid_core.identification.dynamic_rates import presliding_changes
 from frictionid_core.identification.solve import Fit
 from frictionid_core.model import IdentificationModel
 from frictionid_core.preprocess import Preprocessing, cutoff_range, dip_needs, rule_decimation
@@ -22,17 +25,21 @@ def fit_at_dip_rates(model: IdentificationModel, settings: Preprocessing,
                      fit: Callable[..., Fit]) -> tuple[IdentificationModel, Fit]:
     """``fit(model)``, then while the dip of the estimate needs finer rates than those chosen from
     the data, ``fit(rebuild(settings with those rates), previous)`` (too coarse a rate
-    overestimates vs, so this may take a few rounds); returns the last model and its fit.
+    overestimates vs, so this may take a few rounds); a dynamic law's, while it predicts the effort
+    better at higher cut-offs (:func:`~.dynamic_rates.presliding_changes`). Returns the last model
+    and its fit.
     ``fit(model, previous=None)``: see :func:`frictionid_core.identification.solve.fit_static`."""
     result = fit(model)
+    dynamic = model.friction.is_dynamic
     for _ in range(DIP_ROUNDS):
-        changes, why = dip_changes(model, result.x)
+        changes, why = (presliding_changes(model, result.x, settings, rebuild) if dynamic
+                        else dip_changes(model, result.x))
         if not changes:
             break
         from_data = model.obs.report["from_data"]
         model = rebuild(replace(settings, **changes))
         model.obs.report["from_data"] = sorted(set(from_data) | set(model.obs.report["from_data"]))
-        model.obs.report["dip"] = why
+        model.obs.report["presliding_rates" if dynamic else "dip"] = why
         result = fit(model, result)
     return model, result
 

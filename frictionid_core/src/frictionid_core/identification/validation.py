@@ -12,6 +12,7 @@ import numpy as np
 from frictionid_core.drive import result_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import elements_of
+from frictionid_core.identification.dynamic_rates import presliding_model
 from frictionid_core.identification.model_building import Sources, as_sources, build_model, metric_model, model_metrics
 from frictionid_core.identification.plan import Holds, plan_fit
 from frictionid_core.identification.result import IdentifyResult
@@ -118,7 +119,9 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
     System, joint map, joints, friction, drive, pre-processing and held joints come from the
     result, the settings it chose from its data chosen again from ``series`` where they can
     (:func:`validation_settings`; which: the observation report's ``rechosen``, ``kept``,
-    ``kept_why``, ``set``); each argument given overrides its part (``preprocessing``: settings
+    ``kept_why``, ``set``; a dynamic law's cut-off re-chosen, then raised where the result's law
+    predicts these data better: :func:`~.dynamic_rates.presliding_model`); each argument given
+    overrides its part (``preprocessing``: settings
     the user fixes; ``joint_map`` goes with ``system`` when both are given). ``window`` cuts
     ``series`` (s from the first sample); the result's own window is not reused. The joints the
     result held still are held again where it held them (the base parameters are those of that
@@ -167,6 +170,10 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         why = {**which["kept_why"], **dict.fromkeys(which["rechosen"], "these data cannot choose it")}
         which = {"rechosen": [], "kept": list(why), "kept_why": why, "set": which["set"]}
         model = build_model(plan, plan.system, friction, asymmetric, settings, elements=elements)
+    if model.friction.is_dynamic and which is not None and "cutoff_hz" in which["rechosen"]:
+        x = np.array([values.get(n, 0.0) for n in model.names], dtype=float)  # the law's cut-off on these data
+        model = presliding_model(model, x, settings, lambda pre: build_model(plan, plan.system, friction, asymmetric,
+                                                                            pre, elements=elements))
     if any(n.rsplit("/", 1)[-1] == LOAD_NAME for n in values):  # load-dependent: τ_rigid of its rigid body
         model = replace(model, load_rigid=np.array([values.get(n, 0.0) for n in model.obs.rigid_names], dtype=float))
     if which is not None:

@@ -55,7 +55,8 @@ class DynamicIdentificationModel(IdentificationModel):
         p = np.atleast_2d(np.asarray(params, dtype=float))
         theta = p[:, self.joint_index]  # (P, J, nf)
         theta[:, :, self._viscous] = 0.0  # Fv·v is a linear column
-        rows = joint_state_rows(self.friction, theta, self.obs.velocity, self.obs.t, self._travel) * self._row_scale[None]
+        rows = joint_state_rows(self.friction, theta, self.obs.velocity, self.obs.t, self._travel)
+        rows = rows * self._row_scale[None]
         return rows.reshape(p.shape[0], -1)
 
     def predict(self, params: np.ndarray) -> np.ndarray:

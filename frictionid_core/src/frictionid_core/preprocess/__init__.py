@@ -26,17 +26,18 @@ _LAZY = {
     **dict.fromkeys(("PLAY_SIGMAS", "play", "travel_noise", "travel_rows"),
                     "frictionid_core.preprocess.travel"),
     **dict.fromkeys((
-        "cutoff_range", "DIP_WINDOW", "MOVING_FACTOR", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT",
-        "REVERSAL_PERIODS", "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
+        "cutoff_range", "CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MOVING_FACTOR",
+        "PREDICTION_TOLERANCE", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS",
+        "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
     ), "frictionid_core.preprocess.settings"),
 }
 
-__all__ = ["DIP_WINDOW", "MOVING_FACTOR", "PLAY_SIGMAS", "Prepared", "Preprocessing",
-           "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES",
-           "central_difference", "choose_preprocessing", "column_stride", "cutoff_interval", "cutoff_range",
-           "decimate", "decimation_indices", "dip_needs", "lowpass_position",
-           "near_reversals", "noise_density", "play", "prepare", "preprocess", "resample_uniform",
-           "rule_decimation", "subsample", "thinned_rows", "travel_noise",
-           "travel_rows"]
+__all__ = ["CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MOVING_FACTOR", "PLAY_SIGMAS",
+           "PREDICTION_TOLERANCE", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS",
+           "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES", "central_difference",
+           "choose_preprocessing", "column_stride", "cutoff_interval", "cutoff_range", "decimate",
+           "decimation_indices", "dip_needs", "lowpass_position", "near_reversals", "noise_density", "play",
+           "prepare", "preprocess", "resample_uniform", "rule_decimation", "subsample", "thinned_rows",
+           "travel_noise", "travel_rows"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

@@ -201,7 +201,8 @@ def preprocess(series: JointSeries, requested: Preprocessing | None = None
     settings, report = choose_preprocessing(uniform, requested)
     # the longest stamp interval an effort was interpolated over (0: not resampled): a step of the
     # effort within it (a reversal) is smeared over the samples it spans
-    report["resampled_interval_s"] = float(np.diff(series.t).max()) if uniform is not series and len(series) > 1 else 0.0
+    resampled = uniform is not series and len(series) > 1
+    report["resampled_interval_s"] = float(np.diff(series.t).max()) if resampled else 0.0
     prepared = prepare(uniform, settings)
     n0, differences = report.pop("_qdd_noise")
     fs = 1.0 / prepared.dt
