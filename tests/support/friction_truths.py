@@ -148,7 +148,7 @@ def presliding_motion(seed: int, seconds: float = 30.0, top_speed: float = 0.6, 
     for share in np.geomspace(0.2, 8.0, 5) * rng.uniform(0.85, 1.15, 5):
         speed = float(share * vs)
         hold = float(np.clip(0.05 / speed, 0.4, 1.2))  # at least 0.05 rad of travel where slow enough
-        ramp = max(0.15, 25.0 / rate)  # at least 25 samples: a log at this rate follows it
+        ramp = max(0.15, 40.0 / rate)  # at least 40 samples: a log at this rate follows the stop
         pieces.append([plateau(speed, hold, ramp), Segment("rest", 0.3), plateau(-speed, hold, ramp),
                        Segment("rest", 0.3)])
     order = rng.permutation(len(pieces))

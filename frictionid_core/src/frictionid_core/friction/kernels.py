@@ -58,6 +58,7 @@ from frictionid_core.friction.laws import (
     LAWS,
     branch_force,
     bristle_advance,
+    bristle_advance_pieces,
     bristle_force,
     dip_level,
     state_level,
@@ -71,7 +72,7 @@ SOURCE_DIGEST = hashlib.sha256(b"".join(p.read_bytes() for p in sorted(Path(__fi
 for _fn in (dip_level, branch_force,
             *(f for law in LAWS.values() for f in (law.dip, law.dip_end, law.stiffness, law.damping) if f is not None)):
     register_jitable(inline="always")(_fn)
-for _fn in (state_level, substeps, travel_substeps, bristle_advance, bristle_force):  # compiled once each, called
+for _fn in (state_level, substeps, travel_substeps, bristle_advance, bristle_advance_pieces, bristle_force):  # compiled once each, called
     register_jitable(_fn)
 
 # Dip rows per thread below which a second thread costs more than it saves (≈ 0.5 ms of work;
@@ -347,16 +348,21 @@ def _state_rows_kernel(friction: str):
                     bristle_advance(z, n, math.inf if moving else 0.0, direction, abs(vr), abs(vr), p,
                                     nb if vr < 0.0 else 0, dip, stiffness, math.exp, _exact_ratio_power, _pick)
                 else:
-                    if travelled:
-                        d1, s1, a1, e1, d2, s2, a2, e2 = travel_substeps(vel[r - 1], vr, path[w, r], shift[w, r],
-                                                                         _pick)
-                    else:
+                    if travelled:  # the measured travel, each sub-step followed along the level
+                        d1, s1, a1, e1, d2, s2, a2, e2 = travel_substeps(vel[r - 1], vr, t[r] - t[r - 1], path[w, r],
+                                                                         shift[w, r], _pick)
+                        bristle_advance_pieces(z, n, d1, s1, a1, e1, p, nb if s1 < 0.0 else 0, dip, stiffness,
+                                               math.exp, _exact_ratio_power, _pick)
+                        if d2 > 0.0:
+                            bristle_advance_pieces(z, n, d2, s2, a2, e2, p, nb if s2 < 0.0 else 0, dip, stiffness,
+                                                   math.exp, _exact_ratio_power, _pick)
+                    else:  # the travel of the velocities, taken linear (StateFriction's steps)
                         d1, s1, a1, e1, d2, s2, a2, e2 = substeps(vel[r - 1], vr, t[r] - t[r - 1], _pick)
-                    bristle_advance(z, n, d1, s1, a1, e1, p, nb if s1 < 0.0 else 0, dip, stiffness, math.exp,
-                                    _exact_ratio_power, _pick)
-                    if d2 > 0.0:
-                        bristle_advance(z, n, d2, s2, a2, e2, p, nb if s2 < 0.0 else 0, dip, stiffness, math.exp,
+                        bristle_advance(z, n, d1, s1, a1, e1, p, nb if s1 < 0.0 else 0, dip, stiffness, math.exp,
                                         _exact_ratio_power, _pick)
+                        if d2 > 0.0:
+                            bristle_advance(z, n, d2, s2, a2, e2, p, nb if s2 < 0.0 else 0, dip, stiffness, math.exp,
+                                            _exact_ratio_power, _pick)
                 out[m, r] = bristle_force(vr, z, n, p, nb if vr < 0.0 else 0, dip, stiffness, damping, math.exp,
                                           _exact_ratio_power, _pick)
 

@@ -92,6 +92,8 @@ DEFAULT_BOUNDS = {
 LUGRE_DELTA = 2.0  # the Stribeck exponent of the dynamic laws' level
 LEVEL_FLOOR = 1e-300  # a dynamic law's level is at least this (a zero level: every element stays at 0)
 DIP_NEGLIGIBLE = 40.0  # the dip is treated as 0 where its exponent passes −40 (e^−40 ≈ 4e−18)
+LEVEL_STEP = 0.02  # a step along a measured travel is cut where its level changes by more than this share …
+MAX_PIECES = 16  # … into at most this many pieces
 _E3 = 1.0 - math.exp(-3.0)
 
 
@@ -196,15 +198,19 @@ def substeps(v0, v1, h, where):
             d2, where(reverses, s1, 0.0), 0.0 * a1, where(reverses, a1, 0.0))
 
 
-def travel_substeps(v0, v1, path, shift, where):
-    """The two sub-steps of a step along a measured travel instead of the velocities: ``path`` ≥ 0
-    the distance travelled over the step, ``shift`` the net displacement (|shift| ≤ path). A path
-    longer than the shift (by more than 1e-6 of it) reverses once: first d1 = (path + s·shift)/2 in
-    the direction s of v0 (else −sign(v1), else that of the shift), then the rest back, the speed
-    passing 0 at the reversal; otherwise one sub-step in the shift's direction, the speed going from
-    |v0| to |v1|.
-    Returns what :func:`substeps` does."""
+def travel_substeps(v0, v1, h, path, shift, where):
+    """The two sub-steps of a step of ``h`` s along a measured travel instead of the velocities:
+    ``path`` ≥ 0 the distance travelled over the step, ``shift`` the net displacement
+    (|shift| ≤ path). A reversal the samples of the travel do not show (the velocity changes sign
+    within one of them) has the path :func:`substeps` gives it when that is longer. A path longer
+    than the shift (by more than 1e-6 of it) reverses once: first d1 = (path + s·shift)/2 in the
+    direction s of v0 (else −sign(v1), else that of the shift), then the rest back, the speed
+    passing 0 at the reversal; otherwise one sub-step in the shift's direction, the speed going
+    from |v0| to |v1|. Returns what :func:`substeps` does."""
     a0, a1 = abs(v0), abs(v1)
+    total = a0 + a1
+    unseen = where(v0 * v1 < 0.0, 0.5 * (a0 * a0 + a1 * a1) * h / where(total > 0.0, total, 1.0), 0.0)
+    path = where(unseen > path, unseen, path)
     s_shift = where(shift > 0.0, 1.0, 0.0) - where(shift < 0.0, 1.0, 0.0)
     s_v0 = where(v0 > 0.0, 1.0, 0.0) - where(v0 < 0.0, 1.0, 0.0)
     s_v1 = where(v1 > 0.0, 1.0, 0.0) - where(v1 < 0.0, 1.0, 0.0)
@@ -235,6 +241,23 @@ def bristle_advance(z, n, distance, direction, speed0, speed1, p, o, dip, stiffn
         small = x < 1e-8
         share = where(small, 1.0 - 0.5 * x, (1.0 - decay) / where(small, 1.0, x))  # (1 − e^(−x))/x
         z[i] = direction * c1 + (z[i] - direction * c0) * decay - direction * (c1 - c0) * share
+
+
+def bristle_advance_pieces(z, n, distance, direction, speed0, speed1, p, o, dip, stiffness, exp, ratio_power,
+                           where):
+    """:func:`bristle_advance` cut into pieces of equal time over which the speed, linear in time
+    from ``speed0`` to ``speed1``, changes the level by about LEVEL_STEP of it at most (MAX_PIECES
+    at most): a step that crosses the dip (a stop or a start at a low rate) follows its level
+    there rather than a line from one end to the other. Scalars only (the compiled kernel)."""
+    g0 = state_level(speed0, p, o, dip, exp, ratio_power, where)
+    g1 = state_level(speed1, p, o, dip, exp, ratio_power, where)
+    pieces = min(MAX_PIECES, 1 + int(abs(g1 - g0) / (LEVEL_STEP * min(g0, g1))))
+    total = speed0 + speed1
+    for k in range(pieces):
+        a = speed0 + (speed1 - speed0) * k / pieces
+        b = speed0 + (speed1 - speed0) * (k + 1) / pieces
+        share = (a + b) / (pieces * total) if total > 0.0 else 1.0 / pieces
+        bristle_advance(z, n, distance * share, direction, a, b, p, o, dip, stiffness, exp, ratio_power, where)
 
 
 def bristle_force(v, z, n, p, o, dip, stiffness, damping, exp, ratio_power, where):

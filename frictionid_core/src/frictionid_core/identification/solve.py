@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from frictionid_core.identification.feature_starts import dip_start
 from frictionid_core.identification.settings import SolverOptions
 from frictionid_core.model import IdentificationModel
 
@@ -92,14 +93,18 @@ def solve_model(model: IdentificationModel, solver: SolverOptions, *, progress=N
 
 
 def start_point(model: IdentificationModel, rng: np.random.Generator, samples: int = 64) -> np.ndarray:
-    """Best of ``samples`` random nonlinear parameter sets (plus the lower corner, where the
-    Stribeck/Threlfall dip vanishes and the model is the nested Coulomb one), each with its
-    linear parameters solved in closed form: the start of local solvers (lm) and a member of
-    the global methods' first population, so no solver returns worse than the nested model."""
+    """Best of ``samples`` random nonlinear parameter sets, the lower corner (where the
+    Stribeck/Threlfall dip vanishes and the model is the nested Coulomb one) and the dip read off
+    the data's low-speed friction curve (:func:`~.feature_starts.dip_start`), each with its linear
+    parameters solved in closed form: the start of local solvers (lm) and a member of the global
+    methods' first population, so no solver returns worse than the nested model."""
     lo, hi = model.bounds()
     nl = model.nonlinear_index
     theta = np.zeros((samples + 1, model.k))
     theta[:, nl] = np.vstack([lo[nl], lo[nl] + (hi[nl] - lo[nl]) * rng.random((samples, nl.size))])
+    feature = dip_start(model)
+    if feature is not None:
+        theta = np.vstack([theta, np.clip(feature, lo, hi)[None]])
     full, cost = model.solve_linear(theta)
     return np.clip(full[int(np.argmin(cost))], lo, hi)
 

@@ -10,9 +10,10 @@ the dwell. The travel the states see is therefore that of the filtered position 
 :func:`travel_noise`): the output holds while the position stays within ±ε of it and
 follows it otherwise, and is shifted by ε in the direction of its last move (:func:`play`), so
 that along a motion it is the position itself and at a reversal it holds until the position has
-come back 2ε, then takes that travel at once. Noise below ε moves nothing; a motion loses
-nothing but the timing of the 2ε after each reversal (an element's force there is off by at most
-2ε·k, a few hundredths of a newton-metre for LuGre's usual stiffness).
+come back 2ε; the reversal then certain, the samples it held since the extreme take the position
+again as long as that moves steadily away from the extreme (offline: the travel after a reversal
+keeps its timing; a stiff Maxwell-slip element's force is otherwise off by up to 2ε·k there).
+Noise below ε moves nothing.
 
 Between two analysis instants the states take the output's path length and net shift
 (:func:`row_travel`: one reversal inside a step is split at it), whatever the decimation.
@@ -40,13 +41,23 @@ def _play_columns(q, eps, lo, hi, out):  # pragma: no cover - compiled
         direction = 0.0
         for k in range(q.shape[0]):
             x = q[k, j]
+            turned = False
             if held < x - e:
                 held = x - e
+                turned = direction < 0.0
                 direction = 1.0
             elif held > x + e:
                 held = x + e
+                turned = direction > 0.0
                 direction = -1.0
             out[k, j] = held + e * direction
+            if turned:  # a reversal, now certain: the samples held since its extreme follow the position
+                extreme = out[k - 1, j]
+                i = k - 1
+                while i > 0 and out[i, j] == extreme and direction * (q[i, j] - q[i + 1, j]) <= 0.0 \
+                        and direction * (q[i, j] - extreme) >= 0.0:
+                    out[i, j] = q[i, j]
+                    i -= 1
 
 
 def play(q: np.ndarray, eps: np.ndarray) -> np.ndarray:
