@@ -72,7 +72,8 @@ SOURCE_DIGEST = hashlib.sha256(b"".join(p.read_bytes() for p in sorted(Path(__fi
 for _fn in (dip_level, branch_force,
             *(f for law in LAWS.values() for f in (law.dip, law.dip_end, law.stiffness, law.damping) if f is not None)):
     register_jitable(inline="always")(_fn)
-for _fn in (state_level, substeps, travel_substeps, bristle_advance, bristle_advance_pieces, bristle_force):  # compiled once each, called
+# compiled once each, called
+for _fn in (state_level, substeps, travel_substeps, bristle_advance, bristle_advance_pieces, bristle_force):
     register_jitable(_fn)
 
 # Dip rows per thread below which a second thread costs more than it saves (≈ 0.5 ms of work;
