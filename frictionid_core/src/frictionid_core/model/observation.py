@@ -18,7 +18,15 @@ import numpy as np
 
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.parallel import run_chunks
-from frictionid_core.preprocess import Prepared, Preprocessing, decimate, decimation_indices, thinned_rows, travel_rows
+from frictionid_core.preprocess import (
+    Prepared,
+    Preprocessing,
+    decimate,
+    decimation_indices,
+    thinned_rows,
+    travel_rows,
+    window_means,
+)
 
 VELOCITY_COLUMNS = ("V", "S", "V_pos", "S_pos", "V_neg", "S_neg", "one")
 # Joints are decimated in parallel threads when each has at least this many values to filter.
@@ -149,7 +157,8 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
     ``rigid_full`` rows are joint-major over the full-rate prepared samples (every
     ``stride``-th, aligned to the last: see :func:`~frictionid_core.preprocess.column_stride`);
     ``settings`` are resolved. With ``settings.thin`` > 1 the fit keeps the rows of
-    :func:`~frictionid_core.preprocess.thinned_rows` (weighted) and ``sampled`` one in ``thin``.
+    :func:`~frictionid_core.preprocess.thinned_rows` (weighted; those coarser than the analysis
+    decimation each the mean of the samples it stands for) and ``sampled`` one in ``thin``.
     """
     n, nj = prepared.qd.shape
     r = rigid_full.shape[1]
@@ -168,8 +177,11 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
     raw: dict[str, list] = {k: [] for k in parts}
 
     def decimated(small: np.ndarray, rigid: np.ndarray, factor: int, rows: np.ndarray | None = None) -> np.ndarray:
-        """[τ, q̇, rigid columns, velocity columns] decimated by ``factor`` (only ``rows`` of it)."""
-        a, b = decimate(small, factor, rows=rows), decimate(rigid, factor, stride, rows)
+        """[τ, q̇, rigid columns, velocity columns] decimated by ``factor`` (only ``rows`` of it): the
+        analysis decimation's anti-alias filter, the means of the samples a thinned row stands for
+        at a coarser one (:func:`~frictionid_core.preprocess.window_means`)."""
+        reduce = decimate if factor == settings.decimate else window_means
+        a, b = reduce(small, factor, rows=rows), reduce(rigid, factor, stride, rows)
         return np.column_stack([a[:, :2], b, a[:, 2:]])
 
     def joint_rows(j: int) -> tuple[np.ndarray, np.ndarray]:

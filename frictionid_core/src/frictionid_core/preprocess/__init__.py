@@ -16,6 +16,7 @@ from frictionid_core import lazy
 _LAZY = {
     **dict.fromkeys((
         "central_difference", "decimate", "decimation_indices", "lowpass_position", "near_reversals",
+        "window_means",
     ), "frictionid_core.preprocess.filters"),
     **dict.fromkeys((
         "column_stride", "dip_needs", "prepare", "preprocess", "resample_uniform", "subsample", "thinned_rows",

@@ -75,6 +75,30 @@ def decimate(x: np.ndarray, n: int, stride: int = 1, rows: np.ndarray | None = N
     return out.reshape((kept.size,) + x.shape[1:])
 
 
+def window_means(x: np.ndarray, n: int, stride: int = 1, rows: np.ndarray | None = None) -> np.ndarray:
+    """The rows of decimating each column of x (N, …) by n as :func:`decimate` keeps them, each the
+    mean of the n samples around it (centred) instead of an anti-alias filter's output: the short
+    filter of thinned rows (:func:`~frictionid_core.preprocess.thinned_rows`), which averages the
+    noise of the rows a kept one stands for without reaching further (an anti-alias filter of
+    decimation n rings for tens of its periods: it carries a friction dip's rows into rows the
+    model evaluates outside it). ``stride`` and ``rows`` as for :func:`decimate`."""
+    if n == 1:
+        return x if rows is None else x[rows]
+    kept = decimation_indices(x.shape[0], n // stride)
+    if rows is not None:
+        kept = kept[rows]
+    width = n // stride
+    flat = x.reshape(x.shape[0], -1)
+    lo = np.clip(kept - (width - 1) // 2, 0, x.shape[0])
+    hi = np.clip(kept + width // 2 + 1, 0, x.shape[0])
+    out = np.empty((kept.size, flat.shape[1]))
+    for c0 in range(0, flat.shape[1], _FILTER_COLUMNS):  # in blocks: bounded work arrays
+        block = flat[:, c0 : c0 + _FILTER_COLUMNS]
+        cum = np.vstack([np.zeros((1, block.shape[1])), np.cumsum(block, axis=0)])
+        out[:, c0 : c0 + _FILTER_COLUMNS] = (cum[hi] - cum[lo]) / (hi - lo)[:, None]
+    return out.reshape((kept.size,) + x.shape[1:])
+
+
 def decimation_indices(length: int, n: int) -> np.ndarray:
     """Indices kept by decimating ``length`` samples by n: every n-th, aligned to the last."""
     start = n - (n * int(np.ceil(length / n)) - length)  # 1-based, as MATLAB's decimate

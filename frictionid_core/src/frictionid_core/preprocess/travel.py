@@ -37,8 +37,9 @@ def _play_columns(q, eps, lo, hi, out):  # pragma: no cover - compiled
     """Columns lo..hi−1 of :func:`play`."""
     for j in range(lo, hi):
         e = eps[j]
-        held = q[0, j]
+        held = q[0, j]  # the play's inner position; its output is the position when it moves
         direction = 0.0
+        last = q[0, j]
         for k in range(q.shape[0]):
             x = q[k, j]
             turned = False
@@ -46,11 +47,13 @@ def _play_columns(q, eps, lo, hi, out):  # pragma: no cover - compiled
                 held = x - e
                 turned = direction < 0.0
                 direction = 1.0
+                last = x
             elif held > x + e:
                 held = x + e
                 turned = direction > 0.0
                 direction = -1.0
-            out[k, j] = held + e * direction
+                last = x
+            out[k, j] = last
             if turned:  # a reversal, now certain: the samples held since its extreme follow the position
                 extreme = out[k - 1, j]
                 i = k - 1
@@ -61,8 +64,9 @@ def _play_columns(q, eps, lo, hi, out):  # pragma: no cover - compiled
 
 
 def play(q: np.ndarray, eps: np.ndarray) -> np.ndarray:
-    """Each column of q (N, J) through a play of half-width ``eps`` (J,), its output shifted by
-    ε in the direction of its last move (module doc): (N, J)."""
+    """Each column of q (N, J) through a play of half-width ``eps`` (J,), its output the position
+    where it last moved (its inner position shifted by ε in the direction of that move; module
+    doc): (N, J)."""
     q = np.ascontiguousarray(q, dtype=float)
     eps = np.ascontiguousarray(np.broadcast_to(np.asarray(eps, dtype=float), (q.shape[1],)))
     out = np.empty_like(q)
