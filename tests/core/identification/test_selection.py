@@ -258,19 +258,12 @@ def test_fixed_dip_carrying_and_nonlinear_parameters_in_every_search(solver, var
     assert r.fixed == {"Fc": 1.0, "vs": 0.05}
 
 
-def test_ls_on_a_law_with_a_dip_searches_its_shape_by_lm_and_solves_the_rest_in_closed_form():
-    """``ls`` (the default solver) on a law with a dip: the dip's shape has no closed form, so lm
-    searches it (variable projection) and the linear parameters are solved in closed form, as lm
-    itself does; with every shape parameter fixed it is the closed form, with σ."""
+def test_every_nonlinear_parameter_fixed_makes_ls_possible():
     s = friction_series()
-    by_ls = identify(s, IdentifyRequest(system="friction-only", friction="stribeck", preprocessing=DIP_RATES))
-    by_lm = identify(s, IdentifyRequest(system="friction-only", friction="stribeck", solver="lm",
-                                        preprocessing=DIP_RATES))
-    assert by_ls.params == pytest.approx(by_lm.params, rel=1e-9)
-    assert by_ls.optimizer["method"] == "lm" and by_ls.solver == "ls"
+    with pytest.raises(FrictionIdError, match=r"nonlinear parameter\(s\) \['vs', 'delta'\].*--fix"):
+        identify(s, IdentifyRequest(system="friction-only", friction="stribeck"))
     r = identify(s, IdentifyRequest(system="friction-only", friction="stribeck", fixed={"vs": 0.05, "delta": 1.0},
                                     preprocessing=DIP_RATES))
-    assert r.optimizer is None
     for name in ("Fv", "Fc", "Fs"):
         assert r.params[name] == pytest.approx(STRIBECK[name], rel=0.03), name
 

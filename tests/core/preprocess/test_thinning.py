@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from frictionid_core.model import build_observation
-from frictionid_core.preprocess import DIP_WINDOW, Prepared, Preprocessing, decimate, thinned_rows
+from frictionid_core.preprocess import DIP_WINDOW, Prepared, Preprocessing, decimate, thinned_rows, window_means
 
 
 def test_thinned_rows_keep_fast_crossings_and_weigh_the_rest():
@@ -56,10 +56,9 @@ def test_thinned_rows_take_the_coarsest_decimation_each_crossing_allows():
 
 def test_thinned_observation_rows_are_the_fine_or_coarse_decimation_weighted():
     """build_observation with thin: each row comes from the decimation thinned_rows gives it (here
-    by ``decimate`` at the reversals, ``decimate × thin`` elsewhere; each its own anti-alias
-    filter), times its weight; the
-    velocity is not weighted; the dip mask carries the weight; metrics rows are one in ``thin``,
-    unweighted."""
+    by ``decimate`` at the reversals, its anti-alias filter; ``decimate × thin`` elsewhere, the mean
+    of the samples the row stands for), times its weight; the velocity is not weighted; the dip mask
+    carries the weight; metrics rows are one in ``thin``, unweighted."""
     from frictionid_core.friction import get_model
     from frictionid_core.model import IdentificationModel
 
@@ -79,7 +78,7 @@ def test_thinned_observation_rows_are_the_fine_or_coarse_decimation_weighted():
     fine = level == 2
     nd = index.size
     for j in range(2):
-        fine_tau, coarse_tau = decimate(tau[:, j], 2), decimate(tau[:, j], 10)
+        fine_tau, coarse_tau = decimate(tau[:, j], 2), window_means(tau[:, j], 10)
         coarse_of = coarse_tau.size - 1 - (fine_tau.size - 1 - index[~fine]) // 5
         expect = np.empty(nd)
         expect[fine], expect[~fine] = fine_tau[index[fine]], coarse_tau[coarse_of]

@@ -9,7 +9,7 @@ import numpy as np
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import DEFAULT_BOUNDS, get_model
 from frictionid_core.identification.settings import SolverOptions
-from frictionid_core.identification.solve import is_closed_form, search_solver, solve_model
+from frictionid_core.identification.solve import is_closed_form, solve_model
 from frictionid_core.model import IdentificationModel, parameter_kind
 
 # Fs ≤ FS_FACTOR × the Coulomb special case's Fc of its joint and branch: a static friction many
@@ -111,7 +111,6 @@ def holdout_comparison(model: IdentificationModel, x: np.ndarray, solver: Solver
     nd = model.obs.n_samples
     held = (np.arange(nd) * HOLDOUT_BLOCKS // max(nd, 1)) % HOLDOUT_EVERY == HOLDOUT_EVERY - 1
     special, _ = linear_special_case(model)
-    solver = search_solver(model, solver)
     try:
         train = model.restricted(~held)
         if is_closed_form(train, solver):

@@ -36,22 +36,11 @@ def is_closed_form(model: IdentificationModel, solver: SolverOptions) -> bool:
     return solver.method == "ls" or bool(solver.varpro and model.searched_nonlinear_index.size == 0)
 
 
-def search_solver(model: IdentificationModel, solver: SolverOptions) -> SolverOptions:
-    """The solver that runs on ``model``: ``solver``, but ``ls`` on a law whose dip leaves shape
-    parameters to search (no closed form there) is lm with variable projection: the linear
-    parameters in closed form, the shape by lm — as the static part of a dynamic law."""
-    if solver.method == "ls" and model.searched_nonlinear_index.size:
-        return SolverOptions("lm", solver.seed, calls=solver.calls, varpro=True)
-    return solver
-
-
 def fit_static(model: IdentificationModel, solver: SolverOptions, progress=None, previous: Fit | None = None) -> Fit:
-    """``solver`` (its ``varpro`` resolved; ``ls`` on a law with a dip: :func:`search_solver`) on
-    ``model`` of a static law: closed form (with σ and the condition number) or an optimiser.
-    With ``previous`` (the fit of a coarser round of the dip refit, by an optimiser), a local
-    solver (lm, hybrid's polish) only polishes from its point: the finer rates move the optimum,
-    not its basin."""
-    solver = search_solver(model, solver)
+    """``solver`` (its ``varpro`` resolved) on ``model`` of a static law: closed form (with σ and
+    the condition number) or an optimiser. With ``previous`` (the fit of a coarser round of the
+    dip refit, by an optimiser), a local solver (lm, hybrid's polish) only polishes from its point:
+    the finer rates move the optimum, not its basin."""
     if is_closed_form(model, solver):
         return Fit(*model.fit_linear())
     if previous is not None and solver.method in ("lm", "hybrid"):

@@ -39,6 +39,6 @@ __all__ = ["CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MOVING_FACTO
            "choose_preprocessing", "column_stride", "cutoff_interval", "cutoff_range", "decimate",
            "decimation_indices", "dip_needs", "lowpass_position", "near_reversals", "noise_density", "play",
            "prepare", "preprocess", "resample_uniform", "rule_decimation", "subsample", "thinned_rows",
-           "travel_noise", "travel_rows"]
+           "travel_noise", "travel_rows", "window_means"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)
