@@ -45,8 +45,8 @@ class DynamicIdentificationModel(IdentificationModel):
             scale = scale * obs.weight[None, :]
         self._row_scale = scale
         self._travel = None
-        if obs.path is not None:  # a reset starts at rest below the joint's min speed
-            rest = obs.report.get("min_speed_rows") or {}
+        if obs.path is not None:  # a reset starts at rest below the joint's rest speed (its velocity noise)
+            rest = obs.report.get("rest_speed_rows") or {}
             self._travel = (obs.path, obs.shift, np.array([rest.get(j) or 0.0 for j in obs.joints], dtype=float))
 
     def state_rows(self, params: np.ndarray) -> np.ndarray:

@@ -27,15 +27,15 @@ _LAZY = {
     **dict.fromkeys(("PLAY_SIGMAS", "play", "travel_noise", "travel_rows"),
                     "frictionid_core.preprocess.travel"),
     **dict.fromkeys((
-        "cutoff_range", "CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MOVING_FACTOR",
+        "cutoff_range", "CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SIGMAS", "MOVING_FACTOR",
         "PREDICTION_TOLERANCE", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS",
         "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
     ), "frictionid_core.preprocess.settings"),
 }
 
-__all__ = ["CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MOVING_FACTOR", "PLAY_SIGMAS",
-           "PREDICTION_TOLERANCE", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS",
-           "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES", "central_difference",
+__all__ = ["CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SIGMAS", "MOVING_FACTOR",
+           "PLAY_SIGMAS", "PREDICTION_TOLERANCE", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT",
+           "REVERSAL_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES", "central_difference",
            "choose_preprocessing", "column_stride", "cutoff_interval", "cutoff_range", "decimate",
            "decimation_indices", "dip_needs", "lowpass_position", "near_reversals", "noise_density", "play",
            "prepare", "preprocess", "resample_uniform", "rule_decimation", "subsample", "thinned_rows",

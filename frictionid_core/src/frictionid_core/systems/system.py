@@ -16,6 +16,7 @@ import numpy as np
 from frictionid_core.errors import InputError
 from frictionid_core.model import Observation, build_observation, concat_observations, keep_all_rows
 from frictionid_core.preprocess import (
+    MIN_SPEED_SIGMAS,
     TRIM_PERIODS,
     Prepared,
     Preprocessing,
@@ -317,12 +318,15 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
                            tau=prepared.tau[:, pick])
     row_names = rows
     min_speed = np.array([resolved.min_speed[j] for j in rows])
+    # a dynamic law's states start at rest below this: the min speed, or its noise rule when a smaller one is given
+    rest_speed = np.maximum(min_speed, [MIN_SPEED_SIGMAS * (report["velocity_noise"].get(j) or 0.0) for j in rows])
     noise = travel_noise(report, resolved, rows, 1.0 / prepared.dt) if all_rows else None  # a dynamic law's travel
     if system.motor_rows:
         prepared = replace(prepared, q=drive.motor_velocity(prepared.q), qd=drive.motor_velocity(prepared.qd),
                            qdd=drive.motor_velocity(prepared.qdd), tau=drive.referred_motor_torque(prepared.tau))
         row_names = drive.motor_names()
         min_speed = np.array([min_speed[drive.C[m] != 0.0].max() for m in range(len(joints))])
+        rest_speed = np.array([rest_speed[drive.C[m] != 0.0].max() for m in range(len(joints))])
         if noise is not None:  # a motor's position C·q: the joints' independent noises combined
             noise = np.sqrt((drive.C**2) @ noise**2)
     obs = build_observation(prepared, row_names, rigid, system.parameter_names(rows), resolved, stride, noise)
@@ -348,6 +352,7 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
         if o is not None:  # the sampled rows are instants of the fit's (all of them, or one in ``thin``)
             exclude_rows(o, slow if o is obs else slow[np.searchsorted(obs.t, o.t)])
     report["min_speed_rows"] = dict(zip(row_names, map(float, min_speed)))
+    report["rest_speed_rows"] = dict(zip(row_names, map(float, rest_speed)))
     report["slow_rows_excluded"] = dict(zip(row_names, map(int, slow.sum(axis=0))))  # stick rows included
     report["stick_rows"] = dict(zip(row_names, map(int, stick.sum(axis=0))))
     report["reversal_rows"] = dict(zip(row_names, map(int, reversal.sum(axis=0))))
