@@ -350,8 +350,8 @@ def _state_rows_kernel(friction: str):
                                     nb if vr < 0.0 else 0, dip, stiffness, math.exp, _exact_ratio_power, _pick)
                 else:
                     if travelled:  # the measured travel, each sub-step followed along the level
-                        d1, s1, a1, e1, d2, s2, a2, e2 = travel_substeps(vel[r - 1], vr, t[r] - t[r - 1], path[w, r],
-                                                                         shift[w, r], _pick)
+                        d1, s1, a1, e1, d2, s2, a2, e2 = travel_substeps(vel[r - 1], vr, path[w, r], shift[w, r],
+                                                                         _pick)
                         bristle_advance_pieces(z, n, d1, s1, a1, e1, p, nb if s1 < 0.0 else 0, dip, stiffness,
                                                math.exp, _exact_ratio_power, _pick)
                         if d2 > 0.0:

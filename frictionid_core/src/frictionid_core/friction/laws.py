@@ -198,19 +198,14 @@ def substeps(v0, v1, h, where):
             d2, where(reverses, s1, 0.0), 0.0 * a1, where(reverses, a1, 0.0))
 
 
-def travel_substeps(v0, v1, h, path, shift, where):
-    """The two sub-steps of a step of ``h`` s along a measured travel instead of the velocities:
-    ``path`` ≥ 0 the distance travelled over the step, ``shift`` the net displacement
-    (|shift| ≤ path). A reversal the samples of the travel do not show (the velocity changes sign
-    within one of them) has the path :func:`substeps` gives it when that is longer. A path longer
-    than the shift (by more than 1e-6 of it) reverses once: first d1 = (path + s·shift)/2 in the
-    direction s of v0 (else −sign(v1), else that of the shift), then the rest back, the speed
+def travel_substeps(v0, v1, path, shift, where):
+    """The two sub-steps of a step along a measured travel instead of the velocities: ``path`` ≥ 0
+    the distance travelled over the step, ``shift`` the net displacement (|shift| ≤ path). A path
+    longer than the shift (by more than 1e-6 of it) reverses once: first d1 = (path + s·shift)/2 in
+    the direction s of v0 (else −sign(v1), else that of the shift), then the rest back, the speed
     passing 0 at the reversal; otherwise one sub-step in the shift's direction, the speed going
     from |v0| to |v1|. Returns what :func:`substeps` does."""
     a0, a1 = abs(v0), abs(v1)
-    total = a0 + a1
-    unseen = where(v0 * v1 < 0.0, 0.5 * (a0 * a0 + a1 * a1) * h / where(total > 0.0, total, 1.0), 0.0)
-    path = where(unseen > path, unseen, path)
     s_shift = where(shift > 0.0, 1.0, 0.0) - where(shift < 0.0, 1.0, 0.0)
     s_v0 = where(v0 > 0.0, 1.0, 0.0) - where(v0 < 0.0, 1.0, 0.0)
     s_v1 = where(v1 > 0.0, 1.0, 0.0) - where(v1 < 0.0, 1.0, 0.0)

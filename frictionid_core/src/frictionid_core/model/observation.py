@@ -223,7 +223,7 @@ def build_observation(prepared: Prepared, joints: list[str], rigid_full: np.ndar
     if settings.thin > 1:
         obs.weight = weight
     elif travel_noise is not None:
-        obs.path, obs.shift = travel_rows(prepared.q, kept, travel_noise)
+        obs.path, obs.shift = travel_rows(prepared.q, kept, travel_noise, prepared.qd, prepared.dt)
     # without decimation or thinning: the same rows
     obs.sampled = observation(raw, prepared.t[metric_rows]) if settings.decimate > 1 or settings.thin > 1 else None
     if obs.sampled is not None and obs.path is not None:  # the same instants
