@@ -15,13 +15,28 @@ class Stop(Exception):
 
 def test_population_method_reports_every_generation(synthetic):
     calls = []
-    request = IdentifyRequest(friction="tustin", solver=SolverOptions("de", seed=3, pop=12, generations=8))
+    search = SolverOptions("de", seed=3, pop=12, generations=8, varpro=False)  # every parameter: no polish
+    request = IdentifyRequest(friction="tustin", solver=search)
     res = identify(synthetic(), request, progress=lambda *a: calls.append(a))
     gens, evals, best = (np.array(c) for c in zip(*calls))
     assert list(gens) == list(range(1, 9)) and list(evals) == [12 * g for g in range(1, 9)]
     assert np.all(np.diff(best) <= 0)  # best so far never worsens
     opt = res.optimizer
     assert best[-1] == opt["fun"] and list(best) == opt["history_fmin"]
+
+
+def test_the_polish_of_a_shape_search_continues_its_count(synthetic):
+    """With variable projection (the default for a law with a dip) the search's best point is
+    polished by lm: its calls report on at the search's last generation, the evaluations and the
+    best so far still never going back."""
+    calls = []
+    request = IdentifyRequest(friction="tustin", solver=SolverOptions("de", seed=3, pop=12, generations=8))
+    res = identify(synthetic(), request, progress=lambda *a: calls.append(a))
+    gens, evals, best = (np.array(c) for c in zip(*calls))
+    assert list(gens[:8]) == list(range(1, 9)) and set(gens[8:]) == {8} and len(gens) > 8
+    assert np.all(np.diff(evals) > 0) and np.all(np.diff(best) <= 0)
+    assert res.varpro and "polished by lm" in res.optimizer["message"]
+    assert best[-1] == pytest.approx(res.optimizer["fun"], rel=1e-9)
 
 
 def test_call_methods_report_every_call(synthetic):
