@@ -121,12 +121,13 @@ def run_dynamic(law: str, case: int, rng: np.random.Generator, tmp: Path) -> dic
                           "all_rows_over_tool_floor": v["all_rows"]["relerr_pct"] / v["noise_floor_pct"],
                           "truth_all_rows_rmse_over_noise": tv["all_rows"]["rmse"] / sigma},
            "warnings": [w for w in err.splitlines() if "warning" in w]}
-    if law == "lugre":
-        out["pass"] = bool(all(abs(errors[k]) <= lim for k, lim in LUGRE_LIMITS.items())
-                           and out["validation"]["all_rows_rmse_over_noise"] <= FLOOR_LIMIT)
-    else:
-        out["pass"] = bool(all(abs(errors[k]) <= 3.0 for k in ("Fc", "Fs"))
-                           and out["validation"]["all_rows_rmse_over_noise"] <= FLOOR_LIMIT)
+    limits = LUGRE_LIMITS if law == "lugre" else {"Fc": 3.0, "Fs": 3.0}
+    params_ok = all(abs(errors[k]) <= lim for k, lim in limits.items())
+    ratio = out["validation"]["all_rows_rmse_over_noise"]
+    truth_ratio = out["validation"]["truth_all_rows_rmse_over_noise"]
+    out["pass"] = bool(params_ok and ratio <= FLOOR_LIMIT)
+    # the truth itself above the limit: the position noise through the stiffness (k·σ_q) or J·q̈ sets the floor
+    out["limited"] = bool(params_ok and not out["pass"] and truth_ratio > FLOOR_LIMIT and ratio <= 1.05 * truth_ratio)
     return out
 
 
@@ -175,9 +176,14 @@ def summary(out: dict) -> str:
             tail = (f"val all rows {val['all_rows_rmse_over_noise']:.3f} moving {val['moving_rmse_over_noise']:.3f} "
                     f"(truth {val['truth_all_rows_rmse_over_noise']:.3f}; tool floor ratio "
                     f"{val['all_rows_over_tool_floor']:.3f})")
-        lines.append(f"{'PASS' if c['pass'] else 'FAIL'} {head} {c['identify_wall_s']:5.1f} s | {errs} | {tail}")
+        status = "PASS" if c["pass"] else "LIMIT" if c.get("limited") else "FAIL"
+        lines.append(f"{status:<5} {head} {c['identify_wall_s']:5.1f} s | {errs} | {tail}")
     n = len(out["cases"])
-    lines.append(f"{sum(c['pass'] for c in out['cases'])} of {n} cases pass")
+    limited = sum(bool(c.get("limited")) for c in out["cases"])
+    lines.append(f"{sum(c['pass'] for c in out['cases'])} of {n} cases pass"
+                 + (f"; {limited} LIMIT: parameters within the acceptance and the fit within 5 % of the truth's own "
+                    "error, which lies above 1.3 σ (1 µrad of position noise through the stiffness or J·q̈ exceeds "
+                    "the torque noise there)" if limited else ""))
     return "\n".join(lines)
 
 
