@@ -4,8 +4,9 @@ every row predicted (``metrics.all_rows``), on one joint with a hidden LuGre / M
 position noise, 1 kHz).
 
 Tolerances. The issue's acceptance for LuGre (Fc, Fs within 3 %, vs 10 %, σ0 15 %, σ1 30 %);
-measured over seeds 0-3: Fc −1.1 %, Fs −0.9 %, vs −1.9 to −1.6 % (the velocity filter rounds the
-dip), σ0 within 0.2 %, σ1 +2.7 to +3.9 %.
+measured over seeds 0-3: Fc, Fs within 0.1 %, vs 0.3 %, σ0 0.2 %, σ1 +0.3 to +2.3 %, every row at
+0.93–0.98 × the noise floor (before the states followed the measured travel and the fit the
+metrics' rows: Fc −1.1 %, Fs −0.9 %, vs −1.9 %, σ1 +3.9 %).
 """
 
 from __future__ import annotations

@@ -38,7 +38,9 @@ class SolverOptions:
             ``warm_start`` off (the thesis protocol: every parameter searched from a random start)
             and otherwise (:meth:`resolved`).
         warm_start: global methods evaluate the closed-form start point first (no result worse
-            than the nested linear model); False: a purely random start, the thesis protocol.
+            than the nested linear model) and, searching the shape parameters (``varpro``), have
+            their best point polished by lm; False: a purely random start and the search's own
+            answer, the thesis protocol.
         options: the method's own keywords (see its module's ``solve``), e.g. ``{"F": 0.5}`` for de.
     """
 
