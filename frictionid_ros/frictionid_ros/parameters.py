@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 from frictionid_core import FRICTIONS, Drive, FrictionIdError, IdentifyRequest, budget_field, check_choice, load_drive
 from frictionid_core.io import MIN_SAMPLES
 from frictionid_core.optim import SOLVERS
+from frictionid_ros.joint_names import name_problem, shown_names
 from frictionid_ros.runtime import parse_priority
 
 if TYPE_CHECKING:
@@ -169,7 +170,6 @@ def _drive(path_or_name: str) -> Drive | None:
 
 
 def _joint_names(value, where: str) -> tuple[str, ...]:
-    from frictionid_ros.inputs import name_problem, shown_names
 
     joints = tuple(str(j) for j in value if str(j))
     if len(set(joints)) != len(joints):

@@ -11,18 +11,20 @@ from pathlib import Path
 
 import pytest
 
-SOURCE = Path(__file__).resolve().parents[2] / "frictionid_core" / "src" / "frictionid_core"
+ROOT = Path(__file__).resolve().parents[2]
+SOURCE = ROOT / "frictionid_core" / "src" / "frictionid_core"
+ROS_SOURCE = ROOT / "frictionid_ros" / "frictionid_ros"
 PACKAGE = "frictionid_core"
 # Modules at the package root besides __init__.py: the errors, the one time series, the thread
 # pool, the lazy-import mechanism.
 ROOT_MODULES = {"errors", "timeseries", "parallel", "lazy"}
 
 
-def modules() -> dict[str, Path]:
-    """Every module of the core by its dotted name (a package by its own name)."""
+def modules(source: Path = SOURCE) -> dict[str, Path]:
+    """Every module of a package by its dotted name (a package by its own name)."""
     found = {}
-    for path in SOURCE.rglob("*.py"):
-        parts = path.relative_to(SOURCE.parent).with_suffix("").parts
+    for path in source.rglob("*.py"):
+        parts = path.relative_to(source.parent).with_suffix("").parts
         name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
         found[name] = path
     return found
@@ -33,21 +35,23 @@ def unit(module: str) -> str:
     return ".".join(module.split(".")[:2])
 
 
-def imports(path: Path, name: str, known: dict[str, Path]) -> list[tuple[str, list[str], int]]:
-    """(imported module, the names taken from it, line) for every import of the core in ``path``,
+def imports(path: Path, name: str, known: dict[str, Path], package: str = PACKAGE
+            ) -> list[tuple[str, list[str], int]]:
+    """(imported module, the names taken from it, line) for every import of ``package`` in ``path``,
     wherever it stands (module level, inside a function, under TYPE_CHECKING)."""
     out = []
+    top = package
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.Import):
-            out += [(alias.name, [], node.lineno) for alias in node.names if alias.name.startswith(PACKAGE)]
+            out += [(alias.name, [], node.lineno) for alias in node.names if alias.name.startswith(top)]
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package.split(".")[: len(package.split(".")) - node.level + 1]
                 target = ".".join(base + ([node.module] if node.module else []))
             else:
                 target = node.module or ""
-            if not target.startswith(PACKAGE):
+            if not target.startswith(top):
                 continue
             names = [alias.name for alias in node.names]
             submodules = [f"{target}.{n}" for n in names if f"{target}.{n}" in known]
@@ -108,11 +112,13 @@ def test_no_package_imports_one_that_imports_it_back():
     assert cycles(package_graph()) == []
 
 
-def test_no_module_imports_one_that_imports_it_back():
-    known = modules()
+@pytest.mark.parametrize("source", [SOURCE, ROS_SOURCE], ids=["frictionid_core", "frictionid_ros"])
+def test_no_module_imports_one_that_imports_it_back(source):
+    """No circle of files, a package's face counted as the modules it names (what it imports)."""
+    known = modules(source)
     graph = defaultdict(set)
     for name, path in known.items():
-        for target, _, _ in imports(path, name, known):
+        for target, _, _ in imports(path, name, known, source.name):
             if target in known and target != name and not name.startswith(target + "."):
                 graph[name].add(target)
     assert cycles(graph) == []

@@ -62,9 +62,9 @@ def coulomb_friction(robot, factor: float = 1.0) -> dict[str, dict[str, float]]:
     """Known Coulomb friction per joint (``factor`` × the levels): the TX40's published levels, a
     UR5's of the same order (within the safety screen's limits of both)."""
     if robot.name == "tx40":
-        from frictionid_core.synthetic.robot_logs import tx40_friction
+        from frictionid_core.robots import tx40
 
-        levels = tx40_friction("coulomb", False)
+        levels = tx40.published_friction("coulomb", False)
         return {j: {n: factor * v for n, v in levels[j].items()} for j in robot.joints}
     return {j: {"Fv": factor * (2.0 + k), "Fc": factor * (3.0 + 0.5 * k)} for k, j in enumerate(robot.joints)}
 

@@ -13,7 +13,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from frictionid_core import FrictionIdError, IdentifyRequest, IdentifyResult, InputError, PreprocessingOverrides
-from frictionid_ros.inputs import NS, shown_names, stamp_ns
+from frictionid_ros.inputs import NS, stamp_ns
+from frictionid_ros.joint_names import shown_names
 from frictionid_ros.parameters import Config, solve_options
 
 

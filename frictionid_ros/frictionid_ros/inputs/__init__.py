@@ -10,12 +10,10 @@ from frictionid_ros.inputs.buffer import (
     JointRing,
     NameMap,
     Window,
-    name_problem,
-    shown_names,
     stamp_ns,
 )
 from frictionid_ros.inputs.callbacks import Inputs
 from frictionid_ros.inputs.feedforward import FeedForward
 
 __all__ = ["NO_EFFORT", "NO_POSITION", "NO_VELOCITY", "NS", "FeedForward", "Inputs", "JointRing", "NameMap", "Window",
-           "name_problem", "shown_names", "stamp_ns"]
+           "stamp_ns"]

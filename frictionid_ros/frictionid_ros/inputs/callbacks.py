@@ -19,11 +19,11 @@ from frictionid_ros.inputs.buffer import (
     JointRing,
     NameMap,
     long_fields,
-    name_problem,
     put,
     stamp_ns,
 )
 from frictionid_ros.inputs.feedforward import FeedForward
+from frictionid_ros.joint_names import name_problem
 
 LATENCY_WINDOW = 4096  # feed-forward latencies kept for the percentiles [samples]
 

@@ -18,6 +18,12 @@ weighs as much as a 50 N·m gravity term, and a Fourier motion crosses the Strib
 briefly at each reversal. A :class:`DwellTrajectory` therefore appends constant-velocity
 plateaus to the Fourier part, at the speeds and time shares of the c-optimal design for δ
 (``bench/tx40_stribeck_information.py``).
+
+A trajectory with ``ramp`` > 0 starts and ends at rest at its start pose p(0): the series' deviation
+from p(0) is windowed, q(t) = p(0) + w(t)·(p(t) − p(0)), w rising from 0 to 1 over the first
+``ramp`` seconds and back over the last as a quintic smoothstep (w′ = w″ = 0 at both ends), so q̇ and
+q̈ are zero at both ends. ``frictionid excite`` designs such a trajectory within every limit of the
+robot (position, velocity, acceleration, effort, collisions): :mod:`.excitation_design`.
 """
 
 from __future__ import annotations
@@ -44,6 +50,7 @@ class FourierTrajectory:
     b: np.ndarray
     wf: float
     duration: float
+    ramp: float = 0.0
 
     @property
     def harmonics(self) -> int:
@@ -62,7 +69,16 @@ class FourierTrajectory:
         q = self.q0 + np.sum(a / wl * s - b / wl * c, axis=-1)
         qd = np.sum(a * c + b * s, axis=-1)
         qdd = np.sum(wl * (b * c - a * s), axis=-1)
+        if self.ramp > 0:
+            w, w1, w2 = ramp_window(t[:, 0, 0], self.duration, self.ramp)
+            dev = q - self.start_pose
+            q, qd, qdd = self.start_pose + w * dev, w1 * dev + w * qd, w2 * dev + 2 * w1 * qd + w * qdd
         return q, qd, qdd
+
+    @property
+    def start_pose(self) -> np.ndarray:
+        """q(0) of the series (J,): with a ramp, where the trajectory starts and ends at rest."""
+        return self.q0 - np.sum(self.b / (self.wf * np.arange(1, self.harmonics + 1)), axis=-1)
 
     def sample(self, rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         t = np.arange(int(round(self.duration * rate)) + 1) / rate
@@ -73,13 +89,29 @@ class FourierTrajectory:
         return np.any(self.a != 0, axis=1) | np.any(self.b != 0, axis=1)
 
     def to_dict(self) -> dict:
-        return {"kind": "fourier", "joints": list(self.joints), "q0": self.q0.tolist(), "a": self.a.tolist(),
-                "b": self.b.tolist(), "wf": self.wf, "duration": self.duration}
+        out = {"kind": "fourier", "joints": list(self.joints), "q0": self.q0.tolist(), "a": self.a.tolist(),
+               "b": self.b.tolist(), "wf": self.wf, "duration": self.duration}
+        return dict(out, ramp_s=self.ramp) if self.ramp > 0 else out
 
     # ------------------------------------------------------------------ files
     def save(self, path: Path, rate: float = 1000.0) -> Path:
         """``.npz``: the coefficients; ``.csv``: t and q/qd/qdd per joint sampled at ``rate``."""
         return _save(self, Path(path), rate)
+
+
+def ramp_window(t: np.ndarray, duration: float, ramp: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """w, w′, w″ (N, 1) at times t (N,) of the window of a trajectory of ``duration`` s with ramps of
+    ``ramp`` s: the quintic smoothstep S(s) = 10s³ − 15s⁴ + 6s⁵ of t/ramp, 1 in the middle, S of
+    (duration − t)/ramp at the end (0 outside [0, duration])."""
+    t = np.asarray(t, dtype=float)
+    ramp = min(ramp, duration / 2.0)
+    up, down = t / ramp, (duration - t) / ramp
+    s = np.clip(np.minimum(up, down), 0.0, 1.0)
+    sign = np.where(up <= down, 1.0, -1.0)
+    w = s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
+    w1 = sign * 30.0 * s**2 * (1.0 - s) ** 2 / ramp
+    w2 = 60.0 * s * (1.0 - s) * (1.0 - 2.0 * s) / ramp**2
+    return w[:, None], w1[:, None], w2[:, None]
 
 
 def _save(traj, path: Path, rate: float) -> Path:
@@ -246,7 +278,7 @@ def trajectory_from_dict(d: dict) -> FourierTrajectory | DwellTrajectory:
     """Inverse of ``to_dict`` (the ``trajectory`` entry of a truth file)."""
     fourier = FourierTrajectory(list(d["joints"]), np.array(d["q0"], float), np.array(d["a"], float),
                                 np.array(d["b"], float), float(d["wf"]),
-                                float(d.get("fourier_duration", d["duration"])))
+                                float(d.get("fourier_duration", d["duration"])), float(d.get("ramp_s", 0.0)))
     if d.get("kind", "fourier") == "fourier":
         return fourier
     return DwellTrajectory(fourier, np.array(d["dwell_speeds"], float), np.array(d["dwell_plateau_s"], float),
@@ -343,7 +375,14 @@ def observation_matrix(system, robot, traj: FourierTrajectory, moving: list[str]
     """Unit-norm columns: the system's rigid columns and q̇_j, sign(q̇_j) of the moving joints,
     over one period at ``samples`` points."""
     t = np.arange(samples) * traj.period / samples
-    q, qd, qdd = traj.evaluate(t)
+    return observation_columns(system, robot, t, *traj.evaluate(t), moving)
+
+
+def observation_columns(system, robot, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                        moving: list[str], sign_speed: float = 0.0) -> np.ndarray:
+    """:func:`observation_matrix` of samples t (N,), q, q̇, q̈ (N, nv) of every robot joint;
+    ``sign_speed`` > 0: tanh(q̇/sign_speed) for sign(q̇) (a criterion smooth in the motion)."""
+    samples = t.size
     if system.robot is not None:
         rows_joints = list(robot.joints)
         W = system.robot.base_columns(q, qd, qdd, rows_joints)
@@ -359,7 +398,7 @@ def observation_matrix(system, robot, traj: FourierTrajectory, moving: list[str]
             continue
         v = qd[:, robot.joints.index(j)]
         fric[r * samples : (r + 1) * samples, 2 * k] = v
-        fric[r * samples : (r + 1) * samples, 2 * k + 1] = np.sign(v)
+        fric[r * samples : (r + 1) * samples, 2 * k + 1] = np.tanh(v / sign_speed) if sign_speed > 0 else np.sign(v)
     A = np.hstack([W, fric])
     norms = np.linalg.norm(A, axis=0)
     return A / np.where(norms > 0, norms, 1.0)
@@ -394,7 +433,10 @@ class ExcitationResult:
 def optimise_excitation(system, robot, *, moving: list[str] | None = None, hold: dict[str, float] | None = None,
                         harmonics: int = 5, period: float = 10.0, duration: float = 20.0, evals: int = 1500,
                         starts: int = 20, seed: int = 0, margin: float = 0.05, samples: int = 200) -> ExcitationResult:
-    """Optimise a Fourier excitation for ``system`` (its rigid columns + friction columns).
+    """Optimise a Fourier excitation for ``system`` (its rigid columns + friction columns) within the
+    position, velocity and acceleration limits only (the design of the bundled TX40 bags,
+    ``tools/make_tx40_bags.py``); ``frictionid excite`` designs within every limit, effort and
+    collisions included, ramped from rest: :func:`.excitation_design.design_excitation`.
 
     Args:
         system: a System from :func:`~frictionid_core.systems.get_system` (robot systems or tx40-j2).

@@ -16,6 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.friction import get_model
+
 JOINTS = tuple(f"joint_{i}" for i in range(1, 7))
 BASE_HEIGHT = 0.32
 G = 9.81
@@ -142,3 +145,21 @@ def joint2_effective_parameters(robot=None, hold=JOINT2_HOLD) -> dict[str, float
     fit = float(np.max(np.abs(A @ [mx, my] - g2)))
     zz = robot.mass_matrix(q[0])[1, 1]
     return {"ZZ": float(zz), "MX": float(mx), "MY": float(my), "_gravity_fit_max_abs": fit}
+
+
+def published_friction(friction: str, asymmetric: bool) -> dict[str, dict[str, float]]:
+    """The published friction of the TX40 (docs/reference.md#tx40-friction) for the law ``friction``
+    (asymmetric: the v < 0 branch has 0.85·Fv, 0.85·Fc, 0.85·Fs and the same vs, δ — an assumption,
+    the published model is symmetric)."""
+    if friction == "threlfall" or get_model(friction).is_dynamic:
+        raise FrictionIdError(f"the published TX40 model has no {friction} parameters; pass --friction-params")
+    names = get_model(friction, False).names
+    out = {}
+    for k, j in enumerate(JOINTS):
+        sym = {n: float(FRICTION[n][k]) for n in names}
+        if not asymmetric:
+            out[j] = sym
+        else:
+            neg = {n: (0.85 * v if n in ("Fv", "Fc", "Fs") else v) for n, v in sym.items()}
+            out[j] = {**{f"{n}_pos": v for n, v in sym.items()}, **{f"{n}_neg": v for n, v in neg.items()}}
+    return out

@@ -32,24 +32,6 @@ DEFAULT_POSITION_NOISE = 1e-6  # rad, robots without a noise table (≈ 0.057e-3
 DEFAULT_TORQUE_NOISE = 0.05  # N·m (docs/reference.md#tx40)
 
 
-def tx40_friction(friction: str, asymmetric: bool) -> dict[str, dict[str, float]]:
-    """The published friction of the TX40 (docs/reference.md#tx40-friction) for the law ``friction``
-    (asymmetric: the v < 0 branch has 0.85·Fv, 0.85·Fc, 0.85·Fs and the same vs, δ — an assumption,
-    the published model is symmetric)."""
-    if friction == "threlfall" or get_model(friction).is_dynamic:
-        raise FrictionIdError(f"the published TX40 model has no {friction} parameters; pass --friction-params")
-    names = get_model(friction, False).names
-    out = {}
-    for k, j in enumerate(tx40.JOINTS):
-        sym = {n: float(tx40.FRICTION[n][k]) for n in names}
-        if not asymmetric:
-            out[j] = sym
-        else:
-            neg = {n: (0.85 * v if n in ("Fv", "Fc", "Fs") else v) for n, v in sym.items()}
-            out[j] = {**{f"{n}_pos": v for n, v in sym.items()}, **{f"{n}_neg": v for n, v in neg.items()}}
-    return out
-
-
 def friction_torques(friction: str, asymmetric: bool, params: dict[str, dict[str, float]], joints: list[str],
                      qd: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
     """τ_f for velocities (N, J) of ``joints`` with per-joint parameters {joint: {name: value}};
@@ -92,7 +74,7 @@ def synthesize(robot, trajectory, *, friction: str = "stribeck", asymmetric: boo
     if friction_params is None:
         if robot.name != "tx40":
             raise InputError(f"no default friction for {robot.name}: give per-joint friction parameters")
-        friction_params = tx40_friction(friction, asymmetric)
+        friction_params = tx40.published_friction(friction, asymmetric)
         if motors is not None:
             friction_params = {m: friction_params[j] for m, j in zip(motors.motors, robot.joints)}
     if position_noise is None:
