@@ -1,9 +1,10 @@
 """The friction law chosen by what it predicts (``--friction auto``).
 
 Each candidate law (Coulomb, Stribeck, LuGre; a one-joint system each with and without its gravity
-terms) is fitted on each half of the data in time and predicts every row of the other half (the
-all-rows metric: standstill and reversals too, where the laws differ most); its score is the
-relative error over both halves. The simplest law is kept unless a richer one predicts clearly
+terms) is fitted on each half of the data in time and predicts the other half; its score is the
+relative error over both halves, on the same rows for every law (the moving rows of the Coulomb
+fit's min speed, the rows near reversals left out: there the zero-phase filter's smear of a stick
+or slip, not the law, sets the error). The simplest law is kept unless a richer one predicts clearly
 better (:data:`BETTER_SHARE`) without a nonlinear parameter at its search bound (a law that needs a
 bound to fit is not what the data show). All candidates are fitted with the cut-offs the Coulomb
 fit of the whole data chose, so they are scored on the same signals.
@@ -21,7 +22,9 @@ from frictionid_core.friction import DEFAULT_BOUNDS, get_model
 from frictionid_core.identification.model_building import Sources, as_sources
 from frictionid_core.identification.request import IdentifyRequest
 from frictionid_core.identification.result import IdentifyResult
+from frictionid_core.identification.settings import PreprocessingOverrides
 from frictionid_core.identification.validation import validate
+from frictionid_core.preprocess import REVERSAL_PERIODS
 
 AUTO = "auto"
 CANDIDATE_LAWS = ("coulomb", "stribeck", "lugre")  # simplest first
@@ -70,23 +73,26 @@ def nonlinear_at_bound(result: IdentifyResult, request: IdentifyRequest) -> list
         lo, hi = request.bounds.get(name, DEFAULT_BOUNDS[kind])
         if lo > 0 and hi / lo > 100:  # a box over decades: judged on the log scale
             value, lo, hi = np.log(max(value, 1e-300)), np.log(lo), np.log(hi)
+        elif lo == 0 and hi > 0:  # a box from 0 over decades: at 0 only when 0 to within 1e-6 of the box
+            if value <= 1e-6 * hi or hi - value <= AT_BOUND_SHARE * hi:
+                out.append(name)
+            continue
         if min(abs(value - lo), abs(hi - value)) <= AT_BOUND_SHARE * (hi - lo):
             out.append(name)
     return out
 
 
 def cross_validated(fit: Callable[[Sources, IdentifyRequest], IdentifyResult], parts: tuple[list, list],
-                    request: IdentifyRequest) -> dict:
-    """The candidate ``request`` fitted on each half and scored on the other: the all-rows relative
-    error (%) over both, and the parameters at a bound in either half's fit."""
+                    request: IdentifyRequest, rows: PreprocessingOverrides) -> dict:
+    """The candidate ``request`` fitted on each half and scored on the other, on the rows that
+    ``rows`` keep: the relative error (%) over both, and the parameters at a bound in either fit."""
     err2 = total = 0.0
     at_bound: list[str] = []
     for train, test in ((parts[0], parts[1]), (parts[1], parts[0])):
         result = fit(train, request)
-        metrics = validate(test, result)
-        rows = metrics.get("all_rows", metrics)
-        err2 += rows["relerr_pct"] ** 2 * rows["samples"]
-        total += rows["samples"]
+        metrics = validate(test, result, preprocessing=rows)
+        err2 += metrics["relerr_pct"] ** 2 * metrics["samples"]
+        total += metrics["samples"]
         at_bound += [n for n in nonlinear_at_bound(result, request) if n not in at_bound]
     return {"cv_relerr_pct": float(np.sqrt(err2 / total)), "at_bound": at_bound}
 
@@ -98,15 +104,17 @@ def identify_auto(series: Sources, request: IdentifyRequest,
     law."""
     options = candidates(request)
     coulomb = fit(series, options[0])
-    cutoffs = coulomb.preprocessing.get("cutoff_hz") if coulomb.preprocessing else None
+    settings = coulomb.preprocessing or {}
     fixed = request.preprocessing
-    if cutoffs is not None and fixed.cutoff_hz is None:
-        fixed = replace(fixed, cutoff_hz=dict(cutoffs))
+    if settings.get("cutoff_hz") is not None and fixed.cutoff_hz is None:
+        fixed = replace(fixed, cutoff_hz=settings["cutoff_hz"])
+    rows = replace(fixed, min_speed=fixed.min_speed if fixed.min_speed is not None else settings.get("min_speed"),
+                   reversal_periods=REVERSAL_PERIODS)
     parts = halves(series, request)
     scored = []
     for option in options:
         try:
-            score = cross_validated(fit, parts, replace(option, preprocessing=fixed))
+            score = cross_validated(fit, parts, replace(option, preprocessing=fixed, window=None), rows)
         except FrictionIdError as exc:  # a law the halves cannot fit: not a candidate
             score = {"cv_relerr_pct": float("inf"), "at_bound": [], "failed": str(exc)}
         scored.append((option, score))

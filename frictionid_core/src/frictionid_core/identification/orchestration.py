@@ -19,6 +19,7 @@ from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_ra
 from frictionid_core.identification.dynamic_fit import fit_dynamic
 from frictionid_core.identification.effort_sign import checked_effort_sign
 from frictionid_core.identification.identifiability import identifiability
+from frictionid_core.identification.law_choice import AUTO, identify_auto
 from frictionid_core.identification.linear_case import holdout_comparison, linear_fallback, with_data_bounds
 from frictionid_core.identification.load_dependent_fit import fit_with_load
 from frictionid_core.identification.model_building import (
@@ -83,7 +84,13 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     def fit(data: Sources, asked: IdentifyRequest) -> IdentifyResult:
         return fit_request(data, asked, progress)
 
-    result = checked_effort_sign(fit, series, request, fit(series, request), logged_joints(series, request))
+    if request.friction == AUTO:  # the law that predicts best, its request the one the sign check refits
+        first, asked = identify_auto(series, request, fit)
+    else:
+        first, asked = fit(series, request), request
+    result = checked_effort_sign(fit, series, asked, first, logged_joints(series, request))
+    if request.friction == AUTO:
+        result = replace(result, request=request, law_choice=first.law_choice)
     return replace(result, wall_s=time.perf_counter() - t0)
 
 

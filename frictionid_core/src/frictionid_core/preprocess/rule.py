@@ -4,7 +4,9 @@ Zero-phase Butterworth on position, central differences for velocity and acceler
 edge trimming, and parallel decimation (low-pass + keep 1 of n) of every observation column
 and of the torque. Irregular stamps are first resampled onto a uniform grid.
 
-Settings left unset (None) are chosen from the data by :func:`choose_preprocessing`:
+Settings left unset (None) are chosen from the data by :func:`choose_preprocessing`; the
+identification then takes, per joint, the cut-off that predicts the effort best among these and
+lower ones (blocked cross-validation: :mod:`frictionid_core.identification.cross_validation`):
 
 * position-noise density N0 of each joint: median periodogram of q over [0.25, 0.45]·fs / ln 2
   (white noise; the median of a χ²₂/2 bin is ln 2 × its mean); σ_q = sqrt(N0·fs/2);
