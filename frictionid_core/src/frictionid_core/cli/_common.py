@@ -228,6 +228,34 @@ def preprocessing_line(p: dict) -> str:
     return "preprocessing: " + ", ".join(parts)
 
 
+def choice_line(p: dict) -> str | None:
+    """One line saying how the cut-offs were chosen by cross-validation (the candidates, by their
+    highest cut-off, with their errors), or None when they were not."""
+    cv = p.get("cross_validation")
+    if not cv:
+        return None
+    if cv.get("cutoff_hz") is None:
+        return f"cut-off: the rule's, not cross-validated ({cv.get('skipped', 'too little data')})"
+    scores = ", ".join(f"{'rule ' if k == 0 else '≤ '}{fmt(max(c['cutoff_hz'].values()), 3)} Hz "
+                       f"{fmt(c['cv_relerr_pct'], 3)} %" for k, c in enumerate(cv["candidates"]))
+    return (f"cut-off chosen by {cv['folds']}-fold blocked cross-validation (each part's torque predicted from "
+            f"the others): {cutoff_text(cv['cutoff_hz'])} Hz; candidates by highest cut-off, error: {scores}")
+
+
+def law_line(choice: dict) -> str:
+    """One line saying which friction law ``--friction auto`` took, why, and every candidate's
+    cross-validated error."""
+    def label(c: dict) -> str:
+        gravity = " + gravity" if c.get("gravity") else ""
+        score = "failed" if c.get("failed") else f"{fmt(c['cv_relerr_pct'], 3)} %"
+        bound = f" ({', '.join(c['at_bound'])} at a bound)" if c.get("at_bound") else ""
+        return f"{c['friction']}{gravity} {score}{bound}"
+
+    chosen = choice["chosen"] + (" + gravity" if choice.get("gravity") else "")
+    return (f"friction chosen by {choice['folds']}-fold cross-validation (each half's moving rows predicted from the "
+            f"other): {chosen}, {choice['why']}; candidates: {', '.join(label(c) for c in choice['candidates'])}")
+
+
 def cutoff_text(cutoff) -> str:
     """A cut-off setting (one value, or {joint: Hz}: one value when all agree, else the range)."""
     if not isinstance(cutoff, dict):
@@ -247,6 +275,10 @@ def print_table(result: dict, out=None) -> None:
     print(f"source: {', '.join(map(str, sources))}", file=out)
     if result.get("preprocessing"):
         print(preprocessing_line(result["preprocessing"]), file=out)
+        if (line := choice_line(result["preprocessing"])) is not None:
+            print(line, file=out)
+    if result.get("law_choice"):
+        print(law_line(result["law_choice"]), file=out)
     if result.get("drive"):
         d = result["drive"]
         print(f"drive: {d.get('name') or 'unnamed'} ({d['side']}-side log, friction on the {d['friction_on']}s"

@@ -12,11 +12,14 @@ import numpy as np
 from frictionid_core.consistency import plausibility_warnings
 from frictionid_core.drive import drive_from_dict, load_drive
 from frictionid_core.errors import FrictionIdError, InputError
+from frictionid_core.friction import get_model
 from frictionid_core.identification import diagnostics
+from frictionid_core.identification.cross_validation import choose_by_cross_validation, record_choice
 from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_rates
 from frictionid_core.identification.dynamic_fit import fit_dynamic
 from frictionid_core.identification.effort_sign import checked_effort_sign
 from frictionid_core.identification.identifiability import identifiability
+from frictionid_core.identification.law_choice import AUTO, identify_auto
 from frictionid_core.identification.linear_case import holdout_comparison, linear_fallback, with_data_bounds
 from frictionid_core.identification.load_dependent_fit import fit_with_load
 from frictionid_core.identification.model_building import (
@@ -81,7 +84,13 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     def fit(data: Sources, asked: IdentifyRequest) -> IdentifyResult:
         return fit_request(data, asked, progress)
 
-    result = checked_effort_sign(fit, series, request, fit(series, request), logged_joints(series, request))
+    if request.friction == AUTO:  # the law that predicts best, its request the one the sign check refits
+        first, asked = identify_auto(series, request, fit)
+    else:
+        first, asked = fit(series, request), request
+    result = checked_effort_sign(fit, series, asked, first, logged_joints(series, request))
+    if request.friction == AUTO:
+        result = replace(result, request=request, law_choice=first.law_choice)
     return replace(result, wall_s=time.perf_counter() - t0)
 
 
@@ -109,11 +118,21 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
     held: dict[str, float] = {}  # the directions the data do not resolve, held (identifiability)
     fit_plan = replace(plan, system=rigid.fit_system) if rigid else plan
 
-    def rebuild(pre) -> IdentificationModel:
-        return with_data_bounds(build_model(fit_plan, fit_plan.system, request.friction, request.asymmetric, pre,
-                                            request.bounds, fixed={**fixed_request, **held}, elements=request.elements))
+    chosen, choice = settings, None
+    if settings.cutoff_hz is None and not get_model(request.friction).is_dynamic:  # those that predict best
+        cutoffs, choice = choose_by_cross_validation(fit_plan, settings, request.asymmetric, fixed_request)
+        if cutoffs is not None:
+            chosen = replace(settings, cutoff_hz=cutoffs)
 
-    model, fit_settings = exclude_stick_phases(rebuild(settings), settings)
+    def rebuild(pre) -> IdentificationModel:
+        model = with_data_bounds(build_model(fit_plan, fit_plan.system, request.friction, request.asymmetric, pre,
+                                             request.bounds, fixed={**fixed_request, **held},
+                                             elements=request.elements))
+        if choice is not None:
+            record_choice(model.obs.report, choice)
+        return model
+
+    model, fit_settings = exclude_stick_phases(rebuild(chosen), chosen)
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
     if errors:
         raise InputError(f"{where}: " + "; ".join(errors))

@@ -22,7 +22,7 @@ from frictionid_core.identification.result_fields import REQUIRED_KEYS, result_f
 # Keys left out of the JSON when their field is None.
 OPTIONAL_KEYS = ("optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "output_error", "idm",
                  "idm_params", "identifiability", "held_joints", "no_effort_joints", "request", "uncertainty",
-                 "velocity_range", "holdout", "plausibility")
+                 "velocity_range", "holdout", "plausibility", "law_choice")
 
 
 @dataclass(frozen=True)
@@ -68,6 +68,8 @@ class IdentifyResult:
             {held_back_rows, law_relerr_pct, linear_relerr_pct, beats_linear[, returned]}.
         plausibility: robot systems: the links (fitted or reconstructed) against the robot model's,
             with the thresholds used (:func:`frictionid_core.consistency.check.link_plausibility`).
+        law_choice: ``--friction auto``: the law chosen by what it predicts, every candidate's
+            cross-validated error and why (:mod:`frictionid_core.identification.law_choice`).
     """
 
     system: str
@@ -106,6 +108,7 @@ class IdentifyResult:
     velocity_range: dict[str, list[float]] | None = None
     holdout: dict | None = None
     plausibility: dict | None = None
+    law_choice: dict | None = None
 
     def to_dict(self) -> dict:
         """The result's JSON: the keys of ``frictionid identify --json`` in their order."""
@@ -113,7 +116,7 @@ class IdentifyResult:
                 "std_robust", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds",
                 "optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "preprocessing", "layout",
                 "output_error", "idm", "idm_params", "identifiability", "held_joints", "no_effort_joints", "request",
-                "uncertainty", "velocity_range", "holdout", "plausibility")
+                "uncertainty", "velocity_range", "holdout", "plausibility", "law_choice")
         out = {}
         for key in head:
             value = getattr(self, key)

@@ -51,7 +51,7 @@ def result_fields(data: Mapping, names: list[str]) -> dict:
         "window": lambda k, v: window_value(mapping(k, v)),
         "bounds": lambda k, v: {n: bound_value(f"{k}.{n}", b) for n, b in mapping(k, v).items()},
         "optimizer": mapping, "consistency": mapping, "idm": mapping,
-        "uncertainty": mapping, "holdout": mapping, "plausibility": mapping,
+        "uncertainty": mapping, "holdout": mapping, "plausibility": mapping, "law_choice": mapping,
         "velocity_range": _velocity_range,
         "standard_parameters": _standard_parameters,
         "preprocessing": _preprocessing,

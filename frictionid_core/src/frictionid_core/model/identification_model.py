@@ -133,6 +133,11 @@ class IdentificationModel:
         self._quadratic = self._quadratic_terms()
         self._constraints()
 
+    @property
+    def normal_equations(self) -> tuple[np.ndarray, np.ndarray]:
+        """(FᵀF, Fᵀy): the normal equations of the linear terms' fixed design F (R, L) and the effort."""
+        return self._quadratic[0], self._quadratic[1]
+
     def _quadratic_terms(self) -> tuple:
         """Constant pieces of the cost and of :meth:`solve_linear`: FᵀF, Fᵀy, yᵀy and, per dip
         compacted to the rows where its branch is active, its nonlinear-parameter indices, speeds

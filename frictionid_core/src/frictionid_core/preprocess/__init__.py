@@ -20,7 +20,7 @@ _LAZY = {
         "column_stride", "dip_needs", "prepare", "preprocess", "resample_uniform", "subsample", "thinned_rows",
     ), "frictionid_core.preprocess.preparation"),
     **dict.fromkeys((
-        "choose_preprocessing", "cutoff_interval", "noise_density", "rule_decimation",
+        "choose_preprocessing", "noise_density", "rule_decimation",
     ), "frictionid_core.preprocess.rule"),
     **dict.fromkeys((
         "cutoff_range", "DIP_WINDOW", "MOVING_FACTOR", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT",
@@ -30,7 +30,7 @@ _LAZY = {
 
 __all__ = ["DIP_WINDOW", "MOVING_FACTOR", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS",
            "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES", "central_difference", "choose_preprocessing",
-           "column_stride", "cutoff_interval", "cutoff_range", "decimate", "decimation_indices", "dip_needs",
+           "column_stride", "cutoff_range", "decimate", "decimation_indices", "dip_needs",
            "lowpass_position", "near_reversals", "noise_density", "prepare", "preprocess", "resample_uniform",
            "rule_decimation", "subsample", "thinned_rows"]
 
