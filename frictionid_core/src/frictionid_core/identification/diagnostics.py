@@ -112,12 +112,13 @@ def acceleration_warnings(report: dict, cutoff_hz: float | dict[str, float], cho
 
 
 # Words of the notes that report a repair of the data (each such note is a warning of the result).
-REPAIR_WORDS = ("stamp", "broken row", "spike")
+REPAIR_WORDS = ("stamp", "broken row", "repeated row", "spike", "channel lag")
 
 
 def stamp_warnings(notes: list[str]) -> list[str]:
     """The notes that say the data were repaired, with their counts: stamps repaired, samples
-    resampled, the log cut into segments at gaps of its stamps, broken rows skipped, spikes replaced."""
+    resampled, the log cut into segments at gaps of its stamps, broken rows skipped, repeated rows
+    dropped, spikes replaced, a lag of the velocity or effort removed."""
     return [n for n in notes if any(word in n for word in REPAIR_WORDS)]
 
 

@@ -34,9 +34,12 @@ LINE_WINDOW = 5  # kept rows either side whose median a row's values are compare
 LINE_FACTOR = 10.0  # a value is out of line beyond this many × its field's sample-to-sample change
 LINE_STEP_QUANTILE = 99.0  # … (that change: this percentile of |Δx|, as the spike check's)
 # Stale rows: a joint moves into and out of a run of repeated rows when its speed there exceeds this
-# share of its top speed (the 99th percentile of |Δq/Δt|), in one direction: the share above which
-# the identification's plan counts a sample as moving.
+# share of its top speed (the 99th percentile of |Δq/Δt|), in one direction (the share above which
+# the identification's plan counts a sample as moving), by steps of at least STALE_COUNTS × its
+# resolution (its smallest step): slower than a count per sample, a quantised position repeats itself
+# (the real WidowX's waist at 0.07 rad/s, 0.46 counts per sample).
 MOVING_SPEED_SHARE = 0.05
+STALE_COUNTS = 3
 LISTED = 3  # rows named in a message
 
 
@@ -324,18 +327,21 @@ def _stale_runs(t: np.ndarray, q: np.ndarray, repeat: np.ndarray) -> np.ndarray:
     """The rows of ``repeat`` (rows equal to the row before, of increasing stamps ``t``) in runs
     that a joint of positions ``q`` (N, J) moves into and out of (see :func:`repeated_rows`)."""
     n = t.size
-    speed = np.abs(np.diff(q, axis=0)) / np.diff(t)[:, None]
+    step = np.abs(np.diff(q, axis=0))
+    speed = step / np.diff(t)[:, None]
     top = np.percentile(speed, 99.0, axis=0)
     moving = top > 0
+    resolution = np.where(step > 0, step, np.inf).min(axis=0)
     out = []
     breaks = np.flatnonzero(np.diff(repeat) > 1) + 1
     for run in np.split(repeat, breaks):
         a, b = int(run[0]), int(run[-1])  # rows a…b repeat row a − 1
         if a < 2 or b + 1 >= n:
             continue
-        into = (q[a - 1] - q[a - 2]) / (t[a - 1] - t[a - 2])
-        out_of = (q[b + 1] - q[b]) / (t[b + 1] - t[b])
+        step_in, step_out = q[a - 1] - q[a - 2], q[b + 1] - q[b]
+        into, out_of = step_in / (t[a - 1] - t[a - 2]), step_out / (t[b + 1] - t[b])
         fast = ((np.abs(into) > MOVING_SPEED_SHARE * top) & (np.abs(out_of) > MOVING_SPEED_SHARE * top)
+                & (np.minimum(np.abs(step_in), np.abs(step_out)) >= STALE_COUNTS * resolution)
                 & (np.sign(into) == np.sign(out_of)) & moving)
         if fast.any():
             out.append(run)
