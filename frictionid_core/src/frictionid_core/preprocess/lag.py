@@ -107,9 +107,10 @@ def remove_channel_lag(series: JointSeries) -> tuple[JointSeries, str | None]:
     lags = np.array([estimates[j].lag for j in counted])
     common = None
     if counted and np.ptp(lags) <= _tolerance(float(np.median(lags)), period):
-        common = float(np.median(lags))  # one lag of the driver
-        velocity = dict.fromkeys(series.joints, common if abs(common) >= threshold else 0.0)
-        judged = list(series.joints)
+        common = float(np.median(lags))  # one lag of the driver: every joint's but one measured otherwise
+        judged = [j for j in series.joints
+                  if j not in estimates or abs(estimates[j].lag - common) <= _tolerance(common, period)]
+        velocity = {j: (common if j in judged and abs(common) >= threshold else 0.0) for j in series.joints}
     else:
         velocity = {j: (estimates[j].lag if j in counted and abs(estimates[j].lag) >= threshold else 0.0)
                     for j in series.joints}
@@ -131,14 +132,19 @@ def remove_channel_lag(series: JointSeries) -> tuple[JointSeries, str | None]:
 
 def _note(series: JointSeries, velocity: dict, common: float | None, counted: list[str], estimates: dict,
           ratio: float | None, effort: dict, dropped: int) -> str:
+    def by(lag: float) -> str:
+        return f"{'lags' if lag > 0 else 'runs ahead of'} the position by {abs(lag) * 1e3:.3g} ms"
+
+    shifted = [j for j in series.joints if velocity[j]]
     if common is not None:
-        lag = f"by {common * 1e3:.3g} ms (a lag of every joint; measured on {', '.join(counted)})"
+        which = "every joint" if len(shifted) == len(series.joints) else ", ".join(shifted)
+        lag = f"{by(common)} ({which}; measured on {', '.join(counted)})"
     else:
-        lag = "by " + ", ".join(f"{velocity[j] * 1e3:.3g} ms at {j}" for j in counted if velocity[j])
+        lag = ("lags the position (ms; negative: runs ahead of it): "
+               + ", ".join(f"{j} {velocity[j] * 1e3:.3g}" for j in shifted))
     lowest = min(estimates[j].r for j in counted)
-    head = (f"{series.source}: channel lag: the logged velocity lags the position {lag}: its cross-correlation with "
-            f"the position's derivative peaks there (r ≥ {lowest:.4g}), in each half of the log and for their "
-            "derivatives alike")
+    head = (f"{series.source}: channel lag: the logged velocity {lag}: its cross-correlation with the position's "
+            f"derivative peaks there (r ≥ {lowest:.4f}), in each half of the log and for their derivatives alike")
     if ratio is None:
         tail = "the effort cannot be judged (no joint's effort follows its motion well enough): left as logged"
     elif any(effort.values()):
@@ -242,21 +248,32 @@ def _velocity_estimates(series: JointSeries, grid: _Grid) -> dict[str, _Estimate
 
 def _peak(x: np.ndarray, y: np.ndarray, search: int) -> tuple[float, float] | None:
     """(lag of ``x`` behind ``y`` in samples, their correlation there) at the peak of their
-    cross-correlation within ±``search`` samples; None without variance or a peak inside."""
-    x, y = x - x.mean(), y - y.mean()
-    norm = np.sqrt(np.dot(x, x) * np.dot(y, y))
-    if not norm > 0 or search < 1:
+    correlation within ±``search`` samples: the same samples of ``y`` (all but ``search`` at either
+    end) against each shifted window of ``x``, each correlation normalised by its own window (no bias
+    from a shrinking overlap or from the energy of slow motion moving with the window); None without
+    variance or without a peak inside."""
+    if search < 1 or x.size <= 2 * search + 2:
         return None
-    c = signal.correlate(x, y, mode="full", method="fft")
-    lags = signal.correlation_lags(x.size, y.size, mode="full")
-    inside = np.abs(lags) <= search
-    c, lags = c[inside], lags[inside]
-    k = int(np.argmax(c))
-    if k == 0 or k == c.size - 1:
+    inner = y[search:y.size - search] - y[search:y.size - search].mean()
+    size = inner.size
+    c = signal.correlate(x, inner, mode="valid", method="fft")  # c[k]: x shifted by k − search
+    def window_sums(z: np.ndarray) -> np.ndarray:
+        total = np.concatenate(([0.0], np.cumsum(z)))
+        return total[size:] - total[:-size]
+
+    x = x - x.mean()  # the window sums of a centred x keep their digits
+    mean = window_sums(x) / size
+    spread = window_sums(x * x) - size * mean**2  # Σ(x − mean)² of each window
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rho = c / np.sqrt(spread * np.dot(inner, inner))
+    if not np.isfinite(rho).all():
+        return None
+    k = int(np.argmax(rho))
+    if k == 0 or k == rho.size - 1:
         return None  # at the edge of the search: no peak inside
-    curve = c[k - 1] - 2 * c[k] + c[k + 1]
-    shift = 0.5 * (c[k - 1] - c[k + 1]) / curve if curve < 0 else 0.0
-    return float(lags[k] + shift), float(c[k] / norm)
+    curve = rho[k - 1] - 2 * rho[k] + rho[k + 1]
+    shift = 0.5 * (rho[k - 1] - rho[k + 1]) / curve if curve < 0 else 0.0
+    return float(k - search + shift), float(rho[k])
 
 
 def _effort_ratio(series: JointSeries, grid: _Grid, velocity: dict[str, float]) -> float | None:
