@@ -1,19 +1,22 @@
 """A lag of a log's velocity and effort behind its position — a driver that stamps them later than the
-position, or a velocity filtered inside the drive — found and removed (:func:`remove_channel_lag`,
-a step of every loader's checks), the lags removed kept in ``series.meta`` (:func:`lag_record`: the
-``preprocessing.lag_s`` of a result).
+position, or a velocity filtered inside the drive — found and removed (:func:`remove_channel_lag`, a
+step of every loader's checks), the lags removed kept in ``series.meta`` (:func:`lag_record`: the
+result's ``preprocessing.lag_s``).
 
-* **Velocity** (where one is logged): per joint, the cross-correlation of the logged velocity with the
-  derivative of the position, both low-passed alike (zero-phase Butterworth at LAG_CUTOFF_SHARE of the
-  sample rate, at most LAG_CUTOFF_HZ), peaks at the lag (searched within ±MAX_LAG_S and an eighth of the
-  log's longest segment; parabolic interpolation between samples). A joint's estimate counts when the
-  joint moves (range above MOVING_FACTOR × its position noise), the two signals correlate at least
-  MIN_CORRELATION at the peak and each half of the log gives the same lag (within the tolerance:
-  LAG_TOLERANCE_PERIODS sample periods or LAG_TOLERANCE_SHARE of the lag). A lag within
-  MIN_LAG_PERIODS sample periods and MIN_LAG_S is none (the real UR10e logs show up to 0.17 periods,
-  the Kinova Gen3 logs 0.02, from the different estimators of a velocity). Lags that agree within the
-  tolerance are one lag of the driver (their median), removed from every joint; otherwise each
-  counted joint's own.
+* **Velocity** (where one is logged): per joint, the logged velocity against the derivative of the
+  position, both low-passed alike (zero-phase Butterworth at LAG_CUTOFF_SHARE of the sample rate, at
+  most LAG_CUTOFF_HZ; EDGE_PERIODS of its period cut at the ends): the lag maximises their correlation
+  (searched within ±MAX_LAG_S and MAX_LAG_SHARE of the longest segment, each shift's correlation over
+  its own window, a parabola between samples). It counts when the joint moves (range above
+  MOVING_FACTOR × its position noise), the correlation there is at least MIN_CORRELATION, each half
+  of the log gives the same lag and so do the derivatives of the two signals (correlation at least
+  MIN_SHAPE_CORRELATION), all within LAG_TOLERANCE_PERIODS sample periods or LAG_TOLERANCE_SHARE of
+  the lag: a delay shifts every frequency alike. A lag within MIN_LAG_PERIODS periods and MIN_LAG_S
+  is none (the real UR10e logs: up to 0.17 periods). Counted lags that agree are one lag of the
+  driver, removed from every joint whose own estimate does not say otherwise; lags that differ are
+  removed joint by joint. A velocity late by both measures but not by one delay (the real TIAGo's:
+  ~190 ms, its changes 58–82 ms) is named and left as logged; so is one whose measures disagree
+  otherwise (the real Kinova Gen3's: 0 ms, its changes −8 to −11 ms: not named).
 * **Effort**: a lag of the effort mostly biases a fit (L·Fv folds into the inertia) rather than showing
   in its residual, and a lag estimated against the identification's model is circular. What these
   data can tell is whether the effort shares the velocity's lag: each moving joint's effort is
@@ -27,8 +30,7 @@ a step of every loader's checks), the lags removed kept in ``series.meta`` (:fun
   logged velocity no lag is judged.
 * The lagging channels are moved back onto the position's stamps (linear interpolation at t + lag,
   within each segment of the stamps); the samples the move leaves without a value (the last lag
-  seconds of each segment) are dropped. A note says what was found and done, per channel (and per
-  joint when the lags differ).
+  seconds of each segment) are dropped. One note says what was found and done.
 """
 
 from __future__ import annotations
@@ -38,7 +40,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from frictionid_core.preprocess.rule import noise_density
 from frictionid_core.preprocess.settings import MOVING_FACTOR
 from frictionid_core.timeseries import JointSeries
 
@@ -198,7 +199,9 @@ class _Grid:
             return np.column_stack([np.interp(grid, t, x[a:b, j]) for j in range(x.shape[1])])
 
         q = uniform(series.position)
-        self.moving = np.ptp(q, axis=0) > MOVING_FACTOR * np.sqrt(noise_density(q, fs) * fs / 2)
+        # position noise σ from the second differences (6σ² for white noise, the motion's share negligible)
+        noise = 1.4826 * np.median(np.abs(np.diff(q, 2, axis=0)), axis=0) / np.sqrt(6.0)
+        self.moving = np.ptp(q, axis=0) > MOVING_FACTOR * noise
         self.cutoff = min(LAG_CUTOFF_SHARE * fs, LAG_CUTOFF_HZ)
         sos = signal.butter(LAG_ORDER, self.cutoff, fs=fs, output="sos")
         keep = max(1, int(fs // ANALYSIS_RATE_HZ))
