@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from frictionid_core.identification import IdentifyRequest, identify, validate
-from frictionid_core.io import load, write_joint_state_bag
+from frictionid_core.io import load, save_csv
 from frictionid_core.preprocess import lag_record, remove_channel_lag
 from frictionid_core.timeseries import JointSeries
 
@@ -134,11 +134,11 @@ def test_loading_removes_the_lag_so_identification_and_validation_fit_the_truth(
     cross-test record it."""
     truth = {"J": 0.8, "Fv": 2.0, "Fc": 1.5, "offset": -0.4}
     for name, seed in (("est", 1), ("val", 2)):
-        write_joint_state_bag(tmp_path / name, one_joint(0.06, seed))
+        save_csv(one_joint(0.06, seed), tmp_path / f"{name}.csv")
     request = IdentifyRequest(system="joint", friction="coulomb", solver="ls")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        series = load(tmp_path / "est")
+        series = load(tmp_path / "est.csv")
     assert any("channel lag: the logged velocity lags the position by 60 ms" in str(w.message) for w in caught)
     fit = identify(series, request)
     as_logged = identify(one_joint(0.06, 1), request)
@@ -151,5 +151,5 @@ def test_loading_removes_the_lag_so_identification_and_validation_fit_the_truth(
     assert any("channel lag" in w for w in fit.warnings)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        cross = validate(load(tmp_path / "val"), fit)
+        cross = validate(load(tmp_path / "val.csv"), fit)
     assert cross["relerr_pct"] < 0.5 * validate(one_joint(0.06, 2), as_logged)["relerr_pct"]

@@ -387,8 +387,8 @@ def _coupling(value, joints: tuple[str, ...], where: str) -> tuple[tuple[int, in
             raise InputError(f"{where}: key 'coupling': term {list(term)} is on the diagonal; "
                              "state that ratio in 'gear_ratio'")
         if abs(ratio) < MIN_SCALE:
-            raise InputError(f"{where}: key 'coupling': term {list(term)} has a zero ratio (below {MIN_SCALE:g} in "
-                             "magnitude): leave the term out")
+            raise InputError(f"{where}: key 'coupling': term {[motor, joint, ratio]} has a zero ratio (below "
+                             f"{MIN_SCALE:g} in magnitude): leave the term out")
         if (motor, joint) in seen:
             raise InputError(f"{where}: key 'coupling': [motor {motor}, joint {joint}] is given twice")
         seen.add((motor, joint))
