@@ -227,7 +227,8 @@ def test_a_drive_listing_fewer_joints_than_the_log_names_the_extra_ones_and_the_
                                            "a negative value is allowed: it reverses the direction"]),
     (BASE + "effort_scale: [1, 1e-12, 3]\n", ["key 'effort_scale': value of joint 'b' is 1e-12, near zero",
                                              "torque = effort_scale × recorded effort would vanish"]),
-    (BASE + "coupling: [[1, 2, 1e-12]]\n", ["key 'coupling': term [1, 2, 1e-12] has a zero ratio", "leave the term out"]),
+    (BASE + "coupling: [[1, 2, 1e-12]]\n", ["key 'coupling': term [1, 2, 1e-12] has a zero ratio",
+                                            "leave the term out"]),
     # motors 0 and 1 turn with joints 0 and 1 at ratios 1 : 1 and 1 : 0.999999: nearly one motor
     (BASE + "coupling: [[0, 1, 1], [1, 0, 0.999999]]\n", ["keys 'gear_ratio' and 'coupling' give a singular or "
                                                           "near-singular motor←joint matrix (condition number of "

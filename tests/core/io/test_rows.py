@@ -139,7 +139,8 @@ def test_what_is_on_the_time_line_stays():
     piece = np.concatenate([t, 5 + t[:4], 10 + t, 8 + t])
     assert not off_the_time_line(piece).any()
     # the same short piece out of order (before the log it sits in), isolated 60 s before its start
-    assert off_the_time_line(np.concatenate([t, -3 + t[:4], 10 + t])).tolist() == [False] * 100 + [True] * 4 + [False] * 100
+    out_of_order = off_the_time_line(np.concatenate([t, -3 + t[:4], 10 + t]))
+    assert out_of_order.tolist() == [False] * 100 + [True] * 4 + [False] * 100
     assert off_the_time_line(np.concatenate([-60 + t[:3], t])).tolist() == [True] * 3 + [False] * 100
 
 
@@ -173,10 +174,10 @@ def test_copies_conflicts_and_stale_rows_are_dropped_with_one_warning():
     np.testing.assert_array_equal(out.t, s.t[expect["kept"]])
     np.testing.assert_array_equal(out.effort, s.effort[expect["kept"]])  # the first of stamp 0.9 s kept
     assert warned == ["arm: 5 repeated row(s) dropped: 1 with the time stamp and values of the row before (recorded "
-                      "twice); 1 with the time stamp of the row before but other values (the first kept); 3 stale: the "
-                      "values of the row before under a new time stamp while the joints move (a driver republishing its "
-                      "last sample); at sample 501 (0.5 s), sample 902 (0.9 s), sample 1302 (1.3 s) and 2 more from the "
-                      "start"]
+                      "twice); 1 with the time stamp of the row before but other values (the first kept); 3 stale: "
+                      "the values of the row before under a new time stamp while the joints move (a driver "
+                      "republishing its last sample); at sample 501 (0.5 s), sample 902 (0.9 s), sample 1302 (1.3 s) "
+                      "and 2 more from the start"]
     with pytest.raises(InputError, match=r"arm: time stamps not strictly increasing: 0 go backwards, 2 duplicated"):
         check_series(raw, strict_time=True)
 

@@ -214,8 +214,9 @@ def preprocessing_line(p: dict) -> str:
               f"trims {fmt(p.get('trim_start_s'), 3)} + {fmt(p.get('trim_end_s'), 3)} s"
               f"{mark('trim_start_s', 'trim_end_s')}",
               f"min speed {speed}{mark('min_speed')}", f"velocity from {p.get('velocity', 'position')}"]
-    lags = {channel: sorted({v for v in per_joint.values() if v}) for channel, per_joint in (p.get("lag_s") or {}).items()}
-    lagged = [f"{channel} {'…'.join(fmt(v * 1e3, 3) for v in (values[0], values[-1])[:len(set(values))])} ms"
+    lags = {channel: sorted({v for v in per_joint.values() if v})
+            for channel, per_joint in (p.get("lag_s") or {}).items()}  # the channel lags the loader removed
+    lagged = [f"{channel} {'…'.join(fmt(v * 1e3, 3) for v in dict.fromkeys((values[0], values[-1])))} ms"
               for channel, values in lags.items() if values]
     if lagged:
         parts.append(f"channel lag removed: {', '.join(lagged)}")

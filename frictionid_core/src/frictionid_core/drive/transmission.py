@@ -106,8 +106,8 @@ class Drive:
         if not cond <= MAX_COUPLING_CONDITION:
             raise InputError(f"{where}: keys 'gear_ratio' and 'coupling' give a singular or near-singular motor←joint "
                              f"matrix (condition number of diag(gear_ratio)⁻¹·R {cond:.3g}, above "
-                             f"{MAX_COUPLING_CONDITION:.0e}): the motor angles do not determine the joint angles; check "
-                             "the coupling's [motor, joint, ratio] terms")
+                             f"{MAX_COUPLING_CONDITION:.0e}): the motor angles do not determine the joint angles; "
+                             "check the coupling's [motor, joint, ratio] terms")
         cond = np.linalg.cond(self.R)
         if not cond < MAX_CONDITION:
             raise InputError(f"{where}: keys 'gear_ratio' and 'coupling' give a singular motor←joint matrix R "

@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from frictionid_core.errors import InputError
 from frictionid_core.timeseries import SEGMENT_GAP_PERIODS, SEGMENT_GAP_S, JointSeries
 
@@ -109,7 +110,8 @@ class BrokenRows:
         if self.stamps.any():
             k = int(np.flatnonzero(self.stamps)[0])
             parts.append(f"{int(self.stamps.sum())} with a time stamp off the log's time line (out of order with the "
-                         f"rows around it, or isolated from them: the first: {origin.name(k)}, stamp {series.t[k]:.6g} s)")
+                         f"rows around it, or isolated from them: the first: {origin.name(k)}, stamp "
+                         f"{series.t[k]:.6g} s)")
         return f"{'; '.join(parts)}; at {origin.listing(np.flatnonzero(self.mask))}"
 
     def note(self, series: JointSeries, origin: Origin) -> str:
@@ -203,7 +205,8 @@ def off_the_time_line(t: np.ndarray) -> np.ndarray:
         return off
     edges = np.concatenate(([0], cuts, [n]))
     runs = list(zip(edges[:-1].tolist(), edges[1:].tolist()))
-    mains = [k for k, (a, b) in enumerate(runs) if b - a >= MAIN_CHAIN_ROWS and np.unique(t[a:b]).size >= MAIN_CHAIN_ROWS]
+    mains = [k for k, (a, b) in enumerate(runs)
+             if b - a >= MAIN_CHAIN_ROWS and np.unique(t[a:b]).size >= MAIN_CHAIN_ROWS]
     if not mains:
         return off
     reach = ISOLATED_GAPS * gap

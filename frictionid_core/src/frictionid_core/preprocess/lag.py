@@ -58,7 +58,7 @@ LAG_TOLERANCE_SHARE = 0.2  # … or this share of the lag
 MIN_LAG_PERIODS = 1.0  # a lag within this many sample periods …
 MIN_LAG_S = 2e-3  # … and this is none
 EFFORT_LAG_RATIO = 0.5  # the effort shares the velocity's lag when its residual shifted is at most this × as logged
-EFFORT_FIT_SHARE = 0.5  # a joint enters the effort's judgement when the regression leaves at most this share unexplained
+EFFORT_FIT_SHARE = 0.5  # a joint's effort is judged when the regression leaves at most this share unexplained
 META_PREFIX = "lag_s/"  # series.meta["lag_s/<velocity|effort>/<joint>"]: the lag removed, s
 CHANNELS = ("velocity", "effort")
 
