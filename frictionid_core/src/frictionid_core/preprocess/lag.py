@@ -15,8 +15,9 @@ result's ``preprocessing.lag_s``).
   is none (the real UR10e logs: up to 0.17 periods). Counted lags that agree are one lag of the
   driver, removed from every joint whose own estimate does not say otherwise; lags that differ are
   removed joint by joint. A velocity late by both measures but not by one delay (the real TIAGo's:
-  ~190 ms, its changes 58–82 ms) is named and left as logged; so is one whose measures disagree
-  otherwise (the real Kinova Gen3's: 0 ms, its changes −8 to −11 ms: not named).
+  ~190 ms, its changes 58–82 ms) is named and left as logged; estimates that do not hold are not
+  named (the real Kinova Gen3's smooth ramps: −12 to +36 ms from one second to the next, their
+  derivatives correlating at 0.5).
 * **Effort**: a lag of the effort mostly biases a fit (L·Fv folds into the inertia) rather than showing
   in its residual, and a lag estimated against the identification's model is circular. What these
   data can tell is whether the effort shares the velocity's lag: each moving joint's effort is
@@ -222,7 +223,7 @@ def _velocity_estimates(series: JointSeries, grid: _Grid) -> dict[str, _Estimate
 
     A pure delay shifts every frequency alike: the velocities and their derivatives give the same
     lag; velocities estimated otherwise (another filter) differ in phase between the motion and its
-    changes (the real Kinova Gen3 logs: 0 ms on the velocities, −8 to −11 ms on their derivatives)."""
+    changes, and a smooth motion (a ramp) leaves the peak ill-defined: the halves disagree."""
     if not grid.ok:
         return {}
     search = int(min(MAX_LAG_S, MAX_LAG_SHARE * grid.n * grid.dt) / grid.step)
