@@ -164,7 +164,7 @@ def mutated(base: dict, keys: list[str], values: list) -> dict:
 @given(data=st.data())
 def test_layouts_and_drives(data):
     """``identify`` of a CSV log read with a layout (keys mutated) and a drive (keys mutated)."""
-    from frictionid_core.drive import DRIVE_KEYS
+    from frictionid_core.drive.transmission import DRIVE_KEYS
     from frictionid_core.io.layout import LAYOUT_KEYS
 
     layout_values = st.one_of(json_values, st.sampled_from(["time", "a.position", "b.effort", 0, 3, [1, 2], ";"]))
