@@ -37,7 +37,8 @@ def add_source_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--strict-time", action="store_true",
                    help="fail on duplicated or out-of-order time stamps instead of repairing them")
     p.add_argument("--strict-rows", action="store_true",
-                   help="fail on a broken row of a CSV (malformed, not numeric, truncated) instead of skipping "
+                   help="fail on a broken row (of a CSV: malformed, not numeric, truncated; of any log: a value NaN, "
+                        "inf or beyond any measurement, a time stamp off the log's time line) instead of skipping "
                         "broken rows with a warning")
     p.add_argument("--start", type=float, metavar="S", help="use the data from S seconds after the first sample")
     p.add_argument("--end", type=float, metavar="S", help="use the data up to S seconds after the first sample")
@@ -213,6 +214,12 @@ def preprocessing_line(p: dict) -> str:
               f"trims {fmt(p.get('trim_start_s'), 3)} + {fmt(p.get('trim_end_s'), 3)} s"
               f"{mark('trim_start_s', 'trim_end_s')}",
               f"min speed {speed}{mark('min_speed')}", f"velocity from {p.get('velocity', 'position')}"]
+    lags = {channel: sorted({v for v in per_joint.values() if v})
+            for channel, per_joint in (p.get("lag_s") or {}).items()}  # the channel lags the loader removed
+    lagged = [f"{channel} {'…'.join(fmt(v * 1e3, 3) for v in dict.fromkeys((values[0], values[-1])))} ms"
+              for channel, values in lags.items() if values]
+    if lagged:
+        parts.append(f"channel lag removed: {', '.join(lagged)}")
     for key, what in (("stick_rows", "stick rows left out"), ("reversal_rows", "rows near reversals left out")):
         counts = {j: n for j, n in (p.get(key) or {}).items() if n}
         if counts:

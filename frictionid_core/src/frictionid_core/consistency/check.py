@@ -321,10 +321,22 @@ def link_plausibility(info, pi: np.ndarray, source: str) -> dict:
             "implausible": [j for j, v in links.items() if v["problems"]]}
 
 
-def plausibility_warnings(block: dict) -> list[str]:
-    """One warning per implausible link of a :func:`link_plausibility` block, naming it."""
+def plausibility_warnings(block: dict, prior: str | None = None, prior_weight: float = 1.0) -> list[str]:
+    """One warning per implausible link of a :func:`link_plausibility` block, naming it, and the
+    way out its fit has not taken: ``--consistent --prior urdf`` for links reconstructed from base
+    parameters or a consistent fit without the prior (``prior``: the fit's, ``urdf`` or None); a
+    consistent fit with it has taken every flag's way: it names the data or the model, no flag that
+    would bring the warning back."""
     what = block["source"]
+    if block["source"].startswith("the consistent fit") and prior == "urdf":
+        way = (f"the data pull it away from the model even under --consistent --prior urdf (weight {prior_weight:g}): "
+               "a motion that does not determine it, or a model (URDF) far from the robot: record richer motion or "
+               "check the model")
+    elif block["source"].startswith("the consistent fit"):
+        way = "base parameters the data do not determine, or a model (URDF) far from the robot; --prior urdf keeps " \
+              "the links near the model"
+    else:
+        way = ("base parameters the data do not determine, or a model (URDF) far from the robot; --consistent "
+               "--prior urdf keeps the links near the model")
     return [f"link of joint '{j}' ({what}) is implausible against the robot model: "
-            + "; ".join(block["links"][j]["problems"])
-            + " — base parameters the data do not determine, or a model (URDF) far from the robot; "
-              "--consistent --prior urdf keeps the links near the model" for j in block["implausible"]]
+            + "; ".join(block["links"][j]["problems"]) + f" — {way}" for j in block["implausible"]]

@@ -105,19 +105,27 @@ def acceleration_warnings(report: dict, cutoff_hz: float | dict[str, float], cho
                 f"position noise at its {fc:.4g} Hz cut-off): inertia comes out low")
         if clean.get(joint):
             why = "the data chose too high a cut-off for this noise" if chosen else "lower the cut-off"
-            out.append(head + f"; {why}: use --cutoff {joint}={clean[joint]:.3g}")
+            out.append(head + f"; {why}: use --cutoff {joint}={_rounded_down(clean[joint])}")
         else:
             out.append(head + "; no cut-off keeps the noise below the motion: record larger or longer motion")
     return out
 
 
+def _rounded_down(x: float, digits: int = 3) -> str:
+    """``x`` to ``digits`` significant digits, rounded down: a cut-off named as the way out keeps the
+    noise within the limit as printed (rounded up it could let a hair more in)."""
+    scale = 10.0 ** (digits - 1 - int(np.floor(np.log10(x))))
+    return f"{np.floor(x * scale) / scale:.{digits}g}"
+
+
 # Words of the notes that report a repair of the data (each such note is a warning of the result).
-REPAIR_WORDS = ("stamp", "broken row", "spike")
+REPAIR_WORDS = ("stamp", "broken row", "repeated row", "spike", "channel lag")
 
 
 def stamp_warnings(notes: list[str]) -> list[str]:
     """The notes that say the data were repaired, with their counts: stamps repaired, samples
-    resampled, the log cut into segments at gaps of its stamps, broken rows skipped, spikes replaced."""
+    resampled, the log cut into segments at gaps of its stamps, broken rows skipped, repeated rows
+    dropped, spikes replaced, a lag of the velocity or effort removed."""
     return [n for n in notes if any(word in n for word in REPAIR_WORDS)]
 
 

@@ -15,7 +15,7 @@ from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import get_model
 from frictionid_core.identification import diagnostics
 from frictionid_core.identification.cross_validation import choose_by_cross_validation, record_choice
-from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_rates
+from frictionid_core.identification.dip_refit import dip_advice, fit_at_dip_rates, settled_dip_advice
 from frictionid_core.identification.dynamic_fit import fit_dynamic
 from frictionid_core.identification.effort_sign import checked_effort_sign
 from frictionid_core.identification.identifiability import identifiability
@@ -104,6 +104,13 @@ def logged_joints(series: Sources, request: IdentifyRequest) -> list[str]:
 
 def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> IdentifyResult:
     """The fit of :func:`identify`, the log's effort signs as they are."""
+    return _fit_request(series, request, progress)[0]
+
+
+def _fit_request(series: Sources, request: IdentifyRequest, progress=None, *, settle: bool = True
+                 ) -> tuple[IdentifyResult, object]:
+    """(:func:`fit_request`'s result, the advice of its dip warning or None); ``settle``: follow that
+    advice (fit again at the rates it names) until it holds, and warn with the rates that hold."""
     t0 = time.perf_counter()
     sys_ = request_system(request)
     settings = request.preprocessing.apply(sys_.preprocessing)
@@ -151,7 +158,16 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
         model, first = fit_with_load(model, first, warnings, fit)
     x, std, cond, res = first.x, first.std, first.cond, first.optim
     inertia_warnings = list(sys_.robot.model.inertia_warnings) if sys_.robot is not None else []
-    warnings = inertia_warnings + plan.warnings() + resolved.warning() + warnings + dip_warnings(model, x)
+    advice = dip_advice(model, x)
+    if advice is not None and settle:
+        def refit(decimate: int, cutoff_hz: float):
+            asked = replace(request, preprocessing=replace(request.preprocessing, decimate=decimate,
+                                                           cutoff_hz=cutoff_hz))
+            return _fit_request(series, asked, progress, settle=False)[1]
+
+        advice = settled_dip_advice(advice, refit)
+    warnings = (inertia_warnings + plan.warnings() + resolved.warning(sys_.robot is not None) + warnings
+                + ([] if advice is None else [advice.warning()]))
     if res is not None:
         std, design = jacobian_std(model, x, model.held_at_box(x))
         cond = float(np.linalg.cond(design))
@@ -173,7 +189,8 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
     notes = [*(note for s in sources for note in s.notes), *model.obs.notes, *plan.notes()]
     warnings = result_warnings(model, x, std, notes, warnings)
     params, std, std_robust, fixed, plausibility = reported_parameters(
-        model, x, (std, std_robust, robust_names, robust_cov), held, rigid, sys_, standard, warnings, plan.held)
+        model, x, (std, std_robust, robust_names, robust_cov), held, rigid, sys_, standard, warnings, plan.held,
+        (request.prior, request.prior_weight))
     return IdentifyResult(
         system=sys_.name, joint_map=dict(sys_.joint_map), friction=request.friction, asymmetric=request.asymmetric,
         solver=solver.method, source=sources[0].source if len(sources) == 1 else [s.source for s in sources],
@@ -187,18 +204,19 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
         identifiability=resolved.to_dict(), held_joints=dict(plan.held) if sys_.robot is not None else None,
         no_effort_joints=list(plan.no_effort), request=request,
         std_robust=std_robust, uncertainty=uncertainty_record(bandwidth, model), velocity_range=velocity_range(model),
-        holdout=holdout, plausibility=plausibility)
+        holdout=holdout, plausibility=plausibility), advice
 
 
 def reported_parameters(model: IdentificationModel, x: np.ndarray, sigmas: tuple, held: dict[str, float],
                         rigid: KnownRigidBody | None, sys_: System, standard: dict | None, warnings: list[str],
-                        held_joints: dict[str, float]) -> tuple[dict, dict, dict, dict, dict | None]:
+                        held_joints: dict[str, float], prior: tuple[str | None, float] = (None, 1.0)
+                        ) -> tuple[dict, dict, dict, dict, dict | None]:
     """(params, std, std_robust, fixed, plausibility) of a fit as its result reports them: by name,
     ``fixed`` without the directions held because the data do not resolve them; a known rigid
     body's in the robot's base parameters (:func:`known_rigid_body_report`); a robot fit's links
     judged against the model (their warnings appended to ``warnings``; the links of ``held_joints``, the
     model joints held still, kept as modelled). ``sigmas``: (std, std_robust, the robust covariance's
-    names, that covariance)."""
+    names, that covariance); ``prior``: the fit's (``urdf`` or None) and its weight, for the warnings' way out."""
     std, std_robust, robust_names, robust_cov = sigmas
     params = dict(zip(model.names, map(float, x)))
     fixed = {model.names[i]: v for i, v in model.fixed_values.items() if model.names[i] not in held}
@@ -211,7 +229,7 @@ def reported_parameters(model: IdentificationModel, x: np.ndarray, sigmas: tuple
     elif sys_.robot is not None:
         held_links = [j for j in held_joints if j in sys_.robot.model.joints]
         plausibility = robot_plausibility(params, sys_, standard, held_links)
-        warnings += plausibility_warnings(plausibility)
+        warnings += plausibility_warnings(plausibility, *prior)
     return params, std, std_robust, fixed, plausibility
 
 

@@ -16,6 +16,7 @@ _LAZY = {
     **dict.fromkeys((
         "central_difference", "decimate", "decimation_indices", "lowpass_position", "near_reversals",
     ), "frictionid_core.preprocess.filters"),
+    **dict.fromkeys(("lag_record", "remove_channel_lag"), "frictionid_core.preprocess.lag"),
     **dict.fromkeys((
         "column_stride", "dip_needs", "prepare", "preprocess", "resample_uniform", "subsample", "thinned_rows",
     ), "frictionid_core.preprocess.preparation"),
@@ -31,7 +32,7 @@ _LAZY = {
 __all__ = ["DIP_WINDOW", "MOVING_FACTOR", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS",
            "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES", "central_difference", "choose_preprocessing",
            "column_stride", "cutoff_range", "decimate", "decimation_indices", "dip_needs",
-           "lowpass_position", "near_reversals", "noise_density", "prepare", "preprocess", "resample_uniform",
-           "rule_decimation", "subsample", "thinned_rows"]
+           "lag_record", "lowpass_position", "near_reversals", "noise_density", "prepare", "preprocess",
+           "remove_channel_lag", "resample_uniform", "rule_decimation", "subsample", "thinned_rows"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)
