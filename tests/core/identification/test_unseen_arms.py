@@ -306,16 +306,21 @@ def test_fix_takes_rigid_body_names_with_a_slash(lifter):
 
 # -------------------------------------------------------------------------- several logs
 def test_joint_wise_sweeps_are_fitted_together(arm_urdf, tmp_path, capsys):
-    """Three logs, each moving one joint (the others still, gravity-loaded): alone, a sweep
-    refuses naming the joints that do not move in it; together the fit resolves more than any
-    sweep alone and recovers each joint's friction; an error about one log names it."""
+    """Three logs, each moving one joint (the others still, gravity-loaded): alone, a sweep fits
+    the joint it moves and holds the others where they stand, naming them; together each joint is
+    fitted where it moves, the fit resolves more than any sweep alone and recovers each joint's
+    friction; an error about one log names it."""
     sweeps = [recording(arm_urdf, [j], seed=10 + k, q0={"shoulder": 0.2 * k, "elbow": 0.5 - 0.3 * k},
                         source=f"sweep_{j}") for k, j in enumerate(ARM)]
     request = IdentifyRequest(system=f"urdf:{arm_urdf}", hold={"finger_l": FINGER, "finger_r": FINGER},
                               hold_missing=True)
-    with pytest.raises(InputError, match=r"sweep_shoulder: elbow never moves.*record it moving"):
-        identify(sweeps[0], request)
+    first = identify(sweeps[0], request)
+    assert first.joints == ["shoulder"] and first.unexcited_joints == ["elbow", "wrist"]
+    assert first.held_joints["elbow"] == pytest.approx(0.5, abs=1e-4) and "elbow/Fc" not in first.params
+    assert any(w.startswith("sweep_shoulder: the motion of elbow, wrist does not excite their columns (elbow: its "
+                            "motion is noise") and "as --hold would" in w for w in first.warnings), first.warnings
     r = identify(sweeps, request)
+    assert r.unexcited_joints == ARM  # each one still in the two sweeps of the others
     assert r.source == [s.source for s in sweeps] and r.joints == ARM
     # each joint judged where it moves: no joint's still q̈ in another sweep reads as noise-dominated
     assert not any("the acceleration is noise-dominated" in w for w in r.warnings), r.warnings

@@ -166,7 +166,7 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
         consistency=consistency, standard_parameters=standard,
         preprocessing=preprocessing_record(model.obs, metrics, sys_.preprocessing, settings),
         identifiability=resolved.to_dict(), held_joints=dict(plan.held) if sys_.robot is not None else None,
-        no_effort_joints=list(plan.no_effort), request=request,
+        no_effort_joints=list(plan.no_effort), unexcited_joints=list(plan.unexcited), request=request,
         std_robust=std_robust, uncertainty=uncertainty_record(bandwidth, model), velocity_range=velocity_range(model),
         holdout=holdout, plausibility=plausibility)
 
