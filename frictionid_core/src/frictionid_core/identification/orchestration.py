@@ -71,17 +71,19 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     stops the run). A motor-side drive's friction, offsets and rotor inertias are per motor
     (``motor_<k>/…``), its metrics on the joint torques. Unresolved directions are held (at 0, or at
     the model's values with ``prior``: :mod:`.identifiability`), σ NaN; ``consistent`` keeps the
-    unconstrained fit's σ. Joints whose friction ends ≤ 0 get the effort-sign check
+    unconstrained fit's σ. Every fit gets the effort-sign check, joint by joint
     (:mod:`.effort_sign`)."""
     t0 = time.perf_counter()
     request = IdentifyRequest() if request is None else request
     if not isinstance(request, IdentifyRequest):
         raise FrictionIdError(f"identify takes an IdentifyRequest, got {type(request).__name__}")
 
-    def fit(data: Sources, asked: IdentifyRequest) -> IdentifyResult:
-        return fit_request(data, asked, progress)
+    def fit(data: Sources, asked: IdentifyRequest, keep: dict | None = None) -> IdentifyResult:
+        return fit_request(data, asked, progress, keep)
 
-    result = checked_effort_sign(fit, series, request, fit(series, request), logged_joints(series, request))
+    logged: dict = {}  # the as-logged fit's model, which the effort-sign check screens
+    result = checked_effort_sign(fit, series, request, fit(series, request, logged), logged_joints(series, request),
+                                 logged.get("model"))
     return replace(result, wall_s=time.perf_counter() - t0)
 
 
@@ -93,8 +95,9 @@ def logged_joints(series: Sources, request: IdentifyRequest) -> list[str]:
     return names
 
 
-def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> IdentifyResult:
-    """The fit of :func:`identify`, the log's effort signs as they are."""
+def fit_request(series: Sources, request: IdentifyRequest, progress=None, keep: dict | None = None) -> IdentifyResult:
+    """The fit of :func:`identify`, the log's effort signs as they are; ``keep["model"]`` receives
+    its model at the rule's rates (the unresolved directions held)."""
     t0 = time.perf_counter()
     sys_ = request_system(request)
     settings = request.preprocessing.apply(sys_.preprocessing)
@@ -123,6 +126,8 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
         held.update(resolved.held)
         model = replace(model, fixed={**fixed_request, **held})
     at_rule_rates = model
+    if keep is not None:
+        keep["model"] = model
 
     def fit(m: IdentificationModel, previous: Fit | None = None) -> Fit:
         return (fit_dynamic if m.friction.is_dynamic else fit_static)(m, solver, progress, previous)
