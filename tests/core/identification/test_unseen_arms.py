@@ -317,8 +317,8 @@ def test_joint_wise_sweeps_are_fitted_together(arm_urdf, tmp_path, capsys):
     first = identify(sweeps[0], request)
     assert first.joints == ["shoulder"] and first.unexcited_joints == ["elbow", "wrist"]
     assert first.held_joints["elbow"] == pytest.approx(0.5, abs=1e-4) and "elbow/Fc" not in first.params
-    assert any(w.startswith("sweep_shoulder: the motion of elbow, wrist does not excite their columns (elbow: its "
-                            "motion is noise") and "as --hold would" in w for w in first.warnings), first.warnings
+    assert any(w.startswith("sweep_shoulder: elbow, wrist do not move enough to excite their columns (elbow: motion "
+                            "is noise") and "as --hold would" in w for w in first.warnings), first.warnings
     r = identify(sweeps, request)
     assert r.unexcited_joints == ARM  # each one still in the two sweeps of the others
     assert r.source == [s.source for s in sweeps] and r.joints == ARM

@@ -238,7 +238,7 @@ def _kept(result: IdentifyResult, negative: list[str], tried: dict[str, tuple[fl
         errors = ", ".join(f"{metric_joint[r]} {a:.3g} → {b:.3g} %" for r, (a, b) in tried.items())
         tail = f"negating {', '.join(metric_joint[r] for r in tried)} does not fit clearly better (relerr {errors})"
     else:
-        tail = "negating it does not fit it clearly better" if len(low) == 1 else "negating them does not fit them clearly better"
+        tail = f"negating {'it does not fit it' if len(low) == 1 else 'them does not fit them'} clearly better"
     return replace(result, warnings=[*result.warnings, (
         f"{head + ', and ' if head else ''}{tail}: the log's signs are kept; check the driver's effort units and the "
         "model")])

@@ -81,12 +81,11 @@ def unexcited_joints(series: JointSeries, joints: list[str], ranges: np.ndarray,
         kind = kinds.get(j, "revolute")
         unit = "m" if kind == "prismatic" else "rad"
         if not moves[k]:
-            out[j] = (f"its motion is noise (range {np.ptp(series.position[:, k]):.2g} within {MOVING_FACTOR:g} × its "
-                      f"position noise σ {sigma[k]:.2g})")
+            out[j] = (f"motion is noise: range {np.ptp(series.position[:, k]):.2g} ≤ {MOVING_FACTOR:g} σ_q "
+                      f"(σ_q {sigma[k]:.2g})")
         elif ranges[k] < TREMBLE_SHARE * scale.get(kind, 0.0):
-            out[j] = (f"it only trembles (range {ranges[k]:.2g} {unit}, {100 * ranges[k] / scale[kind]:.2g} % of the "
-                      f"{scale[kind]:.3g} {unit} the fit's most moving {kind} joint covers; below {100 * TREMBLE_SHARE:g} "
-                      "% its rows sit at one configuration and its friction never slides)")
+            out[j] = (f"trembles: range {ranges[k]:.2g} {unit}, {100 * ranges[k] / scale[kind]:.2g} % of the fit's "
+                      f"largest {kind} range {scale[kind]:.3g} {unit} (< {100 * TREMBLE_SHARE:g} %)")
     return out
 
 

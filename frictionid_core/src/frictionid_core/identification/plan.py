@@ -121,12 +121,12 @@ class FitPlan:
                 if robot:
                     at = ", ".join(f"{j} = {sp.held[m]:.4g}" for j, m in zip(sp.unexcited, self.system.model_joints(
                         list(sp.unexcited))) if m in sp.held)
-                    done = (f"held still at their logged positions ({at}) as --hold would hold them, their columns "
-                            "not fitted there")
+                    done = f"held still at their logged positions ({at}), as --hold would hold them"
                 else:
                     done = "left out of its rows"
-                out.append(f"{sp.series.source}: the motion of {named} does not excite their columns ({whys}): {done}; "
-                           "record them moving to identify them")
+                out.append(f"{sp.series.source}: {named} do not move enough to excite their columns ({whys}): {done}; "
+                           "not fitted from this source (their rows would sit at one configuration, with a friction "
+                           "that never slides); record them moving to identify them")
             if sp.no_effort:
                 whys = "; ".join(f"{j}: {why}" for j, why in sp.no_effort.items())
                 out.append(f"{sp.series.source}: no usable effort from {', '.join(sp.no_effort)} ({whys}): left out "
@@ -179,7 +179,8 @@ def plan_fit(sources: list[JointSeries], system: System, rows: list[str] | tuple
     if robot:
         system = restricted_system(system, held, system.model_joints(union))
     no_effort = {j: why for sp in plans for j, why in sp.no_effort.items()}
-    unexcited = [j for j in dict.fromkeys(j for s in sources for j in s.joints) if any(j in sp.unexcited for sp in plans)]
+    logged = dict.fromkeys(j for s in sources for j in s.joints)
+    unexcited = [j for j in logged if any(j in sp.unexcited for sp in plans)]
     if wanted is not None:  # asked for by name and excited nowhere: nothing of it to fit
         never = [j for j in wanted if j in unexcited and j not in union]
         if never:
@@ -248,7 +249,7 @@ def _source_plan(s: JointSeries, system: System, wanted: list[str] | None, holds
 def _refuse_still(source: str, whys: dict[str, str]) -> None:
     """InputError: no joint to fit in ``source`` excites its columns (``whys``: each one's reason)."""
     detail = "; ".join(f"{j}: {why}" for j, why in whys.items())
-    if all(why.startswith("its motion is noise") for why in whys.values()):
+    if all(why.startswith("motion is noise") for why in whys.values()):
         raise InputError(f"{source}: no joint moves more than {MOVING_FACTOR:g}× its position noise ({detail}): "
                          "nothing to identify; record the joints moving")
     raise InputError(f"{source}: no joint to fit moves enough to excite its columns ({detail}): record the joints "
