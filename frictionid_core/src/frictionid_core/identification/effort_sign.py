@@ -182,7 +182,11 @@ def checked_effort_sign(fit, series, request: IdentifyRequest, result: IdentifyR
     trial, tried = None, {}  # {row: (relerr as logged, negated)} of every suspect the full fit tried
     while negate:
         keys = negated_drive(request, joints, [channel[r] for r in negate])
-        trial = fit(series, replace(request, drive=keys, effort_sign="as-logged"))
+        try:
+            trial = fit(series, replace(request, drive=keys, effort_sign="as-logged"))
+        except FrictionIdError:  # the negated data cannot be fitted (an absurd fit): the log's signs
+            negate = []
+            break
         tried.update({r: _relerrs(result, trial, metric_joint[r]) for r in negate})
         failing = [r for r in negate if not _clearly_better(result, trial, metric_joint[r])]
         if not failing:
