@@ -51,8 +51,11 @@ def arm_log(seed: int, noise: float = 0.01, *, friction_params: dict | None = No
     return with_noise(series, noise, seed)
 
 
-def sweep(joint: str, seed: int, noise: float = 0.01, *, still: float = 0.3) -> JointSeries:
-    """A 10 s UR5 log in which ``joint`` alone moves (3 harmonics), the others still at ``still`` rad."""
+def sweep(joint: str, seed: int, noise: float = 0.01, *, still: float = 0.3, tremble: float = 0.0) -> JointSeries:
+    """A 10 s UR5 log in which ``joint`` alone moves (3 harmonics), the others still at ``still`` rad
+    or, with ``tremble`` > 0, trembling ±``tremble`` rad around it (0.6 Hz) the way a joint held by a
+    stiff controller does: its friction stuck, a pre-sliding spring reaching ±Fc at ±``tremble``
+    instead of a Coulomb level."""
     from frictionid_core.excitation.design import FourierTrajectory, fit_to_limits
 
     _, robot = ur5()
@@ -62,7 +65,19 @@ def sweep(joint: str, seed: int, noise: float = 0.01, *, still: float = 0.3) -> 
     a[k], b[k] = rng.uniform(-1, 1, 3), rng.uniform(-1, 1, 3)
     traj = fit_to_limits(robot, FourierTrajectory(list(robot.joints), np.full(robot.nv, still), a, b, 2 * np.pi / 5,
                                                   10.0), 0.1)
-    return arm_log(seed, noise, trajectory=traj, source=f"sweep_{joint}")
+    if not tremble:
+        return arm_log(seed, noise, trajectory=traj, source=f"sweep_{joint}")
+    others = [i for i, j in enumerate(robot.joints) if j != joint]
+    a = traj.a.copy()
+    a[others, 2] = tremble * 3 * traj.wf  # q = q0 + Σ a_l/(l·wf)·sin(l·wf·t) − …: ±tremble at the 3rd harmonic
+    truth = friction(robot)
+    stuck = {j: ({"Fv": 0.0, "Fc": 0.0} if i in others else truth[j]) for i, j in enumerate(robot.joints)}
+    series = arm_log(seed, 0.0, friction_params=stuck, trajectory=replace(traj, a=a), source=f"sweep_{joint}")
+    effort = series.effort.copy()
+    for i in others:
+        fc, q = truth[robot.joints[i]]["Fc"], series.position[:, i]
+        effort[:, i] += np.clip(fc / tremble * (q - np.median(q)), -fc, fc)
+    return with_noise(replace(series, effort=effort), noise, seed)
 
 
 def negated(series: JointSeries, joints: list[str]) -> JointSeries:

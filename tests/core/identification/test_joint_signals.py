@@ -61,17 +61,15 @@ def test_a_trembling_joint_is_held():
 
 
 def test_sweeps_whose_other_joints_tremble():
-    """Six sweeps (one joint swept in each over ~1–6 rad), the other joints trembling over 2 mrad
-    (a controller holding them: 0.03–0.2 % of the sweeps): each joint is fitted from its own sweep
-    and held in the others; the friction of every joint comes back within 5 %."""
+    """Six sweeps (one joint swept in each over ~1–6 rad), the other joints trembling ±1 mrad the way
+    a stiff controller holds them — their friction stuck, a pre-sliding spring, not a Coulomb level
+    (0.03–0.2 % of the sweeps' ranges, below TREMBLE_SHARE 1 %): each joint is fitted from its own
+    sweep and held in the others; every joint's friction comes back within 5 % (1.3 % at worst on
+    these logs). (Fitting the trembles, as before, read that spring as friction: on these logs the
+    Coulomb levels came out at 0–19 % of the truth and the viscous ones at 1.9 ×, the fit at 6.3 %
+    with a condition of 2.2e4, against 0.97 % and 113 now.)"""
     system, robot = ur5()
-    logs = []
-    for k, j in enumerate(robot.joints):
-        s = sweep(j, 10 + k)
-        t = s.t[:, None]
-        tremble = 0.001 * np.sin(2 * np.pi * (1.3 + 0.2 * np.arange(robot.nv)) * t + np.arange(robot.nv))
-        tremble[:, k] = 0.0
-        logs.append(replace(s, position=s.position + tremble))
+    logs = [sweep(j, 10 + k, tremble=0.001) for k, j in enumerate(robot.joints)]
     r = identify(logs, IdentifyRequest(system=system))
     assert r.joints == list(robot.joints) and r.unexcited_joints == list(robot.joints)
     assert sum("trembles" in w for w in r.warnings) == 6

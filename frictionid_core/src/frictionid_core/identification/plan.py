@@ -147,11 +147,13 @@ def plan_fit(sources: list[JointSeries], system: System, rows: list[str] | tuple
     joints to fit (None: every data joint), ``holds`` the held joints (robot systems);
     ``structure``: the held joints the robot system is restricted to (default: those held in
     every source; a result's ``held_joints`` when its parameters are reloaded); ``judge_effort``:
-    leave out the joints without a usable effort (False: fit every one of ``rows``, as a
+    judge each joint's signals — hold the joints whose motion does not excite their columns, leave
+    out those without a usable effort (False: fit every one of ``rows`` that moves, as a
     cross-test of a result does).
 
-    Raises InputError naming the source when a requested joint is in none of them, or a source
-    has no joint with a usable effort to fit."""
+    Raises InputError naming the source when a requested joint is in none of them, a source has
+    no joint to fit that moves enough or has a usable effort, or a joint asked for by name is
+    excited in no source."""
     holds = holds or Holds()
     robot = system.robot is not None
     wanted = None if rows is None else list(rows)
