@@ -60,6 +60,7 @@ def test_a_trembling_joint_is_held():
         identify(log, IdentifyRequest(system=system, joints=["shoulder_lift_joint", WRIST_2]))
 
 
+@pytest.mark.slow
 def test_sweeps_whose_other_joints_tremble():
     """Six sweeps (one joint swept in each over ~1–6 rad), the other joints trembling ±1 mrad the way
     a stiff controller holds them — their friction stuck, a pre-sliding spring, not a Coulomb level
