@@ -176,7 +176,8 @@ def checked_effort_sign(fit, series, request: IdentifyRequest, result: IdentifyR
     data = list(obs.torque_joints)  # the data joint behind each row (a motor's own joint)
     channel = {row: request.joint_map.get(d, d) for row, d in zip(obs.joints, data)}
     metric_joint = dict(zip(obs.joints, data))
-    negatable = [row for row in obs.joints if negated_drive(request, joints, [channel[row]]) is not None]
+    drive = negated_drive(request, joints, [])  # the channels a drive can negate
+    negatable = [row for row in obs.joints if drive is not None and channel[row] in drive["joints"]]
     negative = negative_friction_rows(result, list(obs.joints))
     negate = screened_rows(model, negatable)
     trial, tried = None, {}  # {row: (relerr as logged, negated)} of every suspect the full fit tried
