@@ -45,7 +45,8 @@ from frictionid_core.model import IdentificationModel, parameter_kind
 
 # A negated effort is taken when it leaves its joint at most this share of its relative error (and
 # the whole fit a smaller error): a reversed joint's error falls from its friction's and inertia's
-# share of its torque to its noise (64 → 24 % on a gravity-loaded UR5 shoulder at 1 % noise), a
+# share of its torque to its noise (14.7 → 1.04 % on a gravity-loaded UR5 shoulder at 1 % noise; TIAGo arm_3,
+# arm_4: 62.3 → 26.8, 51.3 → 23.2 %), a
 # right one's rises.
 CLEARLY_BETTER = 0.7
 _LEVELS = ("Fv", "Fc")  # the friction levels whose signs say the effort runs against the motion
