@@ -163,18 +163,22 @@ def test_trajectory_beyond_the_limits_is_refused(tx40):
         check_trajectory(tx40, other)
 
 
-def test_joints_that_never_move_are_refused_by_name_and_can_be_left_out(tx40):
-    """Only joint 2 moves: the full-robot fit refuses naming a joint that never moves and the way
-    out; fitting joint 2 alone (--joints joint_2) works, the other joints held at their logged
-    positions: the thesis model of joint 2, with its fit."""
+def test_joints_that_never_move_are_held_where_they_stand(tx40):
+    """Only joint 2 moves: the full-robot fit holds the joints that never move at their logged
+    positions, naming them — the fit of joint 2 alone (--joints joint_2), the thesis model of joint
+    2, with its fit."""
     from frictionid_core.identification import IdentifyRequest, identify
 
     traj = FourierTrajectory(list(tx40.joints), np.zeros(6), np.zeros((6, 2)), np.zeros((6, 2)), 2 * np.pi / 2, 3.0)
     traj.a[1] = [0.5, 0.2]
     series, _ = synthesize(tx40, traj, position_noise=0.0, torque_noise=0.0)
-    with pytest.raises(InputError, match=r"joint_1 never moves faster than its min speed.*record it moving.*--joints"):
-        identify(series, IdentifyRequest(system="tx40"))
+    whole = identify(series, IdentifyRequest(system="tx40"))
+    still = [j for j in tx40.joints if j != "joint_2"]
+    assert whole.unexcited_joints == still and whole.joints == ["joint_2"]
+    assert any(w.startswith(f"synthetic: {', '.join(still)} do not move enough to excite their columns")
+               for w in whole.warnings), whole.warnings
     r = identify(series, IdentifyRequest(system="tx40", joints=["joint_2"]))
+    assert whole.params == pytest.approx(r.params, rel=1e-9, abs=1e-12)
     # the joints that do not move are held where the log has them: the model is that of joint 2
     assert r.joints == ["joint_2"] and r.held_joints == {j: 0.0 for j in tx40.joints if j != "joint_2"}
     # its inertia about the axis, two gravity moments (base combinations), Fv, Fc, offset

@@ -9,7 +9,8 @@ One module per job: ``request`` (the request, its YAML file; ``settings``: its s
 pre-processing parts; ``checks``: its field checks), ``result`` (the result and its JSON;
 ``result_fields``: the key-by-key checks of a result file),
 ``orchestration`` (:func:`identify`), ``effort_sign`` (an effort logged against its joint's axis),
-``plan`` (what each source gives a fit),
+``plan`` (what each source gives a fit), ``joint_signals`` (a joint's motion that excites its columns,
+its effort's information),
 ``identifiability`` (what the data resolve), ``payload_identification`` and ``payload_fit`` (a payload on a
 link from a loaded log and a base result), ``model_building`` (data → identification model,
 metrics), ``solve`` (solver glue), ``linear_case`` (a law's Coulomb case: the bounds it grounds, the

@@ -97,13 +97,13 @@ def cross_validated(fit: Callable[[Sources, IdentifyRequest], IdentifyResult], p
     return {"cv_relerr_pct": float(np.sqrt(err2 / total)), "at_bound": at_bound}
 
 
-def identify_auto(series: Sources, request: IdentifyRequest,
-                  fit: Callable[[Sources, IdentifyRequest], IdentifyResult]) -> tuple[IdentifyResult, IdentifyRequest]:
+def identify_auto(series: Sources, request: IdentifyRequest, fit: Callable[..., IdentifyResult],
+                  keep: dict | None = None) -> tuple[IdentifyResult, IdentifyRequest]:
     """(the fit of the law that predicts best, the request of that law), the result's ``law_choice``
-    recording every candidate's score and why the law was taken; ``fit(series, request)`` fits one
-    law."""
+    recording every candidate's score and why the law was taken; ``fit(series, request[, keep])``
+    fits one law (``keep`` passed to the fits of the whole data: it ends holding the chosen one's)."""
     options = candidates(request)
-    coulomb = fit(series, options[0])
+    coulomb = fit(series, options[0], keep)
     settings = coulomb.preprocessing or {}
     fixed = request.preprocessing
     if settings.get("cutoff_hz") is not None and fixed.cutoff_hz is None:
@@ -131,5 +131,5 @@ def identify_auto(series: Sources, request: IdentifyRequest,
            "better than Coulomb, no nonlinear parameter at its bound")
     record = {"chosen": best.friction, "gravity": best.gravity, "why": why, "folds": 2,
               "candidates": [{"friction": o.friction, "gravity": o.gravity, **s} for o, s in scored]}
-    result = coulomb if best is options[0] else fit(series, best)
+    result = coulomb if best is options[0] else fit(series, best, keep)
     return replace(result, law_choice=record), best

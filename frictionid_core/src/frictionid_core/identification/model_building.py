@@ -93,8 +93,8 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None, *, all_ro
                                     held=sp.held, rows=sp.rows, all_rows=all_rows))
     if not rest:
         return observations[0]
-    merged = replace(resolved, min_speed=speeds)
     joints = list(dict.fromkeys(j for o in observations for j in o.joints))
+    merged = replace(resolved, min_speed=speeds, cutoff_hz=_every_cutoff(observations))
     names = system.parameter_names(joints)
     stacked = [_on_rows(o, joints, names, system.per_joint, merged) for o in observations]
     out = concat_observations(stacked)
@@ -114,6 +114,20 @@ def on_source(settings: Preprocessing, series: JointSeries) -> Preprocessing:
     if isinstance(speed, dict) and all(j in speed for j in series.joints):
         speed = {j: speed[j] for j in series.joints}
     return replace(settings, cutoff_hz=cut, min_speed=speed)
+
+
+def _every_cutoff(observations: list[Observation]) -> float | dict[str, float]:
+    """The cut-off of every joint of ``observations`` (the first source's, then each joint the
+    first source lacks — one it holds still — from the first source that has it)."""
+    first = observations[0].preprocessing.cutoff_hz
+    if not isinstance(first, dict):
+        return first
+    out = dict(first)
+    for o in observations[1:]:
+        own = o.preprocessing.cutoff_hz
+        for j, hz in (own.items() if isinstance(own, dict) else ((j, own) for j in o.joints)):
+            out.setdefault(j, hz)
+    return out
 
 
 def _preprocessed(sp: SourcePlan, system: System) -> JointSeries:

@@ -74,21 +74,22 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     stops the run). A motor-side drive's friction, offsets and rotor inertias are per motor
     (``motor_<k>/…``), its metrics on the joint torques. Unresolved directions are held (at 0, or at
     the model's values with ``prior``: :mod:`.identifiability`), σ NaN; ``consistent`` keeps the
-    unconstrained fit's σ. Joints whose friction ends ≤ 0 get the effort-sign check
+    unconstrained fit's σ. Every fit gets the effort-sign check, joint by joint
     (:mod:`.effort_sign`)."""
     t0 = time.perf_counter()
     request = IdentifyRequest() if request is None else request
     if not isinstance(request, IdentifyRequest):
         raise FrictionIdError(f"identify takes an IdentifyRequest, got {type(request).__name__}")
 
-    def fit(data: Sources, asked: IdentifyRequest) -> IdentifyResult:
-        return fit_request(data, asked, progress)
+    def fit(data: Sources, asked: IdentifyRequest, keep: dict | None = None) -> IdentifyResult:
+        return fit_request(data, asked, progress, keep)
 
+    logged: dict = {}  # the as-logged fit's model, which the effort-sign check screens
     if request.friction == AUTO:  # the law that predicts best, its request the one the sign check refits
-        first, asked = identify_auto(series, request, fit)
+        first, asked = identify_auto(series, request, fit, logged)
     else:
-        first, asked = fit(series, request), request
-    result = checked_effort_sign(fit, series, asked, first, logged_joints(series, request))
+        first, asked = fit(series, request, logged), request
+    result = checked_effort_sign(fit, series, asked, first, logged_joints(series, request), logged.get("model"))
     if request.friction == AUTO:
         result = replace(result, request=request, law_choice=first.law_choice)
     return replace(result, wall_s=time.perf_counter() - t0)
@@ -102,13 +103,14 @@ def logged_joints(series: Sources, request: IdentifyRequest) -> list[str]:
     return names
 
 
-def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> IdentifyResult:
-    """The fit of :func:`identify`, the log's effort signs as they are."""
-    return _fit_request(series, request, progress)[0]
+def fit_request(series: Sources, request: IdentifyRequest, progress=None, keep: dict | None = None) -> IdentifyResult:
+    """The fit of :func:`identify`, the log's effort signs as they are; ``keep["model"]`` receives
+    its model at the rule's rates (the unresolved directions held)."""
+    return _fit_request(series, request, progress, keep)[0]
 
 
-def _fit_request(series: Sources, request: IdentifyRequest, progress=None, *, settle: bool = True
-                 ) -> tuple[IdentifyResult, object]:
+def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep: dict | None = None, *,
+                 settle: bool = True) -> tuple[IdentifyResult, object]:
     """(:func:`fit_request`'s result, the advice of its dip warning or None); ``settle``: follow that
     advice (fit again at the rates it names) until it holds, and warn with the rates that hold."""
     t0 = time.perf_counter()
@@ -149,6 +151,8 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, *, se
         held.update(resolved.held)
         model = replace(model, fixed={**fixed_request, **held})
     at_rule_rates = model
+    if keep is not None:
+        keep["model"] = model
 
     def fit(m: IdentificationModel, previous: Fit | None = None) -> Fit:
         return (fit_dynamic if m.friction.is_dynamic else fit_static)(m, solver, progress, previous)
@@ -202,7 +206,7 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, *, se
         consistency=consistency, standard_parameters=standard,
         preprocessing=preprocessing_record(model.obs, metrics, sys_.preprocessing, settings),
         identifiability=resolved.to_dict(), held_joints=dict(plan.held) if sys_.robot is not None else None,
-        no_effort_joints=list(plan.no_effort), request=request,
+        no_effort_joints=list(plan.no_effort), unexcited_joints=list(plan.unexcited), request=request,
         std_robust=std_robust, uncertainty=uncertainty_record(bandwidth, model), velocity_range=velocity_range(model),
         holdout=holdout, plausibility=plausibility), advice
 

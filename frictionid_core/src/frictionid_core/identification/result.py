@@ -21,8 +21,8 @@ from frictionid_core.identification.result_fields import REQUIRED_KEYS, result_f
 
 # Keys left out of the JSON when their field is None.
 OPTIONAL_KEYS = ("optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "output_error", "idm",
-                 "idm_params", "identifiability", "held_joints", "no_effort_joints", "request", "uncertainty",
-                 "velocity_range", "holdout", "plausibility", "law_choice")
+                 "idm_params", "identifiability", "held_joints", "no_effort_joints", "unexcited_joints", "request",
+                 "uncertainty", "velocity_range", "holdout", "plausibility", "law_choice")
 
 
 @dataclass(frozen=True)
@@ -60,6 +60,9 @@ class IdentifyResult:
         held_joints: robot systems: {model joint: position (rad or m)} held still in every
             source (None for the other systems).
         no_effort_joints: data joints that moved without a usable effort, left out of the fit.
+        unexcited_joints: data joints not fitted in some source because their motion there (noise,
+            a tremble) does not excite their columns: held still there at their logged positions
+            (robot systems), each named with its reason in the warnings.
         request: the request that produced it (None: built by hand).
         uncertainty: how ``std`` and ``std_robust`` were obtained (the HAC bandwidth).
         velocity_range: {friction row (joint or motor): [slowest, fastest] |velocity| of the rows
@@ -102,6 +105,7 @@ class IdentifyResult:
     identifiability: dict | None = None
     held_joints: dict[str, float] | None = None
     no_effort_joints: list[str] | None = None
+    unexcited_joints: list[str] | None = None
     request: IdentifyRequest | None = None
     std_robust: dict[str, float] = field(default_factory=dict)
     uncertainty: dict | None = None
@@ -115,8 +119,8 @@ class IdentifyResult:
         head = ("system", "joint_map", "friction", "asymmetric", "solver", "source", "joints", "params", "std",
                 "std_robust", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds",
                 "optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "preprocessing", "layout",
-                "output_error", "idm", "idm_params", "identifiability", "held_joints", "no_effort_joints", "request",
-                "uncertainty", "velocity_range", "holdout", "plausibility", "law_choice")
+                "output_error", "idm", "idm_params", "identifiability", "held_joints", "no_effort_joints",
+                "unexcited_joints", "request", "uncertainty", "velocity_range", "holdout", "plausibility", "law_choice")
         out = {}
         for key in head:
             value = getattr(self, key)

@@ -57,7 +57,7 @@ def result_fields(data: Mapping, names: list[str]) -> dict:
         "preprocessing": _preprocessing,
         "identifiability": mapping,
         "held_joints": _parameters,  # {model joint: position (rad or m)}, each finite
-        "no_effort_joints": _names,
+        "no_effort_joints": _names, "unexcited_joints": _names,
         "request": lambda k, v: v,  # IdentifyRequest.from_dict checks it
     }
     nulls = [k for k in REQUIRED_KEYS if data[k] is None]

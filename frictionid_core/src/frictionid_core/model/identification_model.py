@@ -397,6 +397,12 @@ class IdentificationModel:
         cost = yty - 2.0 * np.einsum("pl,pl->p", coef, b) + np.einsum("pl,plm,pm->p", coef, G, coef)
         return p, np.maximum(cost, 0.0)
 
+    def solve_normal(self, G: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """The linear parameters c (L,) (``linear_index`` order) minimising ½cᵀGc − bᵀc within the
+        linear box, as every closed form here solves them: ``G`` (L, L) and ``b`` (L,) the normal
+        equations FᵀF, Fᵀy of any rows of the linear columns (:meth:`design`)."""
+        return self._solve_normal(np.asarray(G, dtype=float)[None], np.asarray(b, dtype=float)[None])[0][0]
+
     def _solve_normal(self, G: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """argmin ½cᵀGc − bᵀc per candidate (G (P, L, L), b (P, L)) within the linear box (fixed
         values, user bounds): (c (P, L), which entries are held at a bound or fixed (P, L), or
