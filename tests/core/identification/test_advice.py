@@ -124,7 +124,7 @@ def test_an_effort_against_its_axis_is_quiet_with_the_drive_it_names():
     s = efforts_against_the_axis()
     logged = identify(s, IdentifyRequest(system="joint", effort_sign="as-logged"))
     (w,) = warned(logged, "logged with the sign opposite")
-    assert "a drive with joints: [a, b], effort_scale: [1, -1] (or --effort-sign auto) fits them so" in w
+    assert "a drive with joints: [a, b], effort_scale: [1, -1] (or --effort-sign auto) fits it so" in w
     drive = identify(s, IdentifyRequest(system="joint", drive={"joints": ["a", "b"], "effort_scale": [1, -1]}))
     assert drive.warnings == []
     # auto says what it did and that as-logged keeps the signs: that gives the other warning, not this one

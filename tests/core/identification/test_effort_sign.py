@@ -10,6 +10,7 @@ at most 70 % of its relative error)."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -36,7 +37,9 @@ def test_a_reversed_gravity_loaded_joint_of_a_6dof_arm():
     assert negated_joints(r) == [SHOULDER] and negated_joints(right) == []
     assert r.params == pytest.approx(right.params, rel=1e-9, abs=1e-12)
     (line,) = sign_warning(r)
-    assert line.startswith(f"the effort of {SHOULDER} is logged with the sign opposite") and "14.7 → 1.04 %" in line
+    assert line.startswith(f"the effort of {SHOULDER} is logged with the sign opposite")
+    before, after = (float(x) for x in re.search(r"([\d.]+) → ([\d.]+) %", line).groups())
+    assert before > 10.0 and after < 1.5  # measured 14.7 → 1.04 % (the cut-offs cross-validated: about the same)
 
 
 @pytest.mark.slow
