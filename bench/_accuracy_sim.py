@@ -180,7 +180,7 @@ class Case:
     friction: dict  # per joint lists: Fv, Fc (+ Fs, vs, delta | Fs, vs, sigma0, sigma1)
     armature: np.ndarray
     offset: np.ndarray
-    one_joint: dict = field(default_factory=dict)  # J, g_sin, g_cos for a one-joint system
+    one_joint: dict = field(default_factory=dict)  # J, g_sin, g_cos for a one-joint system (the truth)
     effort_sigma: np.ndarray = None
     position_sigma: float = 0.0
     noise_detail: dict = field(default_factory=dict)
@@ -188,6 +188,7 @@ class Case:
     trembling: list[int] = field(default_factory=list)
     excite_seeds: tuple[int, int] = (0, 0)
     noise_seeds: tuple[int, int] = (0, 0)
+    one_joint_drawn: dict = field(default_factory=dict)  # as drawn (MuJoCo's pendulum is built from it)
 
     def labels(self) -> dict:
         return {"arm": self.arm, "law": self.law, "noise": self.noise, "excitation": self.excitation,
@@ -295,6 +296,7 @@ def draw_case(sub_seed: int, overrides: dict | None = None, quick: bool = False)
     case = Case(sub_seed, arm, law, noise, excitation, fmt, rate, float(d_est), float(d_val), list(joints), centre,
                 amp, vmax, amax, size, friction, armature, offset, one, effort_sigma, pos_sigma, detail,
                 bool(rng.random() < 0.5), trembling, (int(seeds[0]), int(seeds[1])), (int(seeds[2]), int(seeds[3])))
+    case.one_joint_drawn = dict(one)
     return case, robot
 
 
@@ -535,7 +537,7 @@ def simulate_prescribed(case: Case, robot: Robot | None, motion: Motion, duratio
 def _mujoco_one_joint_xml(case: Case) -> tuple[str, float, float, float]:
     """A one-link pendulum whose inertia about the hinge matches the drawn J (gravity from the drawn
     g_sin/g_cos: a point-like mass m at distance l, in the hinge's plane)."""
-    one = case.one_joint
+    one = case.one_joint_drawn
     J = one["J"] * 0.7  # the rest of the drawn J is armature
     if "g_sin" in one:
         G = math.hypot(one["g_sin"], one["g_cos"])
@@ -570,7 +572,7 @@ def simulate_mujoco(case: Case, robot: Robot | None, motion: Motion, duration: f
     dof = np.array([model.jnt_dofadr[k] for k in jid])
     qadr = np.array([model.jnt_qposadr[k] for k in jid])
     if robot is None:
-        model.dof_armature[dof] = case.one_joint["J"] * 0.3
+        model.dof_armature[dof] = case.one_joint_drawn["J"] * 0.3
     else:
         model.dof_armature[dof] = case.armature
     model.dof_damping[dof] = f["Fv"]

@@ -185,8 +185,9 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
     t_start = time.perf_counter()
     tmp = Path(tempfile.mkdtemp(prefix=f"acc_{sub_seed}_"))
     rec: dict = {"sub_seed": sub_seed, "overrides": overrides, "quick": quick,
-                 "reproduce": "python bench/accuracy.py --case-seed " + str(sub_seed) + (" --quick" if quick else "")
-                 + "".join(f" --set {k}={v}" for k, v in overrides.items())}
+                 "reproduce": f"python bench/accuracy.py --case-seed {sub_seed}"
+                 + (":" + ",".join(f"{k}={v}" for k, v in overrides.items()) if overrides else "")
+                 + (" --quick" if quick else "")}
     try:
         case, robot = sim.draw_case(sub_seed, overrides, quick)
         rec["labels"] = case.labels()
@@ -324,6 +325,7 @@ def _figures(cases: list[dict]) -> dict:
 def summarize(cases: list[dict]) -> dict:
     out = _figures(cases)
     out["bench_errors"] = sum(c.get("status") == "bench_error" for c in cases)
+    out["statuses"] = {s: sum(c.get("status") == s for c in cases) for s in sorted({c.get("status") for c in cases})}
     rows = []
     for dim in DIMENSIONS:
         values = sorted({c["labels"][dim] for c in cases if "labels" in c})
@@ -382,8 +384,9 @@ def main(argv: list[str] | None = None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--cases", type=int, default=10, help="number of cases drawn from --seed (default 10)")
     ap.add_argument("--seed", type=int, default=None, help="master seed (default: drawn and printed)")
-    ap.add_argument("--case-seed", type=int, action="append", default=[], metavar="K",
-                    help="run the case of sub-seed K alone (repeatable); --cases/--seed are then ignored")
+    ap.add_argument("--case-seed", action="append", default=[], metavar="K[:KEY=VALUE,…]",
+                    help="run the case of sub-seed K alone (repeatable; labels after a colon as --set gives "
+                         "them, for this case only); --cases/--seed are then ignored")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="give a label instead of drawing it: arm, law, noise, excitation, format, rate")
     ap.add_argument("--quick", action="store_true", help="short logs (12 s + 8 s) at ≤ 200 Hz (the test's cases)")
@@ -392,23 +395,37 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--timeout", type=float, default=1200.0, help="per CLI command, s (default 1200)")
     ap.add_argument("--json", default=None, metavar="OUT", help="write the cases and the summary here")
     args = ap.parse_args(argv)
-    overrides = {}
-    for item in args.set:
-        key, _, value = item.partition("=")
-        if key not in ("arm", "law", "noise", "excitation", "format", "rate"):
-            ap.error(f"--set {item}: unknown label {key!r}")
-        overrides[key] = value
+    labels = ("arm", "law", "noise", "excitation", "format", "rate")
+
+    def parse(items: list[str], where: str) -> dict:
+        out = {}
+        for item in items:
+            key, _, value = item.partition("=")
+            if key not in labels or not value:
+                ap.error(f"{where} {item}: expected KEY=VALUE with KEY one of {', '.join(labels)}")
+            out[key] = value
+        return out
+
+    overrides = parse(args.set, "--set")
     if args.case_seed:
-        seed, sub_seeds = None, list(args.case_seed)
+        seed, sub_seeds, per_case = None, [], []
+        for spec in args.case_seed:
+            k, _, extra = spec.partition(":")
+            try:
+                sub_seeds.append(int(k))
+            except ValueError:
+                ap.error(f"--case-seed {spec}: K must be an integer")
+            per_case.append({**overrides, **parse([e for e in extra.split(",") if e], "--case-seed")})
     else:
         seed = args.seed if args.seed is not None else int(np.random.SeedSequence().entropy % 2**31)
         sub_seeds = [int(s) for s in np.random.SeedSequence(seed).generate_state(args.cases)]
+        per_case = [overrides] * len(sub_seeds)
     print(f"accuracy corpus: seed {seed}, {len(sub_seeds)} case(s), sub-seeds {sub_seeds}, "
           f"workers {args.workers}{', quick' if args.quick else ''}", flush=True)
     t0 = time.perf_counter()
     cases: list[dict] = [None] * len(sub_seeds)
     with ProcessPoolExecutor(max_workers=max(1, args.workers)) as pool:
-        futures = {pool.submit(run_case, s, overrides, args.quick, args.keep, args.timeout): i
+        futures = {pool.submit(run_case, s, per_case[i], args.quick, args.keep, args.timeout): i
                    for i, s in enumerate(sub_seeds)}
         for fut in as_completed(futures):
             i = futures[fut]
