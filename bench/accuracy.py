@@ -243,6 +243,10 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
     rec["lag"] = ({"effort_lag_ms": 1e3 * case.noise_detail["effort_lag_s"], "said": bool(LAG_WORDS.search(text))}
                   if case.noise == "lag" else None)
     rec["reversed"] = _reversal(case, result, bool(REVERSED_WORDS.search(text)))
+    rec["flags"] = {"noise_dominated_warning": "noise-dominated" in text,
+                    "stamps_resampled": "resampled onto a uniform" in text,
+                    "effort_sign_warning": bool(REVERSED_WORDS.search(text)),
+                    "left_out_joints": len((result or {}).get("no_effort_joints") or [])}
     if result is None:
         rec["status"] = "timeout" if runs["identify"]["timeout"] else "identify_failed"
     elif validation is None:
@@ -319,7 +323,14 @@ def _figures(cases: list[dict]) -> dict:
         "product_failures": sum(c.get("status") not in ("ok",) for c in counted),
         "friction_params": len(errs),
         "friction_missing": sum(len(c.get("friction_missing", [])) for c in counted),
+        "default_solver_refused": sum("identify_default" in c.get("runs", {}) for c in counted),
+        "reversed_fixed": _share([c["reversed"]["fixed"] for c in counted if c.get("reversed")]),
+        "lag_said": _share([c["lag"]["said"] for c in counted if c.get("lag")]),
     }
+
+
+def _share(flags: list[bool]) -> float | None:
+    return sum(flags) / len(flags) if flags else None
 
 
 def summarize(cases: list[dict]) -> dict:
@@ -394,7 +405,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--keep", default=None, metavar="DIR", help="keep each case's logs and results in DIR/case_K")
     ap.add_argument("--timeout", type=float, default=1200.0, help="per CLI command, s (default 1200)")
     ap.add_argument("--json", default=None, metavar="OUT", help="write the cases and the summary here")
+    ap.add_argument("--pool", nargs="+", default=None, metavar="RUN.json",
+                    help="run nothing: summarise the cases of these earlier runs together (with --json: write it)")
     args = ap.parse_args(argv)
+    if args.pool:
+        runs = [json.loads(Path(p).read_text()) for p in args.pool]
+        cases = [c for r in runs for c in r["cases"]]
+        summary = summarize(cases)
+        what = ", ".join(f"{p} (seed {r.get('seed')}, {len(r['cases'])} cases)" for p, r in zip(args.pool, runs))
+        print(f"pooled: {what}")
+        print(table(summary))
+        if args.json:
+            out = {"pooled": list(args.pool), "seeds": [r.get("seed") for r in runs], "summary": summary}
+            Path(args.json).write_text(json.dumps(_finite(out), indent=1, default=_jsonable, allow_nan=False))
+        return 0
     labels = ("arm", "law", "noise", "excitation", "format", "rate")
 
     def parse(items: list[str], where: str) -> dict:
