@@ -200,38 +200,43 @@ def rate_band(rate: float) -> str:
 
 
 def draw_case(sub_seed: int, overrides: dict | None = None, quick: bool = False) -> tuple[Case, Robot | None]:
-    """Every dimension of a case from its sub-seed alone (``overrides``: labels given instead of drawn)."""
-    rng = np.random.default_rng(sub_seed)
+    """Every dimension of a case from its sub-seed alone (``overrides``: labels given instead of drawn).
+
+    Each component draws from its own stream (labels, motion envelope, friction, noise, trembling joints,
+    log seeds) and draws all its values whatever the labels, so a label given by ``overrides`` changes
+    that label only: ``--case-seed K:noise=white`` is case K with the same truth, motion and noise
+    realisation, without its pathology."""
+    rl, re_, rf, rn, rt, rs = (np.random.default_rng(c) for c in np.random.SeedSequence(sub_seed).spawn(6))
     o = dict(overrides or {})
-    arm = o.get("arm") or str(rng.choice(ARMS))
-    law = o.get("law") or str(rng.choice(LAWS))
-    noise = o.get("noise") or str(rng.choice(NOISES))
-    excitations = [e for e in EXCITATIONS if not (arm in ONE_JOINT and e == "trembling")]
-    excitation = o.get("excitation") or str(rng.choice(excitations))
+    drawn = {"arm": str(rl.choice(ARMS)), "law": str(rl.choice(LAWS)), "noise": str(rl.choice(NOISES))}
+    arm, law, noise = (o.get(k) or v for k, v in drawn.items())
+    excitation = str(rl.choice(EXCITATIONS))
+    if arm in ONE_JOINT and excitation == "trembling":  # a one-joint system has no other joint to excite
+        excitation = str(rl.choice([e for e in EXCITATIONS if e != "trembling"]))
+    excitation = o.get("excitation") or excitation
     if arm in ONE_JOINT and excitation == "trembling":
         raise ValueError("a one-joint system has no other joint to excite: no 'trembling' case")
-    fmt = o.get("format") or str(rng.choice(FORMATS))
-    rate = float(o["rate"]) if "rate" in o else float(np.exp(rng.uniform(np.log(50.0), np.log(5000.0))))
+    fmt = o.get("format") or str(rl.choice(FORMATS))
+    rate = float(np.exp(rl.uniform(np.log(50.0), np.log(5000.0))))
+    rate = float(o["rate"]) if "rate" in o else rate
+    d_est, d_val = rl.uniform(20.0, 30.0), rl.uniform(10.0, 15.0)
     if quick:
-        rate = min(rate, 200.0)
-    d_est, d_val = (rng.uniform(20.0, 30.0), rng.uniform(10.0, 15.0))
-    if quick:
-        d_est, d_val = 12.0, 8.0
+        rate, d_est, d_val = min(rate, 200.0), 12.0, 8.0
     robot = None
     if arm in ONE_JOINT:
         joints = [ONE_JOINT_NAME]
-        span = rng.uniform(1.0, 2.5)
-        centre, amp = np.array([0.0]), np.array([span * rng.uniform(0.6, 1.0)])
-        vmax = np.array([rng.uniform(1.0, 3.0)])
-        J = float(np.exp(rng.uniform(np.log(0.02), np.log(2.0))))
+        span, share = re_.uniform(1.0, 2.5), re_.uniform(0.6, 1.0)
+        centre, amp = np.array([0.0]), np.array([span * share])
+        vmax = np.array([re_.uniform(1.0, 3.0)])
+        J = float(np.exp(re_.uniform(np.log(0.02), np.log(2.0))))
+        G = float(np.exp(re_.uniform(np.log(1.0), np.log(40.0))))
+        phi = re_.uniform(-math.pi, math.pi)
+        amax = np.minimum(4.0 * vmax, 8.0) * re_.uniform(0.5, 1.0)
         one = {"J": J}
         grav = 0.0
         if arm == "joint_gravity":
-            G = float(np.exp(rng.uniform(np.log(1.0), np.log(40.0))))
-            phi = rng.uniform(-math.pi, math.pi)
             one.update(g_sin=G * math.cos(phi), g_cos=G * math.sin(phi))
             grav = G
-        amax = np.minimum(4.0 * vmax, 8.0) * rng.uniform(0.5, 1.0)
         size = np.array([grav + J * float(amax[0]) + 0.5])
     else:
         robot = Robot(arm)
@@ -242,60 +247,54 @@ def draw_case(sub_seed: int, overrides: dict | None = None, quick: bool = False)
         span = np.where(np.isfinite(hi - lo), hi - lo, np.inf)
         amax_pos = np.minimum(0.4 * span, 1.2)
         centre = np.where(span >= 2 * math.pi, posture, np.clip(posture, lo + amax_pos, hi - amax_pos))
-        amp = amax_pos * rng.uniform(0.5, 1.0, nj)
+        amp = amax_pos * re_.uniform(0.5, 1.0, nj)
         vlim = np.where(robot.vel > 0, robot.vel, 3.0)
-        vmax = np.minimum(0.6 * vlim, 2.0) * rng.uniform(0.6, 1.0, nj)
-        amax = np.minimum(4.0 * vmax, 8.0) * rng.uniform(0.5, 1.0, nj)
+        vmax = np.minimum(0.6 * vlim, 2.0) * re_.uniform(0.6, 1.0, nj)
+        amax = np.minimum(4.0 * vmax, 8.0) * re_.uniform(0.5, 1.0, nj)
         # the torque a joint works with: its largest gravity torque over the motion's box, plus its
         # inertia at the centre times the largest acceleration
         grav = np.zeros(nj)
         for _ in range(40):
-            grav = np.maximum(grav, np.abs(robot.gravity(centre + amp * rng.uniform(-1, 1, nj))))
+            grav = np.maximum(grav, np.abs(robot.gravity(centre + amp * re_.uniform(-1, 1, nj))))
         mdiag = robot.mass_diag(centre)
         # at least a tenth of the URDF's effort limit: a geared joint's friction is not a sliver of its rating
         size = np.maximum(grav + mdiag * amax, 0.1 * robot.effort_limit)
         one = {}
     nj = len(joints)
-    friction = {"Fc": list(size * rng.uniform(0.04, 0.15, nj)),
-                "Fv": list(size * rng.uniform(0.03, 0.15, nj) / vmax)}
-    if law == "stribeck":
-        friction.update(Fs=list(np.array(friction["Fc"]) * rng.uniform(1.3, 2.0, nj)),
-                        vs=list(vmax * rng.uniform(0.02, 0.1, nj)), delta=list(rng.uniform(0.5, 3.0, nj)))
-    elif law == "lugre":
-        fc = np.array(friction["Fc"])
-        sigma0 = fc / rng.uniform(2e-4, 2e-3, nj)  # break-away deflection 0.2–2 mrad
-        inertia = np.array([one["J"]]) if one else robot.mass_diag(centre)
-        friction.update(Fs=list(fc * rng.uniform(1.1, 1.6, nj)), vs=list(vmax * rng.uniform(0.02, 0.08, nj)),
-                        sigma0=list(sigma0), sigma1=list(rng.uniform(0.1, 1.0, nj) * np.sqrt(sigma0 * inertia)))
+    u = lambda lo, hi: rf.uniform(lo, hi, nj)
+    fc, fv = size * u(0.04, 0.15), size * u(0.03, 0.15) / vmax
+    stribeck = {"Fs": fc * u(1.3, 2.0), "vs": vmax * u(0.02, 0.1), "delta": u(0.5, 3.0)}
+    sigma0 = fc / u(2e-4, 2e-3)  # break-away deflection 0.2–2 mrad
+    inertia = np.array([one["J"]]) if one else robot.mass_diag(centre)
+    lugre = {"Fs": fc * u(1.1, 1.6), "vs": vmax * u(0.02, 0.08), "sigma0": sigma0,
+             "sigma1": u(0.1, 1.0) * np.sqrt(sigma0 * inertia)}
+    armature_share, offset_share = u(0.1, 1.5), u(-0.03, 0.03)
+    friction = {"Fc": list(fc), "Fv": list(fv)}
+    friction.update({k: list(v) for k, v in {"stribeck": stribeck, "lugre": lugre}.get(law, {}).items()})
     if one:
         armature = np.zeros(1)  # the system's J holds it
     else:
-        armature = robot.mass_diag(centre) * rng.uniform(0.1, 1.5, nj)
+        armature = robot.mass_diag(centre) * armature_share
         if law == "mujoco":  # MuJoCo needs some armature on light distal links for its stiff PD
             armature = np.maximum(armature, 1e-3)
-    offset = size * rng.uniform(-0.03, 0.03, nj)
-    effort_sigma = size * rng.uniform(0.004, 0.02, nj)
-    pos_sigma = float(np.exp(rng.uniform(np.log(5e-7), np.log(1e-5))))
-    detail: dict = {}
-    if noise == "coloured":
-        detail = {"cutoff_hz": float(min(rng.uniform(2.0, 30.0), 0.3 * rate)), "white_share": 0.3}
-    elif noise == "quantised":
-        detail = {"bits": int(rng.integers(12, 18))}
-    elif noise == "stale":
-        detail = {"share": float(rng.uniform(0.02, 0.15))}
-    elif noise == "jitter":
-        detail = {"sigma_periods": float(rng.uniform(0.05, 0.35))}
-    elif noise == "lag":
-        detail = {"effort_lag_s": float(rng.uniform(0.002, 0.02)), "velocity_lag_s": float(rng.uniform(0.002, 0.02))}
-    elif noise == "reversed":
-        detail = {"joint": int(rng.integers(nj))}
-    trembling = []
-    if excitation == "trembling":
-        trembling = sorted(int(k) for k in rng.choice(nj, size=1 if nj <= 6 else 2, replace=False))
-    seeds = rng.integers(0, 2**31, 4)
+    offset = size * offset_share
+    effort_sigma = size * rn.uniform(0.004, 0.02, nj)
+    pos_sigma = float(np.exp(rn.uniform(np.log(5e-7), np.log(1e-5))))
+    details = {"coloured": {"cutoff_hz": float(min(rn.uniform(2.0, 30.0), 0.3 * rate)), "white_share": 0.3},
+               "quantised": {"bits": int(rn.integers(12, 18))},
+               "stale": {"share": float(rn.uniform(0.02, 0.15))},
+               "jitter": {"sigma_periods": float(rn.uniform(0.05, 0.35))},
+               "lag": {"effort_lag_s": float(rn.uniform(0.002, 0.02)),
+                       "velocity_lag_s": float(rn.uniform(0.002, 0.02))},
+               "reversed": {"joint": int(rn.integers(nj))}}
+    detail = details.get(noise, {})
+    log_velocity = bool(rn.random() < 0.5)
+    tremble = sorted(int(k) for k in rt.choice(nj, size=1 if nj <= 6 else 2, replace=False))
+    trembling = tremble if excitation == "trembling" else []
+    seeds = rs.integers(0, 2**31, 4)
     case = Case(sub_seed, arm, law, noise, excitation, fmt, rate, float(d_est), float(d_val), list(joints), centre,
                 amp, vmax, amax, size, friction, armature, offset, one, effort_sigma, pos_sigma, detail,
-                bool(rng.random() < 0.5), trembling, (int(seeds[0]), int(seeds[1])), (int(seeds[2]), int(seeds[3])))
+                log_velocity, trembling, (int(seeds[0]), int(seeds[1])), (int(seeds[2]), int(seeds[3])))
     case.one_joint_drawn = dict(one)
     return case, robot
 
@@ -635,38 +634,38 @@ class Log:
 
 
 def corrupt(case: Case, rec: Record, seed: int) -> Log:
-    """Additive noise and the case's pathology on a simulated record."""
-    rng = np.random.default_rng(seed)
+    """Additive noise and the case's pathology on a simulated record (each part from its own stream: the
+    same seed gives the same white noise, position noise and velocity noise whatever the pathology)."""
+    r_white, r_col, r_pos, r_vel, r_stale, r_jit = (np.random.default_rng(c)
+                                                    for c in np.random.SeedSequence(seed).spawn(6))
     n, nj = rec.q.shape
     d = case.noise_detail
     clean = rec.effort.copy()
     if case.noise == "reversed":
         clean[:, d["joint"]] *= -1.0
-    white = rng.normal(size=(n, nj)) * case.effort_sigma
-    if case.noise == "coloured":
+    noise = r_white.normal(size=(n, nj)) * case.effort_sigma
+    if case.noise == "coloured":  # low-passed noise of the same σ, a 30 % white share
         b, a = signal.butter(2, d["cutoff_hz"], fs=case.rate_hz)
-        x = signal.lfilter(b, a, rng.normal(size=(n + 2000, nj)), axis=0)[2000:]
+        x = signal.lfilter(b, a, r_col.normal(size=(n + 2000, nj)), axis=0)[2000:]
         x /= np.std(x, axis=0)
         share = d["white_share"]
-        noise = (math.sqrt(1 - share**2) * x + share * rng.normal(size=(n, nj))) * case.effort_sigma
-    else:
-        noise = white
+        noise = math.sqrt(1 - share**2) * x * case.effort_sigma + share * noise
     effort = clean + noise
     q = rec.q.copy()
     if case.noise == "quantised":
         quantum = 2 * math.pi / 2 ** d["bits"]
         q = np.round(q / quantum) * quantum
     else:
-        q = q + rng.normal(size=q.shape) * case.position_sigma
-    qd = rec.effort_qd + rng.normal(size=q.shape) * 1e-3 * case.vmax
+        q = q + r_pos.normal(size=q.shape) * case.position_sigma
+    qd = rec.effort_qd + r_vel.normal(size=q.shape) * 1e-3 * case.vmax
     stamp = rec.t.copy()
     if case.noise == "stale":  # rows that repeat the previous row's values under their own stamp
-        stale = np.flatnonzero(rng.random(n) < d["share"])
+        stale = np.flatnonzero(r_stale.random(n) < d["share"])
         stale = stale[stale > 0]
         for k in stale:  # in order, so runs of stale rows repeat the last fresh one
             q[k], qd[k], effort[k], clean[k] = q[k - 1], qd[k - 1], effort[k - 1], clean[k - 1]
-    if case.noise == "jitter":
-        stamp = stamp + rng.normal(size=n) * d["sigma_periods"] / case.rate_hz
+    if case.noise == "jitter":  # the samples are taken on the clock, their stamps are not
+        stamp = stamp + r_jit.normal(size=n) * d["sigma_periods"] / case.rate_hz
     return Log(stamp, q, qd, effort, clean, rec.t)
 
 
