@@ -180,7 +180,8 @@ def _reversal(case: sim.Case, result: dict | None, said: bool) -> dict | None:
     return {"joint": joint, "said": said, "negated": negated, "fixed": negated == [joint]}
 
 
-def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, timeout: float) -> dict:
+def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, timeout: float,
+             diagnostic: bool = True) -> dict:
     """Draw, simulate, write, run the CLI, compare: one case's record (``status`` says how far it got)."""
     t_start = time.perf_counter()
     tmp = Path(tempfile.mkdtemp(prefix=f"acc_{sub_seed}_"))
@@ -232,11 +233,23 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
         runs["validate"] = _run(val, timeout)
         if runs["validate"]["exit_code"] == 0 and vjson.exists():
             validation = json.loads(vjson.read_text())
-    rec["commands"] = [r["command"] for r in runs.values()]
+        # diagnostic, not a user's command: the same cross-test under the identification's own cut-offs and
+        # decimation (validate re-chooses them from the validation log): tells a re-choice from a bad fit
+        pre = result.get("preprocessing") or {}
+        cut, dec = pre.get("cutoff_hz"), pre.get("decimate")
+        if diagnostic and isinstance(cut, dict) and cut and dec:
+            kept = ",".join(f"{j}={v:.6g}" for j, v in cut.items())
+            diag_json = tmp / "validation_kept_settings.json"
+            runs["validate_kept_settings"] = _run([*val[:-2], "--cutoff", kept, "--decimate", str(dec),
+                                                   "--json", str(diag_json)], timeout)
+            if runs["validate_kept_settings"]["exit_code"] == 0 and diag_json.exists():
+                rec["val_kept_settings_pct"] = json.loads(diag_json.read_text())["metrics"].get("relerr_pct")
+    user = {k: r for k, r in runs.items() if k != "validate_kept_settings"}
+    rec["commands"] = [r["command"] for r in user.values()]
     rec["runs"] = runs
     rec["internal_error"] = any(r["internal_error"] for r in runs.values())
     rec["traceback"] = any(r["traceback"] for r in runs.values())
-    warnings = [w for r in runs.values() for w in r["warnings"]] + list((result or {}).get("warnings") or [])
+    warnings = [w for r in user.values() for w in r["warnings"]] + list((result or {}).get("warnings") or [])
     warnings = list(dict.fromkeys(warnings))
     rec["warnings"] = warnings
     text = "\n".join(warnings)
@@ -274,6 +287,8 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
         rec["product_noise_floor_pct"] = m.get("noise_floor_pct")
         rec["val_samples"] = m.get("samples")
         rec["val_per_joint"] = {j: v.get("relerr_pct") for j, v in (m.get("per_joint") or {}).items()}
+        vp = validation.get("preprocessing") or {}
+        rec["val_preprocessing"] = {k: vp.get(k) for k in ("cutoff_hz", "decimate", "min_speed", "rechosen", "kept")}
     floor, ls = base["floor_pct"], base["relerr_pct"]
     rec["floor_pct"] = floor
     rec["baseline_relerr_pct"] = ls
@@ -282,6 +297,8 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
     rec["ls_ratio"] = v / ls if v is not None and ls > 0 else None
     rec["within_floor"] = bool(v is not None and v <= FLOOR_FACTOR * floor)
     rec["within_ls"] = bool(v is not None and v <= LS_FACTOR * ls)
+    vk = rec.get("val_kept_settings_pct")
+    rec["within_floor_kept_settings"] = bool(vk is not None and vk <= FLOOR_FACTOR * floor)
     rec["wall_s"] = round(time.perf_counter() - t_start, 2)
     _cleanup(tmp, keep, sub_seed)
     return rec
@@ -323,6 +340,7 @@ def _figures(cases: list[dict]) -> dict:
         "product_failures": sum(c.get("status") not in ("ok",) for c in counted),
         "friction_params": len(errs),
         "friction_missing": sum(len(c.get("friction_missing", [])) for c in counted),
+        "val_within_1.2_floor_kept_settings": frac("within_floor_kept_settings"),
         "default_solver_refused": sum("identify_default" in c.get("runs", {}) for c in counted),
         "reversed_fixed": _share([c["reversed"]["fixed"] for c in counted if c.get("reversed")]),
         "lag_said": _share([c["lag"]["said"] for c in counted if c.get("lag")]),
@@ -354,12 +372,14 @@ def _fmt(x, spec=".2f", width=7) -> str:
 
 
 def table(summary: dict) -> str:
-    head = (f"{'dimension':<10} {'class':<14} {'n':>3} {'≤1.2fl':>7} {'≤1.05ls':>7} {'fl.rat':>7} {'ls.rat':>7} "
+    head = (f"{'dimension':<10} {'class':<14} {'n':>3} {'≤1.2fl':>7} {'≤1.2fk':>7} {'≤1.05ls':>7} "
+            f"{'fl.rat':>7} {'ls.rat':>7} "
             f"{'err50%':>7} {'err90%':>7} {'cov':>6} {'fail':>4} {'int':>3} {'tb':>3}")
     lines = [head, "-" * len(head)]
 
     def row(dim, cls, f):
         lines.append(f"{dim:<10} {cls:<14} {f['cases']:>3} {_fmt(f['val_within_1.2_floor'])} "
+                     f"{_fmt(f['val_within_1.2_floor_kept_settings'])} "
                      f"{_fmt(f['val_vs_ls_within_1.05'])} {_fmt(f['floor_ratio_median'])} {_fmt(f['ls_ratio_median'])} "
                      f"{_fmt(f['friction_err_median_pct'], '.1f')} {_fmt(f['friction_err_p90_pct'], '.1f')} "
                      f"{_fmt(f['coverage_1.96'], '.2f', 6)} {f['product_failures']:>4} {f['internal_errors']:>3} "
@@ -372,6 +392,10 @@ def table(summary: dict) -> str:
             lines.append("")
         last = r["dimension"]
         row(r["dimension"], str(r["class"]), r)
+    lines.append("≤1.2fl: validation within 1.2 × the noise floor; ≤1.2fk: the same with the identification's cut-offs "
+                 "and decimation given to validate (a diagnostic); ≤1.05ls: within 1.05 × the LS baseline; fl.rat, "
+                 "ls.rat: median ratios; err50/90%: |error| of Fc, Fv (static laws); cov: 1.96 σ coverage; fail: "
+                 "product failures; int, tb: internal errors, tracebacks")
     lines.append(f"bench errors (not the product's): {summary['bench_errors']}")
     return "\n".join(lines)
 
@@ -403,6 +427,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="short logs (12 s + 8 s) at ≤ 200 Hz (the test's cases)")
     ap.add_argument("--workers", type=int, default=2, help="cases run in parallel (default 2)")
     ap.add_argument("--keep", default=None, metavar="DIR", help="keep each case's logs and results in DIR/case_K")
+    ap.add_argument("--no-diagnostic", action="store_true",
+                    help="skip the diagnostic cross-test under the identification's own cut-offs (faster)")
     ap.add_argument("--timeout", type=float, default=1200.0, help="per CLI command, s (default 1200)")
     ap.add_argument("--json", default=None, metavar="OUT", help="write the cases and the summary here")
     ap.add_argument("--pool", nargs="+", default=None, metavar="RUN.json",
@@ -449,7 +475,8 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     cases: list[dict] = [None] * len(sub_seeds)
     with ProcessPoolExecutor(max_workers=max(1, args.workers)) as pool:
-        futures = {pool.submit(run_case, s, per_case[i], args.quick, args.keep, args.timeout): i
+        futures = {pool.submit(run_case, s, per_case[i], args.quick, args.keep, args.timeout,
+                               not args.no_diagnostic): i
                    for i, s in enumerate(sub_seeds)}
         for fut in as_completed(futures):
             i = futures[fut]

@@ -36,7 +36,7 @@ CASE_KEYS = {"sub_seed", "labels", "truth", "commands", "runs", "warnings", "sta
 @pytest.fixture(scope="module")
 def corpus(tmp_path_factory):
     out = tmp_path_factory.mktemp("accuracy") / "accuracy.json"
-    cmd = [sys.executable, str(BENCH), "--quick", "--workers", "2", "--json", str(out)]
+    cmd = [sys.executable, str(BENCH), "--quick", "--no-diagnostic", "--workers", "2", "--json", str(out)]
     for seed, labels in CASES.items():
         cmd += ["--case-seed", f"{seed}:{labels}"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
