@@ -485,15 +485,24 @@ def main(argv: list[str] | None = None) -> int:
             except Exception:
                 cases[i] = {"sub_seed": sub_seeds[i], "status": "bench_error", "bench_error": traceback.format_exc()}
             print(case_line(cases[i]), flush=True)
+            done = [c for c in cases if c is not None]
+            if args.json and len(done) < len(cases):  # what is measured so far survives a stopped run
+                _write(args.json, seed, sub_seeds, args, overrides, summarize(done), done, partial=True)
     summary = summarize(cases)
     summary["wall_s"] = round(time.perf_counter() - t0, 1)
     print(table(summary))
     if args.json:
-        out = {"seed": seed, "sub_seeds": sub_seeds, "quick": args.quick, "overrides": overrides,
-               "summary": summary, "cases": cases}
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(_finite(out), indent=1, default=_jsonable, allow_nan=False))
+        _write(args.json, seed, sub_seeds, args, overrides, summary, cases, partial=False)
     return 0
+
+
+def _write(path: str, seed, sub_seeds, args, overrides, summary, cases, partial: bool) -> None:
+    out = {"seed": seed, "sub_seeds": sub_seeds, "quick": args.quick, "overrides": overrides, "partial": partial,
+           "summary": summary, "cases": cases}
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(path).with_suffix(".part")
+    tmp.write_text(json.dumps(_finite(out), indent=1, default=_jsonable, allow_nan=False))
+    tmp.replace(path)
 
 
 def _finite(x):
