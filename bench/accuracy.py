@@ -77,7 +77,7 @@ LS_FACTOR = 1.05
 STATIC_LAWS = ("coulomb", "stribeck", "mujoco")
 DIMENSIONS = ("arm", "law", "noise", "excitation", "format", "rate_band")
 LAG_WORDS = re.compile(r"\b(lag|lags|lagging|lagged|delay|delayed|latency|late|time shift|shifted)\b", re.I)
-REVERSED_WORDS = re.compile(r"sign opposite|negat|reversed", re.I)
+REVERSED_WORDS = re.compile(r"sign opposite|negated|negating|reversed", re.I)  # not "the negative way"
 
 
 # --------------------------------------------------------------------------------------------- truth
