@@ -33,9 +33,12 @@ FOLDS = 2  # contiguous pieces of each source: each predicted from the other, as
 # Cut-offs tried below the rule's: this many per decade (a ratio of 2.15), down to MIN_GRID_CUTOFF_HZ.
 GRID_PER_DECADE = 3
 MIN_GRID_CUTOFF_HZ = 0.5
-# The candidates stop at the first whose overall error exceeds the best so far by this factor (the
-# error only rises further down the grid).
+# The candidates stop at the second in a row whose overall error exceeds the best so far by this
+# factor (the error only rises further down the grid).
 STOP_FACTOR = 1.25
+# A fold's fit leaves out the directions of its design (unit-scaled columns) whose singular value is
+# below this share of the largest (what the identification holds as unresolved, roughly).
+RESOLVED_SHARE = 1e-5
 # A candidate replaces the rule's choice of a joint only when it predicts that joint's effort with
 # less than this share of the rule's cross-validated error (nearby cut-offs differ by less).
 BETTER_SHARE = 0.98
@@ -111,14 +114,22 @@ def cross_validated_error(observations: list[Observation], asymmetric: bool = Fa
     for Gk, bk, Xm, ym, used in parts:
         Gt, bt = G - Gk, b - bk
         x = values.copy()
-        x[free] = np.linalg.lstsq(Gt[np.ix_(free, free)], bt[free] - Gt[np.ix_(free, held)] @ values[held],
-                                  rcond=1e-12)[0]
+        x[free] = _least_norm(Gt[np.ix_(free, free)], bt[free] - Gt[np.ix_(free, held)] @ values[held])
         residual = np.where(used, ym - Xm @ x, 0.0).reshape(len(joints), -1)
         err += (residual ** 2).sum(axis=1)
         ref += (np.where(used, ym, 0.0).reshape(len(joints), -1) ** 2).sum(axis=1)
     per_joint = {j: float(100 * np.sqrt(e / r)) if r > 0 else float("nan") for j, e, r in zip(joints, err, ref)}
     total = float(100 * np.sqrt(err.sum() / ref.sum())) if ref.sum() > 0 else float("nan")
     return CvScore(total, per_joint)
+
+
+def _least_norm(G: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The solution of the normal equations G·x = b of least norm in unit-scaled columns, the
+    directions a fold does not resolve (normalised singular values of the design below
+    RESOLVED_SHARE) left at 0: a half's fit of a poorly excited rigid body must not extrapolate."""
+    scale = np.sqrt(np.diag(G))
+    scale[scale == 0] = 1.0
+    return np.linalg.lstsq(G / np.outer(scale, scale), b / scale, rcond=RESOLVED_SHARE**2)[0] / scale
 
 
 def cutoff_candidates(rule_cutoffs: dict[str, float]) -> list[dict[str, float]]:
@@ -166,7 +177,8 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
         scores.append((cutoffs, score))
         record["candidates"].append({"cutoff_hz": cutoffs, "cv_relerr_pct": score.relerr_pct,
                                      "per_joint": score.per_joint})
-        if score.relerr_pct > STOP_FACTOR * min(s.relerr_pct for _, s in scores):
+        best = min(s.relerr_pct for _, s in scores)
+        if len(scores) > 1 and min(s.relerr_pct for _, s in scores[-2:]) > STOP_FACTOR * best:
             break
     rule_score = scores[0][1]
     best_cutoffs, best = min(scores, key=lambda s: s[1].relerr_pct)

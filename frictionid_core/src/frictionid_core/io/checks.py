@@ -23,6 +23,11 @@ SPIKE_FACTOR = 10.0
 SPIKE_WINDOW = 11  # samples: runs of up to 3 spike samples are found
 SPIKE_STEP_QUANTILE = 99.0  # the sample-to-sample change of a signal: this percentile of |Δx|
 SPIKE_FIELDS = ("position", "effort", "velocity")
+# Stamps whose intervals scatter by more than this share of the mean period are judged against the
+# samples (:func:`_samples_on_a_clock`) …
+CLOCK_JITTER = 0.05
+# … and replaced by a uniform clock where the positions run at least this much smoother on it.
+CLOCK_SMOOTHER = 2.0
 
 
 def check_series(series: JointSeries, *, strict_time: bool = False, strict_rows: bool = False,
@@ -62,6 +67,7 @@ def check_series(series: JointSeries, *, strict_time: bool = False, strict_rows:
         series, origin = series.take(keep), origin.take(keep)
     if not strict_time:
         series = _repair_stamps(series, notes, origin, restamp)
+        series = _samples_on_a_clock(series, notes)
     series, origin = _order_stamps(series, strict_time, notes, origin)
     series = _repair_spikes(series, notes)
     series, lag_note = remove_channel_lag(series)
@@ -104,6 +110,46 @@ def _repair_stamps(series: JointSeries, notes: list[str], origin: Origin,
         return series
     return JointSeries(t, list(series.joints), series.position, series.effort, series.velocity, series.source,
                        dict(series.extras), dict(series.meta), list(series.notes))
+
+
+def _samples_on_a_clock(series: JointSeries, notes: list[str]) -> JointSeries:
+    """``series`` on a uniform clock in row order when its stamps scatter (by more than
+    CLOCK_JITTER of the mean period) but its positions run CLOCK_SMOOTHER times smoother on that
+    clock than on the stamps (the median |second divided difference| of each moving joint, their
+    geometric mean): the samples were taken on a clock and stamped late by varying amounts (a
+    driver stamping at receipt). Trusting such stamps turns their scatter into position noise
+    (resampled onto a grid, or re-sorted where they step back). A log with gaps keeps its stamps."""
+    t, q = series.t, series.position
+    n = len(t)
+    if n < 8 or t[-1] <= t[0]:
+        return series
+    period = (t[-1] - t[0]) / (n - 1)
+    steps = np.diff(t)
+    if np.std(steps) <= CLOCK_JITTER * period or steps.max() > SEGMENT_GAP_PERIODS * period:
+        return series
+    clock = t[0] + period * np.arange(n)
+    moving = np.ptp(q, axis=0) > 0
+    if not moving.any():
+        return series
+    with np.errstate(divide="ignore", invalid="ignore"):
+        on_stamps, on_clock = (_roughness(times, q[:, moving]) for times in (t, clock))
+    ratio = float(np.exp(np.mean(np.log(on_stamps / on_clock)))) if np.all(on_clock > 0) else np.inf
+    if not ratio >= CLOCK_SMOOTHER:
+        return series
+    notes.append(f"{series.source}: the time stamps scatter by {np.std(steps) / period:.2g} of their mean period, "
+                 f"but the positions run {ratio:.3g}× smoother on a uniform clock (their second differences): the "
+                 f"samples were taken on a clock and stamped irregularly; the stamps replaced by a uniform "
+                 f"{1 / period:.6g} Hz clock in row order")
+    return JointSeries(clock, list(series.joints), series.position, series.effort, series.velocity, series.source,
+                       dict(series.extras), dict(series.meta), list(series.notes))
+
+
+def _roughness(t: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(J,) the median |second divided difference| of each column of ``q`` (N, J) at times ``t``
+    (a stamp that steps back or repeats gives an infinite one, as a sample out of place is)."""
+    v = np.diff(q, axis=0) / np.diff(t)[:, None]
+    a = np.diff(v, axis=0) / (0.5 * (t[2:] - t[:-2]))[:, None]
+    return np.median(np.abs(np.nan_to_num(a, nan=np.inf)), axis=0)
 
 
 def _order_stamps(series: JointSeries, strict: bool, notes: list[str], origin: Origin
