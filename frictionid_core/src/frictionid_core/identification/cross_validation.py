@@ -27,7 +27,7 @@ from frictionid_core.friction import get_model
 from frictionid_core.identification.model_building import observe_plan, on_source, rule_series
 from frictionid_core.identification.plan import FitPlan
 from frictionid_core.model import IdentificationModel, Observation
-from frictionid_core.preprocess import Preprocessing, TooFewSamples, choose_preprocessing
+from frictionid_core.preprocess import MIN_SPEED_SHARE, Preprocessing, TooFewSamples, choose_preprocessing
 
 FOLDS = 2  # contiguous pieces of each source: each predicted from the other, as a later log is
 # Cut-offs tried below the rule's: this many per decade (a ratio of 2.15), down to MIN_GRID_CUTOFF_HZ.
@@ -79,14 +79,18 @@ def fold_observations(plan: FitPlan, settings: Preprocessing, folds: int = FOLDS
 
 def resolved_settings(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str, float]) -> Preprocessing:
     """``requested`` with ``cutoffs`` and the settings that follow them resolved on the whole of
-    each source (the first's decimation and trims; each joint's min speed from the first source
-    that has it), as an identification with those cut-offs resolves them."""
+    each source (the first's decimation and trims), as an identification with those cut-offs
+    resolves them — but for the min speed: every candidate keeps the same rows, those faster than
+    MIN_SPEED_SHARE of each joint's top speed (the user's min speed where given). The rule's min
+    speed rises with a cut-off's velocity noise: scored on the rows each keeps, a noisy cut-off
+    would win by leaving out the rows it gets wrong."""
     settings, speeds = None, {}
     for sp in plan.sources:
         series = rule_series(sp.series, plan.system)
-        own = choose_preprocessing(series, on_source(replace(requested, cutoff_hz=cutoffs), series))[0]
+        own, report = choose_preprocessing(series, on_source(replace(requested, cutoff_hz=cutoffs), series))
         settings = settings or own
-        for j, v in own.min_speed.items():
+        floor = {j: MIN_SPEED_SHARE * v for j, v in report["top_speed"].items() if v is not None}
+        for j, v in (own.min_speed if requested.min_speed is not None else floor).items():
             speeds.setdefault(j, v)
     return replace(settings, cutoff_hz=dict(cutoffs), min_speed=speeds)
 
