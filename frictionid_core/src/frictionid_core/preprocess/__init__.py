@@ -30,8 +30,8 @@ _LAZY = {
 }
 
 __all__ = ["DIP_WINDOW", "MIN_SPEED_SHARE", "MOVING_FACTOR", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT",
-           "REVERSAL_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES", "central_difference", "choose_preprocessing",
-           "column_stride", "cutoff_range", "decimate", "decimation_indices", "dip_needs",
+           "REVERSAL_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES", "central_difference",
+           "choose_preprocessing", "column_stride", "cutoff_range", "decimate", "decimation_indices", "dip_needs",
            "lag_record", "lowpass_position", "near_reversals", "noise_density", "prepare", "preprocess",
            "remove_channel_lag", "resample_uniform", "rule_decimation", "subsample", "thinned_rows"]
 
