@@ -133,7 +133,7 @@ def _samples_on_a_clock(series: JointSeries, notes: list[str]) -> JointSeries:
         return series
     with np.errstate(divide="ignore", invalid="ignore"):
         on_stamps, on_clock = (_roughness(times, q[:, moving]) for times in (t, clock))
-    ratio = float(np.exp(np.mean(np.log(on_stamps / on_clock)))) if np.all(on_clock > 0) else np.inf
+        ratio = float(np.exp(np.mean(np.log(on_stamps / on_clock)))) if np.all(on_clock > 0) else np.inf
     if not ratio >= CLOCK_SMOOTHER:
         return series
     notes.append(f"{series.source}: the time stamps scatter by {np.std(steps) / period:.2g} of their mean period, "
