@@ -70,6 +70,16 @@ def jacobian_std(model: IdentificationModel, x: np.ndarray, held: set[str] = fro
     return std, X
 
 
+def sigma_with_held(model: IdentificationModel, x: np.ndarray, std: dict[str, float], held: set[str]
+                    ) -> dict[str, float]:
+    """``std`` with the parameters ``held`` (at a bound: not identified values) NaN and the others'
+    σ taken again with those held, as known (``std`` itself when every one of them already has no σ)."""
+    if all(not np.isfinite(std.get(n, np.nan)) for n in held):
+        return {**std, **dict.fromkeys(held, float("nan"))}
+    again, _ = jacobian_std(model, x, model.held_at_box(x) | set(held))
+    return {**again, **dict.fromkeys(held, float("nan"))}
+
+
 def newey_west_bandwidth(scores: np.ndarray) -> int:
     """The Bartlett bandwidth L (instants) of Newey and West (1994) for the scores (T, m)."""
     T = scores.shape[0]
