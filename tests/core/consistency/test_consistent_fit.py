@@ -14,6 +14,7 @@ from frictionid_core.errors import FrictionIdError
 from frictionid_core.identification import IdentifyRequest, identify, validate
 from frictionid_core.io import load
 from frictionid_core.robots import example_robot_data_dir, load_urdf
+from frictionid_core.synthetic import expected_parameters
 from frictionid_core.systems import get_system, result_system
 from support.data import BAGS
 
@@ -39,14 +40,24 @@ def _within_sigma(a: dict, b: dict, std: dict, k: float = 3.0) -> list[str]:
 
 
 def test_consistent_equals_unconstrained_when_the_truth_is_feasible(tx40_fits):
-    """The truth is feasible and the data excite every base parameter: the constraints are
-    inactive, so the consistent estimate is the unconstrained one well within 3 σ (every
-    parameter), the cost barely moves, and `consistency` finds it FEASIBLE from its witness."""
+    """The truth is feasible (the bag is synthesised from the model): the consistent estimate stays
+    within 3 calibrated σ of the unconstrained one (every parameter; measured at most 1.7), the cost
+    barely moves, `consistency` finds it FEASIBLE from its witness, and the directions the data do
+    not determine, held at the model (the truth here), bring it nearer the truth: Σ (error/σ)² over
+    the identified parameters falls (measured 38.8 → 9.3 over 52; the test asks for less than 0.6 ×)."""
     free, cons = tx40_fits
     assert cons["consistency"]["feasible"] and cons["consistency"]["status"] == "optimal"
-    assert _within_sigma(free["params"], cons["params"], free["std"], 3.0) == []
-    assert cons["consistency"]["cost_increase_pct"] < 0.5
-    assert abs(cons["metrics"]["relerr_pct"] - free["metrics"]["relerr_pct"]) < 0.01
+    assert _within_sigma(free["params"], cons["params"], free["std_robust"], 3.0) == []
+    assert cons["consistency"]["held_directions"] > 0 and cons["consistency"]["data_scale"] >= 1.0
+    assert cons["consistency"]["cost_increase_pct"] < 5.0  # measured 2.2
+    assert abs(cons["metrics"]["relerr_pct"] - free["metrics"]["relerr_pct"]) < 0.02  # measured 0.0024
+    truth = expected_parameters(TRUTH, "tx40", free["joints"])
+    sigma = {n: s for n, s in free["std_robust"].items() if n in truth and np.isfinite(s) and s > 0}
+
+    def chi2(fit: dict) -> float:
+        return sum(((fit["params"][n] - truth[n]) / s) ** 2 for n, s in sigma.items())
+
+    assert len(sigma) > 40 and chi2(cons) < 0.6 * chi2(free)
     assert cons["std"] == free["std"]  # σ are those of the unconstrained estimate
     assert cons["consistency"]["sdp_wall_s"] < 5.0
     rep = report_for_result(cons, get_system("tx40"))
@@ -219,7 +230,7 @@ def test_node_parameters_consistent_and_prior_weight(tx40_fits, tmp_path):
     request = node_request(cfg, [])
     assert (request.consistent, request.prior, request.prior_weight) == (True, "urdf", 10.0)
     free, cons = (IdentifyResult.from_dict(r) for r in tx40_fits)
-    assert cons.to_dict() == tx40_fits[1] and list(tx40_fits[1])[18:21] == ["consistency", "standard_parameters",
+    assert cons.to_dict() == tx40_fits[1] and list(tx40_fits[1])[19:22] == ["consistency", "standard_parameters",
                                                                              "preprocessing"]
     assert consistency_text(free) == ""
     text = summary(Job(cons.joints, node_request(cfg, cons.joints)), cons, 1000, 1.0)

@@ -42,6 +42,7 @@ from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.solve import Fit, fit_static
 from frictionid_core.identification.stick import exclude_stick_phases
 from frictionid_core.identification.uncertainty import (
+    calibration_scale,
     jacobian_std,
     robust_std,
     sigma_with_held,
@@ -194,7 +195,8 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
     if request.consistent:
         # dropped directions are free in the program (0 need not be physical); the prior's stay at its values
         released = {model.names.index(n) for n in held} if resolved.action == "dropped" else set()
-        x, consistency, standard = consistent_parameters(model, x, sys_, request, released)
+        scale = calibration_scale(std, std_robust, model.obs.rigid_names)  # the data inform as the calibrated σ say
+        x, consistency, standard = consistent_parameters(model, x, sys_, request, released, scale)
     metrics = model_metrics(model, x)
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
@@ -282,17 +284,18 @@ def result_warnings(model: IdentificationModel, x: np.ndarray, std: dict[str, fl
 
 
 def consistent_parameters(model: IdentificationModel, x: np.ndarray, sys_: System, request: IdentifyRequest,
-                          released: set[int] = frozenset()) -> tuple[np.ndarray, dict, dict]:
+                          released: set[int] = frozenset(), data_scale: float = 1.0) -> tuple[np.ndarray, dict, dict]:
     """(the consistent parameters, the ``consistency`` record with the unconstrained fit's
     metrics, the standard parameters per link) at the nonlinear shapes of ``x``; ``released``:
     the indices of parameters held only because the data do not resolve them (the program
-    leaves the rigid-body ones to the prior)."""
+    leaves the rigid-body ones to the prior); ``data_scale``: the calibrated σ's variance over the
+    white one (the directions the data do not determine are held at the model's links)."""
     from frictionid_core.consistency import consistent_fit, standard_record
 
     use_prior = request.prior == "urdf"
     unconstrained = model_metrics(model, x)
     fit = consistent_fit(model, x, sys_.robot, prior_weight=request.prior_weight if use_prior else 0.0,
-                         stribeck_order=request.stribeck_order, released=released)
+                         stribeck_order=request.stribeck_order, released=released, data_scale=data_scale)
     fit.record["unconstrained"] = {"params": dict(zip(model.names, map(float, x))),
                                    "relerr_pct": unconstrained.get("relerr_pct"), "rmse": unconstrained.get("rmse")}
     fit.record["prior"] = "urdf" if use_prior else "none"

@@ -203,6 +203,16 @@ def robust_std(model: IdentificationModel, x: np.ndarray, held: set[str] = froze
     return std, cov, kept, bandwidth
 
 
+def calibration_scale(std: dict[str, float], std_robust: dict[str, float], names: list[str]) -> float:
+    """The median over ``names`` (those with both σ finite and > 0) of (calibrated σ / white σ)²,
+    at least 1: how much less the rows inform than white residuals of their variance would (1
+    without such a name)."""
+    ratios = [(std_robust[n] / std[n]) ** 2 for n in names
+              if n in std and n in std_robust and np.isfinite(std[n]) and np.isfinite(std_robust[n]) and std[n] > 0
+              and std_robust[n] > 0]
+    return max(1.0, float(np.median(ratios))) if ratios else 1.0
+
+
 def white_covariance(model: IdentificationModel, x: np.ndarray, names: list[str]) -> np.ndarray | None:
     """s²·(JᵀJ)⁻¹ over the free parameters ``names`` (the others held), s² the residual variance
     as :func:`jacobian_std` takes it; None without names or when JᵀJ is singular."""
