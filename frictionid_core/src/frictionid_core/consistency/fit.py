@@ -207,13 +207,13 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
 
 
 def links_within_sigma(robot, beta: np.ndarray, sigma: np.ndarray, *, margin: float = MARGIN,
-                       hold_weight: float = HOLD_WEIGHT) -> np.ndarray:
-    """Consistent standard parameters π (P,) of ``robot`` (a RobotInfo) whose base parameters A·π lie
+                       hold_weight: float = HOLD_WEIGHT) -> tuple[np.ndarray, float]:
+    """(consistent standard parameters π (P,) of ``robot`` (a RobotInfo) whose base parameters A·π lie
     as near identified ones ``beta`` (r,) as their σ ``sigma`` (r,; NaN or inf: not determined, 0:
-    held) say: minimise ½‖(A·π − β)/σ‖² with the links' directions these σ do not determine held
-    at the model's (:func:`~frictionid_core.consistency.prior.undetermined_directions`), each link's
-    pseudo-inertia ⪰ ε·max(1, m), rotor inertias ≥ 0. What ``export`` builds links from when a
-    result without ``--consistent`` has no consistent or plausible exact witness."""
+    held) say, the largest |A·π − β|/σ): minimise ½‖(A·π − β)/σ‖² with the links' directions these σ
+    do not determine held at the model's (:func:`~frictionid_core.consistency.prior.undetermined_directions`),
+    each link's pseudo-inertia ⪰ ε·max(1, m), rotor inertias ≥ 0. What ``export`` builds links from
+    when a result without ``--consistent`` has no consistent or plausible exact witness."""
     import cvxpy as cp
 
     A = robot.base.combination_matrix()
@@ -248,7 +248,8 @@ def links_within_sigma(robot, beta: np.ndarray, sigma: np.ndarray, *, margin: fl
         index = np.array([10 * k + i for k in with_prior for i in range(10)], dtype=int)
         objective = objective + 0.5 * hold_weight * cp.sum_squares(held @ (u[index] - pi0[index] / D[index]))
     solve_program(cp.Problem(cp.Minimize(objective), cons), u, "links within the base parameters' σ")
-    return D * u.value
+    pi = D * u.value
+    return pi, float(np.max(np.abs(weight * (A @ pi - np.where(known, beta, 0.0))), initial=0.0))
 
 
 def solve_program(problem, variable, what: str) -> float:

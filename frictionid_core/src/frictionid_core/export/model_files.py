@@ -3,9 +3,9 @@
 The standard parameters exported are the result's own (``identify --consistent``) or, for an
 unconstrained result, the consistent witness :func:`~frictionid_core.consistency.check.report_for_result`
 finds; when it has none that is consistent and plausible, the consistent links whose base parameters lie
-within the result's calibrated σ, the directions those σ do not determine held at the model's
-(:func:`~frictionid_core.consistency.links_within_sigma`); a result with neither is refused unless
-forced (the error names the link).
+within :data:`WITHIN_SIGMAS` of the result's calibrated σ, the directions those σ do not determine held at
+the model's (:func:`~frictionid_core.consistency.links_within_sigma`); a result with neither is refused
+unless forced (the error names the link).
 
 * URDF: a ``urdf:PATH`` robot's own file with each moving joint's child link given the
   identified inertial (mass, centre of mass, inertia about it, in the link = joint frame) and
@@ -51,6 +51,10 @@ from frictionid_core.robots import PAYLOAD, Payload, link_frame, link_name, payl
 from frictionid_core.safety import payload_refusals, result_refusals
 from frictionid_core.systems import result_system
 
+# Links reconstructed for a result without --consistent reproduce each base parameter within this many of
+# its calibrated σ (a robot has ~40: 4 σ leaves a right fit out 1 time in 400), or the result is refused
+# as its data show it (its exact witness's problems).
+WITHIN_SIGMAS = 4.0
 # MuJoCo joint attribute ← friction parameter
 MUJOCO_FRICTION = {"damping": "Fv", "frictionloss": "Fc"}
 # Speeds a law is matched over: this many, evenly spread over the data's range; without a range in
@@ -102,12 +106,16 @@ def export_data(result: dict, system, force: bool = False, payload: Payload | No
     problems, plausibility = _link_problems(info, pi)
     note = None
     if problems and not result.get("standard_parameters"):  # no exact witness: the links within the result's σ
-        within = links_within_sigma(info, *_base_and_sigma(result, system))
+        try:
+            within, worst = links_within_sigma(info, *_base_and_sigma(result, system))
+        except FrictionIdError:  # the solver found none: the exact witness's problems stand
+            within, worst = pi, np.inf
         again, checked = _link_problems(info, within)
-        if not again:
+        if not again and worst <= WITHIN_SIGMAS:
             pi, problems, plausibility = within, again, checked
-            note = ("links reconstructed within the base parameters' calibrated σ (std_robust): no consistent, "
-                    "plausible links reproduce them exactly; the directions they do not determine at the model's")
+            note = (f"links reconstructed within {worst:.2g} calibrated σ (std_robust) of the base parameters: no "
+                    "consistent, plausible links reproduce them exactly; the directions they do not determine at "
+                    "the model's")
     links = standard_record(info, names, pi)
     friction, match = _joint_friction(result, info)
     for j, f in match.items():
