@@ -230,6 +230,15 @@ def report(res: dict) -> str:
     return "\n".join(lines)
 
 
+def code_version() -> str:
+    """The commit of the frictionid_core this interpreter runs (``git describe`` of its checkout)."""
+    import frictionid_core
+
+    where = Path(frictionid_core.__file__).resolve().parent
+    return subprocess.run(["git", "-C", str(where), "describe", "--always", "--dirty"], capture_output=True,
+                          text=True).stdout.strip() + f" ({where.parents[2].name})"
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--keep", type=Path, help="keep (and reuse) the logs and results in this folder")
@@ -242,8 +251,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     res = {"host": {"python": platform.python_version(), "cpus": os.cpu_count(),
                     "load_start": round(os.getloadavg()[0], 2)},
-           "version": subprocess.run(["git", "-C", str(ROOT), "describe", "--always", "--dirty"], capture_output=True,
-                                     text=True).stdout.strip(),
+           "version": code_version(),
            "interpreter": sys.executable, "families": families}
     with tempfile.TemporaryDirectory(prefix="coverage_") as tmp:
         res["cases"] = cases(families, args.keep or Path(tmp), args.quick)

@@ -22,6 +22,7 @@ from frictionid_core.model import IdentificationModel
 # Each half of a specification split is fitted with this share of the full data's information per
 # parameter added toward the full estimate: a parameter the half does not determine stays put.
 SPLIT_RIDGE = 0.02
+SPLITS = ("time", "speed", "acceleration")  # the row splits of the specification term
 # Newey–West (1994) bandwidth selection for the Bartlett kernel.
 NW_PILOT_FACTOR = 4.0  # pilot lags n = 4·(T/100)^(2/9)
 NW_GAMMA_FACTOR = 1.1447
@@ -169,7 +170,7 @@ def specification_splits(model: IdentificationModel) -> dict[str, np.ndarray]:
         acc = np.nan_to_num(np.abs(np.gradient(obs.velocity, obs.t, axis=0)), nan=0.0, posinf=0.0).T if T > 2 else speed
     instants = np.flatnonzero(used.any(axis=0))
     splits = {"time": np.tile(np.arange(T) < (np.median(instants) if instants.size else T / 2), nj)}
-    for name, value in (("speed", speed), ("acceleration", acc)):
+    for name, value in zip(SPLITS[1:], (speed, acc)):
         below = np.zeros((nj, T), dtype=bool)
         for j in range(nj):
             if used[j].any():
@@ -231,6 +232,10 @@ def uncertainty_record(bandwidth: int | None, model: IdentificationModel) -> dic
     """The ``uncertainty`` block: how ``std`` and ``std_robust`` were obtained."""
     rate = model.obs.report.get("analysis_rate_hz")
     return {"std": "white residuals: std(e)·sqrt(diag((JᵀJ)⁻¹))",
-            "std_robust": "HAC sandwich (Newey–West, Bartlett kernel, bandwidth chosen from the data)",
+            "std_robust": "calibrated: HAC sandwich (Newey–West, Bartlett kernel, bandwidth chosen from the data) "
+                          "+ the specification term (halves of the rows split by time, speed and acceleration "
+                          "that disagree beyond their own σ)",
+            "calibrated": "std_robust",
+            "splits": list(SPLITS),
             "bandwidth_instants": bandwidth,
             "bandwidth_s": None if bandwidth is None or not rate else bandwidth / float(rate)}
