@@ -102,7 +102,8 @@ def newey_west_bandwidth(scores: np.ndarray) -> int:
 def instant_scores(J: np.ndarray, e: np.ndarray, instants: int) -> np.ndarray:
     """The scores g_t = Σ_j J_jt·e_jt of each instant (instants, m): every joint's row at that
     instant summed (rows joint-major), so joints may share a disturbance."""
-    return (J * e[:, None]).reshape(-1, instants, J.shape[1]).sum(axis=0)
+    m = J.shape[1]
+    return np.einsum("jtm,jt->tm", J.reshape(-1, instants, m), e.reshape(-1, instants))
 
 
 def bartlett_sum(scores: np.ndarray, bandwidth: int) -> np.ndarray:
@@ -147,13 +148,22 @@ def specification_variance(J: np.ndarray, e: np.ndarray, instants: int, splits: 
     dof = instants / max(instants - m, 1)
     out = {}
     for name, first in splits.items():
-        H1 = J[first].T @ J[first]
+        H1 = masked_gram(J, first)
         inverses = [np.linalg.pinv(H1 + ridge), np.linalg.pinv(H - H1 + ridge)]
-        scores = [instant_scores(J * half[:, None], e, instants) for half in (first, ~first)]
+        scores = [instant_scores(J, e * half, instants) for half in (first, ~first)]
         shares = scores[0] @ inverses[0].T - scores[1] @ inverses[1].T  # each instant's share of d
         d = shares.sum(axis=0)
         var = dof * np.diag(bartlett_sum(shares, bandwidth))
         out[name] = np.maximum(d**2 - var, 0.0) / 4.0
+    return out
+
+
+def masked_gram(J: np.ndarray, rows: np.ndarray, chunk: int = 65536) -> np.ndarray:
+    """J[rows]ᵀ·J[rows] (m, m), a chunk of rows at a time (no copy of J's selected rows at once)."""
+    out = np.zeros((J.shape[1], J.shape[1]))
+    for start in range(0, J.shape[0], chunk):
+        part = J[start : start + chunk][rows[start : start + chunk]]
+        out += part.T @ part
     return out
 
 
