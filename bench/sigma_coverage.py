@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Coverage of σ across many truths: the share of identified parameters whose |error| ≤ 1.96 σ.
 
-    .venv/bin/python bench/coverage.py [--keep DIR] [--families mujoco,variants,synthetic] [--quick]
+    .venv/bin/python bench/sigma_coverage.py [--keep DIR] [--families mujoco,variants,synthetic] [--quick]
 
 σ is honest when 1.96 σ covers about 95 % of the parameters it is given for, over many truths,
 excitations and noise draws (the target of issue 38: 90–98 % for the calibrated σ). Every case runs
@@ -22,8 +22,9 @@ not at a bound, whose truth lies within 1.96 σ:
   identified base and friction parameter against ``frictionid compare --truth``'s expected values.
 
 Logs are made on first use and kept with ``--keep DIR`` (a MuJoCo log takes minutes). Prints the
-table and writes bench/results/coverage.{txt,json} (``coverage_custom`` with ``--families`` or
-``--quick``; ``--label NAME``: coverage_NAME).
+table and writes bench/results/sigma_coverage.{txt,json} (``sigma_coverage_custom`` with ``--families``
+or ``--quick``; ``--label NAME``: sigma_coverage_NAME). (Not ``coverage.py``: a bench script of that name
+would shadow the coverage package for every script run from bench/.)
 """
 
 from __future__ import annotations
@@ -245,7 +246,7 @@ def main(argv=None) -> int:
     p.add_argument("--families", default="mujoco,variants,synthetic", help="comma-separated: mujoco, variants, "
                                                                             "synthetic")
     p.add_argument("--quick", action="store_true", help="one seed per family")
-    p.add_argument("--label", help="results as bench/results/coverage_LABEL.{txt,json}")
+    p.add_argument("--label", help="results as bench/results/sigma_coverage_LABEL.{txt,json}")
     args = p.parse_args(argv)
     families = args.families.split(",")
     t0 = time.perf_counter()
@@ -253,15 +254,15 @@ def main(argv=None) -> int:
                     "load_start": round(os.getloadavg()[0], 2)},
            "version": code_version(),
            "interpreter": sys.executable, "families": families}
-    with tempfile.TemporaryDirectory(prefix="coverage_") as tmp:
+    with tempfile.TemporaryDirectory(prefix="sigma_coverage_") as tmp:
         res["cases"] = cases(families, args.keep or Path(tmp), args.quick)
     res["wall_s"] = time.perf_counter() - t0
     res["host"]["load_end"] = round(os.getloadavg()[0], 2)
     res["summary"] = {f: {k: share([c[k] for c in res["cases"] if c["family"] == f]) for k in ("white", "calibrated")}
                       for f in families}
     res["summary"]["all"] = {k: share([c[k] for c in res["cases"]]) for k in ("white", "calibrated")}
-    name = args.label and f"coverage_{args.label}" or (
-        "coverage_custom" if args.quick or families != ["mujoco", "variants", "synthetic"] else "coverage")
+    name = args.label and f"sigma_coverage_{args.label}" or (
+        "sigma_coverage_custom" if args.quick or families != ["mujoco", "variants", "synthetic"] else "sigma_coverage")
     publish(name, report(res), res)
     return 0
 
