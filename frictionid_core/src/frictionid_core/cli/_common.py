@@ -297,7 +297,11 @@ def print_table(result: dict, out=None) -> None:
     if result.get("fixed"):
         print("fixed: " + ", ".join(f"{k} = {fmt(v)}" for k, v in result["fixed"].items()), file=out)
     print(f"{'parameter':<16}{'value':>14}{'σ':>12}", file=out)
+    at_bound = result.get("at_bound") or {}
     for name, value in result["params"].items():
+        if name in at_bound:  # not an identified value: the bound it ends at, no σ
+            print(f"{name:<16}{'at bound ' + fmt(at_bound[name]):>14}{'—':>12}", file=out)
+            continue
         print(f"{name:<16}{fmt(value):>14}{fmt(result['std'].get(name)):>12}", file=out)
     print_metrics(result["metrics"], out)
 

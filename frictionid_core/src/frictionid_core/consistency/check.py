@@ -323,20 +323,17 @@ def link_plausibility(info, pi: np.ndarray, source: str) -> dict:
 
 def plausibility_warnings(block: dict, prior: str | None = None, prior_weight: float = 1.0) -> list[str]:
     """One warning per implausible link of a :func:`link_plausibility` block, naming it, and the
-    way out its fit has not taken: ``--consistent --prior urdf`` for links reconstructed from base
-    parameters or a consistent fit without the prior (``prior``: the fit's, ``urdf`` or None); a
-    consistent fit with it has taken every flag's way: it names the data or the model, no flag that
-    would bring the warning back."""
+    way out its fit has not taken: ``--consistent`` for links reconstructed from base parameters; a
+    consistent fit holds at the model what the data do not determine (and, with ``prior`` ``urdf``,
+    pulls every link toward it with ``prior_weight``), so its implausible link is one the data put
+    there: the warning names the model to check, no flag that would bring it back."""
     what = block["source"]
-    if block["source"].startswith("the consistent fit") and prior == "urdf":
-        way = (f"the data pull it away from the model even under --consistent --prior urdf (weight {prior_weight:g}): "
-               "a motion that does not determine it, or a model (URDF) far from the robot: record richer motion or "
-               "check the model")
-    elif block["source"].startswith("the consistent fit"):
-        way = "base parameters the data do not determine, or a model (URDF) far from the robot; --prior urdf keeps " \
-              "the links near the model"
+    if what.startswith("the consistent fit"):
+        under = f" even under --prior urdf (weight {prior_weight:g})" if prior == "urdf" else ""
+        way = (f"the data determine it{under} (the consistent fit holds at the model only what they do not): check "
+               "the robot model against the robot (a tool or payload on the arm, the URDF's units)")
     else:
-        way = ("base parameters the data do not determine, or a model (URDF) far from the robot; --consistent "
-               "--prior urdf keeps the links near the model")
+        way = ("base parameters the data do not determine, or a model (URDF) far from the robot; --consistent holds "
+               "what the data do not determine at the model")
     return [f"link of joint '{j}' ({what}) is implausible against the robot model: "
             + "; ".join(block["links"][j]["problems"]) + f" — {way}" for j in block["implausible"]]

@@ -63,9 +63,13 @@ def halves(series: Sources, request: IdentifyRequest) -> tuple[list, list]:
 
 def nonlinear_at_bound(result: IdentifyResult, request: IdentifyRequest) -> list[str]:
     """The shape parameters of ``result``'s friction (:data:`SHAPE_PARAMETERS`) at their search
-    bounds (the law's defaults, the user's over them)."""
-    out = []
+    bounds: those its fit found there (:meth:`IdentifyResult.nonlinear_at_bound`: every bound it
+    searched in, the data's too, judged against σ), and those within :data:`AT_BOUND_SHARE` of the
+    law's default bounds (the user's over them)."""
+    out = list(result.nonlinear_at_bound())
     for name, value in result.params.items():
+        if name in out:
+            continue
         base = name.rsplit("/", 1)[-1]
         kind = base.removesuffix("_pos").removesuffix("_neg")
         if kind not in SHAPE_PARAMETERS or kind not in DEFAULT_BOUNDS:

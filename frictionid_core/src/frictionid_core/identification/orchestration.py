@@ -14,6 +14,7 @@ from frictionid_core.drive import drive_from_dict, load_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import get_model
 from frictionid_core.identification import diagnostics
+from frictionid_core.identification.at_bound import fit_at_bound
 from frictionid_core.identification.cross_validation import choose_by_cross_validation, record_choice
 from frictionid_core.identification.dip_refit import dip_advice, fit_at_dip_rates, settled_dip_advice
 from frictionid_core.identification.dynamic_fit import fit_dynamic
@@ -40,7 +41,14 @@ from frictionid_core.identification.request import IdentifyRequest
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.solve import Fit, fit_static
 from frictionid_core.identification.stick import exclude_stick_phases
-from frictionid_core.identification.uncertainty import jacobian_std, robust_std, uncertainty_record, white_covariance
+from frictionid_core.identification.uncertainty import (
+    calibration_scale,
+    jacobian_std,
+    robust_std,
+    sigma_with_held,
+    uncertainty_record,
+    white_covariance,
+)
 from frictionid_core.model import IdentificationModel
 from frictionid_core.parallel import single_threaded_libraries
 from frictionid_core.systems import LINK_TORQUE, KnownRigidBody, System, as_system, known_rigid_body, nominal_parameters
@@ -178,20 +186,23 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
     holdout = None
     if not model.is_linear and solver.warm_start and not model.friction.is_dynamic and not request.load_dependent:
         model, x, std, cond, holdout = against_linear_case(model, at_rule_rates, x, (std, cond), solver, warnings)
-    std = {**std, **dict.fromkeys(held, float("nan"))}
+    closed_form = res is None or solver.varpro or "returned" in (holdout or {})  # the linear part: the box holds it
+    at_bound = fit_at_bound(model, x, {**std, **dict.fromkeys(held, float("nan"))}, closed_form)
+    std = {**sigma_with_held(model, x, std, set(at_bound)), **dict.fromkeys(held, float("nan"))}
     undetermined = {n for n, v in std.items() if not np.isfinite(v)}
     std_robust, robust_cov, robust_names, bandwidth = robust_std(model, x, undetermined)
     consistency = standard = None
     if request.consistent:
         # dropped directions are free in the program (0 need not be physical); the prior's stay at its values
         released = {model.names.index(n) for n in held} if resolved.action == "dropped" else set()
-        x, consistency, standard = consistent_parameters(model, x, sys_, request, released)
+        scale = calibration_scale(std, std_robust, model.obs.rigid_names)  # the data inform as the calibrated σ say
+        x, consistency, standard = consistent_parameters(model, x, sys_, request, released, scale)
     metrics = model_metrics(model, x)
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
     check_fit(model, x, metrics, where)
     notes = [*(note for s in sources for note in s.notes), *model.obs.notes, *plan.notes()]
-    warnings = result_warnings(model, x, std, notes, warnings)
+    warnings = result_warnings(model, x, std, notes, warnings, at_bound)
     params, std, std_robust, fixed, plausibility = reported_parameters(
         model, x, (std, std_robust, robust_names, robust_cov), held, rigid, sys_, standard, warnings, plan.held,
         (request.prior, request.prior_weight))
@@ -208,7 +219,7 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
         identifiability=resolved.to_dict(), held_joints=dict(plan.held) if sys_.robot is not None else None,
         no_effort_joints=list(plan.no_effort), unexcited_joints=list(plan.unexcited), request=request,
         std_robust=std_robust, uncertainty=uncertainty_record(bandwidth, model), velocity_range=velocity_range(model),
-        holdout=holdout, plausibility=plausibility), advice
+        holdout=holdout, plausibility=plausibility, at_bound=at_bound), advice
 
 
 def reported_parameters(model: IdentificationModel, x: np.ndarray, sigmas: tuple, held: dict[str, float],
@@ -257,10 +268,10 @@ def against_linear_case(model: IdentificationModel, linear_rates: Identification
 
 
 def result_warnings(model: IdentificationModel, x: np.ndarray, std: dict[str, float], notes: list[str],
-                    warnings: list[str]) -> list[str]:
+                    warnings: list[str], at_bound: dict[str, float] | None = None) -> list[str]:
     """Every warning of a fit: the stamps (from ``notes``), the accelerations, ``warnings`` (the
-    directions, the dip, the linear special case) and the parameters (at a bound, held at 0 by
-    the sign constraint, undetermined, negative)."""
+    directions, the dip, the linear special case) and the parameters (``at_bound``: at a bound,
+    held at 0 by the sign constraint; undetermined, negative)."""
     obs = model.obs
     lo, hi = model.bounds()
     free = model.free_index
@@ -269,21 +280,22 @@ def result_warnings(model: IdentificationModel, x: np.ndarray, std: dict[str, fl
             + diagnostics.acceleration_warnings(obs.report, obs.preprocessing.cutoff_hz,
                                                 "cutoff_hz" in obs.report["from_data"])
             + warnings + diagnostics.parameter_warnings([model.names[i] for i in free], x[free], std,
-                                                        lo[free], hi[free], physical))
+                                                        lo[free], hi[free], physical, at_bound))
 
 
 def consistent_parameters(model: IdentificationModel, x: np.ndarray, sys_: System, request: IdentifyRequest,
-                          released: set[int] = frozenset()) -> tuple[np.ndarray, dict, dict]:
+                          released: set[int] = frozenset(), data_scale: float = 1.0) -> tuple[np.ndarray, dict, dict]:
     """(the consistent parameters, the ``consistency`` record with the unconstrained fit's
     metrics, the standard parameters per link) at the nonlinear shapes of ``x``; ``released``:
     the indices of parameters held only because the data do not resolve them (the program
-    leaves the rigid-body ones to the prior)."""
+    leaves the rigid-body ones to the prior); ``data_scale``: the calibrated σ's variance over the
+    white one (the directions the data do not determine are held at the model's links)."""
     from frictionid_core.consistency import consistent_fit, standard_record
 
     use_prior = request.prior == "urdf"
     unconstrained = model_metrics(model, x)
     fit = consistent_fit(model, x, sys_.robot, prior_weight=request.prior_weight if use_prior else 0.0,
-                         stribeck_order=request.stribeck_order, released=released)
+                         stribeck_order=request.stribeck_order, released=released, data_scale=data_scale)
     fit.record["unconstrained"] = {"params": dict(zip(model.names, map(float, x))),
                                    "relerr_pct": unconstrained.get("relerr_pct"), "rmse": unconstrained.get("rmse")}
     fit.record["prior"] = "urdf" if use_prior else "none"

@@ -73,6 +73,9 @@ class IdentifyResult:
             with the thresholds used (:func:`frictionid_core.consistency.check.link_plausibility`).
         law_choice: ``--friction auto``: the law chosen by what it predicts, every candidate's
             cross-validated error and why (:mod:`frictionid_core.identification.law_choice`).
+        at_bound: {name: the bound} of the parameters that end at a bound of their search or of the
+            closed form (held at 0 by a sign constraint too): not identified values, σ NaN
+            (:mod:`~frictionid_core.identification.at_bound`).
     """
 
     system: str
@@ -113,13 +116,14 @@ class IdentifyResult:
     holdout: dict | None = None
     plausibility: dict | None = None
     law_choice: dict | None = None
+    at_bound: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The result's JSON: the keys of ``frictionid identify --json`` in their order."""
         head = ("system", "joint_map", "friction", "asymmetric", "solver", "source", "joints", "params", "std",
-                "std_robust", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds",
-                "optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "preprocessing", "layout",
-                "output_error", "idm", "idm_params", "identifiability", "held_joints", "no_effort_joints",
+                "std_robust", "at_bound", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed",
+                "bounds", "optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "preprocessing",
+                "layout", "output_error", "idm", "idm_params", "identifiability", "held_joints", "no_effort_joints",
                 "unexcited_joints", "request", "uncertainty", "velocity_range", "holdout", "plausibility", "law_choice")
         out = {}
         for key in head:
@@ -132,6 +136,13 @@ class IdentifyResult:
         if self.request is not None:
             out["request"] = self.request.to_dict()
         return out
+
+    def nonlinear_at_bound(self) -> list[str]:
+        """The nonlinear friction parameters (vs, delta, v0, …) that end at a bound: the law needed a
+        bound to fit (:func:`~frictionid_core.identification.at_bound.nonlinear_at_bound`)."""
+        from frictionid_core.identification.at_bound import nonlinear_at_bound
+
+        return nonlinear_at_bound(self)
 
     def friction_rows(self) -> list[str]:
         """Who owns the friction and offset parameters (the ``<name>/`` prefixes): the drive's

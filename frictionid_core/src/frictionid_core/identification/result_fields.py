@@ -31,7 +31,7 @@ def result_fields(data: Mapping, names: list[str]) -> dict:
     from frictionid_core.friction import FRICTIONS
 
     given = {name: data[name] for name in names if data.get(name) is not None}
-    defaults = {"solver": "", "source": "", "joints": [], "std": {}, "std_robust": {}, "metrics": {},
+    defaults = {"solver": "", "source": "", "joints": [], "std": {}, "std_robust": {}, "at_bound": {}, "metrics": {},
                 "wall_s": 0.0}
     checks = {
         "system": lambda k, v: _text(k, v),
@@ -41,7 +41,7 @@ def result_fields(data: Mapping, names: list[str]) -> dict:
         "layout": lambda k, v: _text(k, v, empty=True),
         "source": _source,
         "joints": _names,
-        "params": _parameters, "fixed": _parameters, "idm_params": _parameters,
+        "params": _parameters, "fixed": _parameters, "idm_params": _parameters, "at_bound": _parameters,
         "std": _sigmas, "std_robust": _sigmas,
         "metrics": _metrics,
         "wall_s": lambda k, v: number(k, v),
