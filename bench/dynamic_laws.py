@@ -15,8 +15,8 @@ setting left to its default but the law:
   (``gms``), default solver (``ls``: the static part by lm, then every parameter by lm).
 * ``stribeck``: TX40 joint-2-like logs (the thesis joint-2 model, a Fourier excitation, 500 Hz stamps
   jittered by ±20 %, 0.05 N·m torque noise), Stribeck δ in 0.5–3, ``--system tx40-j2 --friction
-  stribeck``, the solvers of the CLI in turn (each with its defaults; ``ls`` refuses a law with a
-  dip, naming the way out).
+  stribeck``, the solvers of the CLI in turn (each with its defaults; ``ls`` fits a law with a dip by
+  variable projection with ``lm``).
 
 Printed per case: the truth, each parameter's error (%), the validation's RMSE on every row and on
 the moving rows over the true noise σ (1 = the noise floor), the tool's own noise-floor estimate and
@@ -45,7 +45,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from support.friction_truths import dynamic_log, tx40_j2_like_log  # noqa: E402
 
 RATES = (50.0, 200.0, 1000.0, 5000.0)
-SOLVERS = ("lm", "de", "hybrid", "pso", "ga", "aco", "bbo", "bo", "dt")  # ls refuses a law with a dip
+SOLVERS = ("ls", "lm", "de", "hybrid", "pso", "ga", "aco", "bbo", "bo", "dt")
 LUGRE_LIMITS = {"Fc": 3.0, "Fs": 3.0, "vs": 10.0, "sigma0": 15.0, "sigma1": 30.0}
 FLOOR_LIMIT = 1.3
 DELTA_LIMIT = 15.0

@@ -6,8 +6,9 @@ and of the torque. Irregular stamps are first resampled onto a uniform grid.
 
 One module per concern: ``settings`` (:class:`Preprocessing`, :class:`Prepared`, the rule's
 constants), ``filters``, ``rule`` (the settings chosen from the data: read its docstring for the
-rule), ``preparation`` (a log to prepared signals; :func:`preprocess`), ``travel`` (the travel a
-dynamic friction law's states follow).
+rule), ``preparation`` (a log to prepared signals; :func:`preprocess`), ``lag`` (a lag of the
+logged velocity and effort behind the position), ``travel`` (the travel a dynamic friction law's
+states follow).
 """
 
 from frictionid_core import lazy
@@ -18,27 +19,28 @@ _LAZY = {
         "central_difference", "decimate", "decimation_indices", "lowpass_position", "near_reversals",
         "window_means",
     ), "frictionid_core.preprocess.filters"),
+    **dict.fromkeys(("lag_record", "remove_channel_lag"), "frictionid_core.preprocess.lag"),
     **dict.fromkeys((
         "column_stride", "dip_needs", "prepare", "preprocess", "resample_uniform", "subsample", "thinned_rows",
     ), "frictionid_core.preprocess.preparation"),
     **dict.fromkeys((
-        "choose_preprocessing", "cutoff_interval", "noise_density", "rule_decimation",
+        "choose_preprocessing", "noise_density", "rule_decimation",
     ), "frictionid_core.preprocess.rule"),
     **dict.fromkeys(("PLAY_SIGMAS", "play", "travel_noise", "travel_rows"),
                     "frictionid_core.preprocess.travel"),
     **dict.fromkeys((
-        "cutoff_range", "CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SIGMAS", "MOVING_FACTOR",
-        "PREDICTION_TOLERANCE", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS",
-        "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
+        "cutoff_range", "CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SHARE", "MIN_SPEED_SIGMAS",
+        "MOVING_FACTOR", "PREDICTION_TOLERANCE", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT",
+        "REVERSAL_PERIODS", "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
     ), "frictionid_core.preprocess.settings"),
 }
 
-__all__ = ["CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SIGMAS", "MOVING_FACTOR",
-           "PLAY_SIGMAS", "PREDICTION_TOLERANCE", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT",
-           "REVERSAL_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES", "central_difference",
-           "choose_preprocessing", "column_stride", "cutoff_interval", "cutoff_range", "decimate",
-           "decimation_indices", "dip_needs", "lowpass_position", "near_reversals", "noise_density", "play",
-           "prepare", "preprocess", "resample_uniform", "rule_decimation", "subsample", "thinned_rows",
-           "travel_noise", "travel_rows", "window_means"]
+__all__ = ["CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SHARE", "MIN_SPEED_SIGMAS",
+           "MOVING_FACTOR", "PLAY_SIGMAS", "PREDICTION_TOLERANCE", "Prepared", "Preprocessing",
+           "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES",
+           "central_difference", "choose_preprocessing", "column_stride", "cutoff_range", "decimate",
+           "decimation_indices", "dip_needs", "lag_record", "lowpass_position", "near_reversals", "noise_density",
+           "play", "prepare", "preprocess", "remove_channel_lag", "resample_uniform", "rule_decimation", "subsample",
+           "thinned_rows", "travel_noise", "travel_rows", "window_means"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)
