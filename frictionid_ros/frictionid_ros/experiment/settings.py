@@ -111,7 +111,8 @@ def parse_goal(goal, cfg: Config, joints: list[str]) -> Settings:
                               f"{cfg.max_budget}")
     request = node_request(cfg, list(joints), "goal field", **fields)
     overrides = {k: v for k, v in (("cutoff_hz", _number(goal, "cutoff_hz", 0.0)),
-                                   ("reversal_periods", _number(goal, "reversal_periods", 0.0, 0.0, 100.0))) if v}
+                                   ("reversal_periods", _number(goal, "reversal_periods", 0.0, 0.0, 100.0)),
+                                   ("min_speed", _number(goal, "min_speed", 0.0))) if v}
     if overrides:
         request = replace(request, preprocessing=PreprocessingOverrides(
             **{**request.preprocessing.changes(), **overrides}))

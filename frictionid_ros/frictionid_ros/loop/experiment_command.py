@@ -25,6 +25,7 @@ import warnings
 from pathlib import Path
 
 from frictionid_core import FrictionIdError, write_json
+from frictionid_core.loop import SERVO_BANDWIDTH_HZ
 from frictionid_ros.loop.loop_command import Client, Processes
 from frictionid_ros.runtime import AUTO_PRIORITY, realtime_priority, reserve_domain
 
@@ -41,8 +42,11 @@ excitation, the bag, the result) stay in --out."""
 NS = 1_000_000_000
 STILL_SPEED = 0.01  # the arm stands still when every joint is slower than this [rad/s | m/s]
 FAULT_AT = 0.4  # the fault is injected at this share of the excitation
+AFTER_WINDOW_S = 30.0  # ~/identify afterwards: a dry run on the last 30 s (the excitation, or what came of it)
 EFFORT_NOISE = 0.05  # [N·m]: the TX40's published torque noise (docs/reference.md#tx40), every robot
 POSITION_NOISE = 1e-6  # [rad]: an absolute encoder's noise (the TX40's: 1.0-3.0e-6 rad)
+MIN_SPEED = 0.2  # [rad/s]: 4 × the largest Stribeck speed of the hidden friction (docs/experiment.md#sim)
+CUTOFF_HZ = 30.0  # [Hz]: above the servo's bandwidth (docs/experiment.md#sim)
 
 
 def register(subparsers):
@@ -69,10 +73,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, help="the excitation design's seed (default 0)")
     p.add_argument("--friction", default="coulomb", help="the friction law identified (default coulomb)")
     p.add_argument("--solver", default="ls", help="the solver (default ls)")
-    p.add_argument("--cutoff", type=float, default=0.0, metavar="HZ",
-                   help="filter cut-off of every joint [Hz] (default: chosen from the data)")
+    p.add_argument("--cutoff", type=float, default=CUTOFF_HZ, metavar="HZ",
+                   help=f"filter cut-off of every joint [Hz] (default {CUTOFF_HZ:g}: above the arm's servo bandwidth, "
+                        f"{SERVO_BANDWIDTH_HZ:g} Hz, whose response to each friction step is motion; 0: chosen from "
+                        "the data)")
     p.add_argument("--reversal-periods", type=float, default=0.0, metavar="P",
                    help="rows within P cut-off periods of a reversal left out (default: the rule's)")
+    p.add_argument("--min-speed", type=float, default=MIN_SPEED, metavar="V",
+                   help=f"rows slower than V [rad/s] left out (default {MIN_SPEED:g}: the arm's hidden Stribeck "
+                        "friction, vs <= 0.05 rad/s, which the Coulomb law does not model; 0: chosen from the data)")
     p.add_argument("--validation-share", type=float, default=0.3, help="share held back for validation (0.3)")
     p.add_argument("--max-floor-ratio", type=float, default=1.5,
                    help="accepted when the validation error is at most this × its noise floor (default 1.5)")
@@ -134,6 +143,7 @@ def goal_of(args):
     return RunExperiment.Goal(duration_s=float(args.duration), evals=int(args.evals), seed=int(args.seed),
                               command_interface=args.interface, friction_model=args.friction, solver=args.solver,
                               cutoff_hz=float(args.cutoff), reversal_periods=float(args.reversal_periods),
+                              min_speed=float(args.min_speed),
                               validation_share=float(args.validation_share),
                               max_floor_ratio=float(args.max_floor_ratio))
 
@@ -275,8 +285,8 @@ def run(args) -> dict:
         time.sleep(1.0)  # the arm's record covers a second after the answer
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DeprecationWarning)
-            after = client.call(Identify, "/frictionid/identify", Identify.Request(window_seconds=10.0, dry_run=True),
-                                timeout=120.0)
+            after = client.call(Identify, "/frictionid/identify",
+                                Identify.Request(window_seconds=AFTER_WINDOW_S, dry_run=True), timeout=120.0)
     finally:
         if client is not None:
             client.close()

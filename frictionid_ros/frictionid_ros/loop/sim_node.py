@@ -19,8 +19,9 @@ start pose ``q0`` and follows ``trajectory_msgs/JointTrajectory`` on ``trajector
 the start, 0: at once; an empty one: stop and hold here) and streamed ``std_msgs/Float64MultiArray``
 positions on ``position_topic``; effort = the servo's torque. ``position_noise`` [rad | m] and
 ``effort_noise`` [N·m | N] add white noise to what is published (not to what the servo sees).
-Faults, set at runtime with ``fault`` on joint ``fault_joint``: ``tracking`` (the joint blocked, as by a
-brake, from then on), ``effort`` (its drive's torque jumps to 1.5 × its effort limit for 50 ms),
+Faults, set at runtime with ``fault`` on joint ``fault_joint``: ``tracking`` (the joint blocked from then
+on, as against an obstacle, its drive folding its torque back to half its effort limit, as a drive's
+stall protection does), ``effort`` (its drive's torque jumps to 1.5 × its effort limit for 50 ms),
 ``silence`` (no joint state published for ``fault_s``). With ``record_file`` the true state of every step
 (stamp, q, q̇, torque) and the fault's start are written to that .npz at exit.
 """
@@ -48,6 +49,7 @@ from frictionid_ros.loop.loop_node import SENSOR, LoopNode, run_node
 CATCH_UP_S = 0.05  # a step later than this restarts the schedule instead of racing to catch up [s]
 FAULTS = ("tracking", "effort", "silence")
 EFFORT_SPIKE = (1.5, 0.05)  # the effort fault: × the effort limit, for this long [s]
+STALL_FOLDBACK = 0.5  # the tracking fault: a blocked joint's drive torque, × its effort limit
 RECORD_CAPACITY = 600_000  # steps kept by record_file (10 min at 1 kHz)
 NS = 1_000_000_000
 
@@ -192,9 +194,11 @@ class SimNode(LoopNode):
                 except FrictionIdError:
                     self.rejected += 1
         tau = f.torque(sim.t, sim.q, sim.qd)
+        k = self._fault_joint
         if self.fault == "effort" and sim.t < self._fault_state:
-            k = self._fault_joint
             tau[k] = EFFORT_SPIKE[0] * f.limit[k] * (1.0 if tau[k] >= 0 else -1.0)
+        elif self.fault == "tracking":
+            tau[k] = np.clip(tau[k], -STALL_FOLDBACK * f.limit[k], STALL_FOLDBACK * f.limit[k])
         return tau
 
     def _loop(self) -> None:
