@@ -53,6 +53,7 @@ START_DELAY_S = 0.2  # a trajectory's start stamp is this far ahead of its sendi
 STOPPED_SPEED = 0.01  # after a hold: the robot is still when every joint is slower than this [rad/s | m/s]
 STOP_WATCH_S = 2.0  # how long the node watches the robot come to rest after a hold [s]
 WATCH_PERIOD_S = 0.01  # the checks of a trajectory's motion run this often [s]
+CLOCK_SLACK_S = 2.0  # a motion is watched at most this long past its end on this node's clock [s]
 ROBOT_SYSTEMS = "tx40 or urdf:PATH"
 
 
@@ -252,8 +253,12 @@ class ExperimentService:
 
     def _move(self, commander, motion, after_s: float, monitor: Monitor, cols, s: Settings, control, phase: str,
               start_ns: int | None = None, on_tick=None) -> int:
-        """Command ``motion`` (from ``start_ns``, default now + START_DELAY_S) and watch it until
-        ``after_s`` past its end; Stopped on an abort. Returns the start stamp [ns]."""
+        """Command ``motion`` (from ``start_ns``, default now + START_DELAY_S) and watch it until the
+        robot's stamps are ``after_s`` past its end; Stopped on an abort. Returns the start stamp [ns].
+
+        Times are the robot's: the commands' start stamps and the joint states' stamps (a controller
+        runs on its own clock; only the silence is measured on this node's). The watch ends at the
+        latest CLOCK_SLACK_S of this node's time after the end (a clock running behind)."""
         start_ns = start_ns or time.time_ns() + int(START_DELAY_S * NS)
         commander.send(motion, start_ns)
         end_ns = start_ns + int((motion.duration + after_s) * NS)
@@ -261,6 +266,7 @@ class ExperimentService:
         with ring.lock:
             cursor = ring.total
         since = time.time()
+        newest = 0  # the newest stamp seen [ns]
         period = WATCH_PERIOD_S if s.interface == "trajectory" else 1.0 / s.rate_hz
         while True:
             now_ns = time.time_ns()
@@ -270,6 +276,7 @@ class ExperimentService:
             cursor, rows = _new_rows(ring, cursor)
             if rows is not None:
                 t_ns, rx_ns, q, effort = rows
+                newest = max(newest, int(t_ns[-1]))
                 q_ref, _, _ = motion.at((t_ns - start_ns) / NS)
                 abort = monitor.check(t_ns / NS, q[:, cols], effort[:, cols], q_ref, rx=rx_ns / NS)
                 if abort is not None:
@@ -277,13 +284,13 @@ class ExperimentService:
             abort = monitor.silent(now_ns / NS, since)
             if abort is not None:
                 raise Stopped(abort)
-            self.status.phase = phase if now_ns < start_ns + int(motion.duration * NS) else "settle"
-            self.status.progress = min(1.0, max(0.0, (now_ns - start_ns) / max(1, end_ns - start_ns)))
+            self.status.phase = phase if newest < start_ns + int(motion.duration * NS) else "settle"
+            self.status.progress = min(1.0, max(0.0, (newest - start_ns) / max(1, end_ns - start_ns)))
             self.status.tracking_error = monitor.last_tracking
             self.status.max_effort_ratio = float(monitor.max_effort_ratio.max(initial=0.0))
             if on_tick is not None:
                 on_tick()
-            if now_ns >= end_ns:
+            if newest >= end_ns or now_ns >= end_ns + int(CLOCK_SLACK_S * NS):
                 return start_ns
             time.sleep(period)
 

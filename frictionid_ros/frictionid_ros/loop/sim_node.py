@@ -22,8 +22,9 @@ positions on ``position_topic``; effort = the servo's torque. ``position_noise``
 Faults, set at runtime with ``fault`` on joint ``fault_joint``: ``tracking`` (the joint blocked from then
 on, as against an obstacle, its drive folding its torque back to half its effort limit, as a drive's
 stall protection does), ``effort`` (its drive's torque jumps to 1.5 × its effort limit for 50 ms),
-``silence`` (no joint state published for ``fault_s``). With ``record_file`` the true state of every step
-(stamp, q, q̇, torque) and the fault's start are written to that .npz at exit.
+``silence`` (no joint state published for ``fault_s``); an empty ``fault`` clears it. With
+``record_file`` the true state of every step (stamp, q, q̇, torque) and the fault's start are written to
+that .npz at exit.
 """
 
 from __future__ import annotations
@@ -71,7 +72,8 @@ class SimNode(LoopNode):
             ("fault_s", 1.5), ("record_file", ""))}
         self.robot = robot = load_robot(p["robot"])
         q0 = np.array(p["q0"], dtype=float) if len(p["q0"]) == robot.nv else default_trajectory(robot).q0
-        self.sim = SimArm(robot, hidden_friction(p["robot"], robot.joints), q0=q0, law=p["hidden_friction"])
+        self.sim = SimArm(robot, hidden_friction(p["robot"], robot.joints), q0=q0, law=p["hidden_friction"],
+                          guard_reversals=p["command_interface"] == "position")  # a stiff servo
         if p["command_interface"] not in ("effort", "position"):
             raise FrictionIdError(f"command_interface must be effort or position, got {p['command_interface']!r}")
         self.follower = None
@@ -113,12 +115,13 @@ class SimNode(LoopNode):
 
     def _on_set(self, params) -> SetParametersResult:
         for prm in params:
-            if prm.name == "fault" and prm.value:
-                if prm.value not in FAULTS or self.follower is None:
-                    return SetParametersResult(successful=False, reason=f"fault: one of {', '.join(FAULTS)}, with "
-                                                                        "command_interface position")
+            if prm.name == "fault":
+                if (prm.value and prm.value not in FAULTS) or self.follower is None:
+                    return SetParametersResult(successful=False, reason=f"fault: one of {', '.join(FAULTS)} (empty: "
+                                                                        "none), with command_interface position")
                 self._servo_commands.append(("fault", prm.value))
-                self.get_logger().info(f"fault {prm.value} on {self.robot.joints[self._fault_joint]}")
+                self.get_logger().info(f"fault {prm.value} on {self.robot.joints[self._fault_joint]}" if prm.value
+                                       else "fault cleared")
             if prm.name == "drift_start" and prm.value:
                 self.sim.start_drift(*self._drift)
                 self.get_logger().info(f"Coulomb drift started: +{100 * self._drift[0]:g} % over {self._drift[1]:g} s")
@@ -178,10 +181,12 @@ class SimNode(LoopNode):
             elif kind == "position":
                 f.stream(sim.t, cmd[1])
             elif kind == "fault":
-                self.fault, self.fault_ns = cmd[1], self._origin + round(sim.t * 1e9)
                 k = self._fault_joint
-                self._fault_state = {"tracking": sim.q[k], "effort": sim.t + EFFORT_SPIKE[1],
-                                     "silence": sim.t + self._fault_s}[cmd[1]]
+                if cmd[1]:
+                    self.fault_ns = self._origin + round(sim.t * 1e9)
+                    self._fault_state = {"tracking": sim.q[k], "effort": sim.t + EFFORT_SPIKE[1],
+                                         "silence": sim.t + self._fault_s}[cmd[1]]
+                self.fault = cmd[1]
             else:
                 _, stamp, t, q, qd, qdd = cmd
                 t0 = (stamp - self._origin) / 1e9 if stamp else sim.t
@@ -204,7 +209,9 @@ class SimNode(LoopNode):
     def _loop(self) -> None:
         """Step at absolute times; stamp = the simulated clock (wall clock of the first step's
         scheduled time + sim time: a message never leaves before its stamp), regular like a robot's; a step
-        later than CATCH_UP_S shifts that clock instead of racing (the data then shows a gap of that length)."""
+        later than CATCH_UP_S shifts that clock instead of racing (the data then shows a gap of that length).
+        A position-controlled arm keeps its clock instead, as a robot's controller does: its trajectories are
+        in that clock, whose stamps then lag the wall clock by the stalls."""
         msg = JointState(name=list(self.robot.joints))
         sim, period = self.sim, self.period
         sigma_q, sigma_e, rng = self._noise
@@ -218,7 +225,8 @@ class SimNode(LoopNode):
                 time.sleep(delay)
             elif delay < -CATCH_UP_S:
                 nxt -= delay
-                self._origin -= int(delay * 1e9)
+                if self.follower is None:
+                    self._origin -= int(delay * 1e9)
             if self._attach is not None:
                 sim.attach_payload(self._attach)
                 self._attach = None
