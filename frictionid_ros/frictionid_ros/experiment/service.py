@@ -22,8 +22,9 @@ error stop the motion — the robot is told to hold (a JointTrajectoryController
 which holds the present position; a position stream: its last command again) — and nothing is
 identified or applied. The report (``experiment.json``) says what happened and when.
 
-The ROS side (:mod:`frictionid_ros.node.experiment_action`) gives a commander (``send(motion,
-start_ns)``, ``tick(now_ns)``, ``hold(q)``, ``close()``) and ``serialize(msg)``; the node's input
+The ROS side (:mod:`frictionid_ros.node.experiment_action`) gives a commander (made by
+``commander(interface, topic, joints, rate_hz)``: ``send(motion, start_ns)``, ``tick(now_ns)``, ``hold(q)``,
+``close()``) and ``serialize(msg)``; the node's input
 thread hands every joint state to :meth:`ExperimentService.on_joint_state`.
 """
 
@@ -32,7 +33,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +54,7 @@ START_DELAY_S = 0.2  # a trajectory's start stamp is this far ahead of its sendi
 STOPPED_SPEED = 0.01  # after a hold: the robot is still when every joint is slower than this [rad/s | m/s]
 STOP_WATCH_S = 2.0  # how long the node watches the robot come to rest after a hold [s]
 WATCH_PERIOD_S = 0.01  # the checks of a trajectory's motion run this often [s]
-CLOCK_SLACK_S = 2.0  # a motion is watched at most this long past its end on this node's clock [s]
+CLOCK_SLACK_S = 2.0  # a motion is watched at most this long past its end by this node's time [s]
 ROBOT_SYSTEMS = "tx40 or urdf:PATH"
 
 
@@ -101,7 +102,7 @@ class ExperimentService:
     """Answers RunExperiment goals (see the module docstring). ``settings()``: the node's Config;
     ``service``: the IdentifyService whose slot it takes; ``active``: ActiveParameters; ``worker``: the
     WorkerProcess (None: a thread); ``inputs``: the node's Inputs (its joint ring); ``topics``: the
-    resolved topic names; ``commander(interface, topic, joints)``; ``serialize(msg)`` → bytes;
+    resolved topic names; ``commander(interface, topic, joints, rate_hz)``; ``serialize(msg)`` → bytes;
     ``log`` (rclpy-like)."""
 
     def __init__(self, settings, service, active, worker, inputs, topics, commander, serialize, log):
@@ -111,6 +112,7 @@ class ExperimentService:
         self._recorder: BagRecorder | None = None
         self._sub: JobControl | None = None  # the worker job under way
         self.status = Status()
+        self.watch_gap_s = 0.0  # the longest interval between two checks of a motion [s]
         self.last_ok, self.last_status = True, "no experiment yet"
 
     # ------------------------------------------------------------------ input thread
@@ -127,12 +129,18 @@ class ExperimentService:
         try:
             robot, cols = self._robot(cfg)
             settings = parse_goal(goal, cfg, list(robot.joints))
+            if settings.excitation_file:  # a file of the results folder only (as ~/load's)
+                path = self._active.file(settings.excitation_file)
+                if not path.is_file():
+                    raise FrictionIdError(f"{path}: no such excitation file in the results folder")
+                settings = replace(settings, excitation_file=str(path))
         except FrictionIdError as exc:
             return self._record(ExperimentAnswer(False, str(exc)))
         outer = JobControl()  # the slot's: cancelled only by a node shutting down
         outer.on_cancel(lambda: control.cancel(outer.reason))
         control.on_cancel(self._cancel_sub)
         self.status = Status()
+        self.watch_gap_s = 0.0
         answer = self._service.exclusive(lambda: self._run(settings, robot, cols, control), outer,
                                          (lambda _: on_wait(control)) if on_wait is not None else None,
                                          lambda value: value)
@@ -185,18 +193,15 @@ class ExperimentService:
         answer = ExperimentAnswer(False, "", report=report)
         commander = monitor = None
         try:
-            excitation_file = str(self._active.file(s.excitation_file)) if s.excitation_file else ""
-            if excitation_file and not Path(excitation_file).is_file():
-                raise FrictionIdError(f"{excitation_file}: no such excitation file in the results folder")
             q_now = self._pose_now(cols, s)
-            plan = self._in_worker(PlanTask(cfg.system, excitation_file, s.design, str(folder), tuple(q_now),
+            plan = self._in_worker(PlanTask(cfg.system, s.excitation_file, s.design, str(folder), tuple(q_now),
                                             s.approach_speed, s.rate_hz), control, "plan", cfg)
             report.update(excitation=plan.report, excitation_file=plan.excitation_file, screen=plan.screened,
                           approach={"from": q_now.tolist(), "to": plan.excitation.start.tolist(),
                                     "duration_s": plan.approach.duration})
             report["wall_s"]["plan"] = time.monotonic() - t0
             monitor = Monitor(list(robot.joints), _effort_limits(robot), s.thresholds)
-            commander = self._commander(s.interface, s.topic, list(robot.joints))
+            commander = self._commander(s.interface, s.topic, list(robot.joints), s.rate_hz)
             t1 = time.monotonic()
             self.status.phase = "approach"
             self._move(commander, plan.approach, SETTLE_S, monitor, cols, s, control, "approach")
@@ -256,28 +261,34 @@ class ExperimentService:
         """Command ``motion`` (from ``start_ns``, default now + START_DELAY_S) and watch it until the
         robot's stamps are ``after_s`` past its end; Stopped on an abort. Returns the start stamp [ns].
 
-        Times are the robot's: the commands' start stamps and the joint states' stamps (a controller
-        runs on its own clock; only the silence is measured on this node's). The watch ends at the
-        latest CLOCK_SLACK_S of this node's time after the end (a clock running behind)."""
-        start_ns = start_ns or time.time_ns() + int(START_DELAY_S * NS)
+        A trajectory's times are the robot's (:meth:`_clock`): its start stamp and the joint states'
+        stamps (a controller runs on its own clock; only the silence is measured on this node's); the watch
+        ends at the latest CLOCK_SLACK_S after the motion's end by this node's time. A stream's commands are
+        timed by this node's clock, and so is the watch: the joint states by their receipt."""
+        start_ns = start_ns or self._clock(s) + int(START_DELAY_S * NS)
         commander.send(motion, start_ns)
         end_ns = start_ns + int((motion.duration + after_s) * NS)
+        give_up = time.monotonic() + motion.duration + after_s + START_DELAY_S + LEAD_S + CLOCK_SLACK_S
         ring = self._inputs.ring
         with ring.lock:
             cursor = ring.total
         since = time.time()
         newest = 0  # the newest stamp seen [ns]
         period = WATCH_PERIOD_S if s.interface == "trajectory" else 1.0 / s.rate_hz
+        last_ns = time.time_ns()
         while True:
             now_ns = time.time_ns()
+            self.watch_gap_s = max(self.watch_gap_s, (now_ns - last_ns) / NS)  # this thread's longest pause
+            last_ns = now_ns
             if control.cancelled:
                 raise Stopped(Abort("cancel", control.reason, now_ns / NS))
             commander.tick(now_ns)
             cursor, rows = _new_rows(ring, cursor)
             if rows is not None:
                 t_ns, rx_ns, q, effort = rows
-                newest = max(newest, int(t_ns[-1]))
-                q_ref, _, _ = motion.at((t_ns - start_ns) / NS)
+                at = t_ns if s.interface == "trajectory" else rx_ns
+                newest = max(newest, int(at[-1]))
+                q_ref, _, _ = motion.at((at - start_ns) / NS)
                 abort = monitor.check(t_ns / NS, q[:, cols], effort[:, cols], q_ref, rx=rx_ns / NS)
                 if abort is not None:
                     raise Stopped(abort)
@@ -290,16 +301,31 @@ class ExperimentService:
             self.status.max_effort_ratio = float(monitor.max_effort_ratio.max(initial=0.0))
             if on_tick is not None:
                 on_tick()
-            if newest >= end_ns or now_ns >= end_ns + int(CLOCK_SLACK_S * NS):
+            if newest >= end_ns or time.monotonic() > give_up:
                 return start_ns
             time.sleep(period)
+
+    def _clock(self, s: Settings) -> int:
+        """Now [ns] on the clock of the commands: the robot's for a trajectory (its newest joint state's
+        stamp, moved on by the time since its receipt: a controller takes a trajectory's start stamp on its
+        own clock, which may run apart from this node's), this node's for a stream."""
+        now = time.time_ns()
+        ring = self._inputs.ring
+        if s.interface != "trajectory" or ring is None:
+            return now
+        with ring.lock:
+            k = ring.last_row(0)
+            if k is None:
+                return now
+            stamp, rx = int(ring.t_ns[k]), int(ring.rx_ns[k])
+        return stamp + (now - rx)
 
     def _excite(self, commander, excitation, monitor, cols, s: Settings, control, folder: Path, report: dict):
         """The excitation, recorded: (the bag, the split [s from its first sample], messages recorded)."""
         t0 = time.monotonic()
         recorder = BagRecorder(folder / "joint_states", self._topics["joint_states"])
         self._recorder = recorder
-        start_ns = time.time_ns() + int(LEAD_S * NS)
+        start_ns = self._clock(s) + int(LEAD_S * NS)
         report["excitation_start_ns"] = start_ns
         try:
             self._move(commander, excitation, TAIL_S, monitor, cols, s, control, "excitation", start_ns,
@@ -318,7 +344,7 @@ class ExperimentService:
                  t0: float) -> ExperimentAnswer:
         """Hold the robot after ``abort``; nothing is identified or applied."""
         report = answer.report
-        held_at = time.time_ns()
+        detected = time.time_ns()
         q_last = self._last_pose(cols)
         if commander is not None:
             self.status.phase = "hold"
@@ -326,9 +352,11 @@ class ExperimentService:
                 commander.hold(q_last)
             except Exception as exc:  # the answer must still come
                 self._log.error(f"run_experiment: hold failed: {type(exc).__name__}: {exc}")
-            report["stopped_after_s"] = self._watch_stop(cols, held_at)
+            held_at = time.time_ns()
+            report["stopped_after_s"] = self._watch_stop(cols, detected)
         report.update(aborted=commander is not None, abort_reason=abort.kind, abort_text=abort.text,
-                      abort_stamp_ns=int(abort.t * NS), hold_sent_ns=held_at if commander is not None else None)
+                      abort_stamp_ns=int(abort.t * NS), detected_ns=detected,
+                      hold_sent_ns=held_at if commander is not None else None)
         if monitor is not None:
             report["monitor"] = monitor.figures()
         answer.aborted, answer.abort_reason = commander is not None, abort.kind
@@ -348,8 +376,8 @@ class ExperimentService:
             return None if k is None else ring.position[k][cols].copy()
 
     def _watch_stop(self, cols, since_ns: int) -> float | None:
-        """Seconds from ``since_ns`` until every joint is slower than STOPPED_SPEED (None: not seen
-        within STOP_WATCH_S, e.g. the joint states stopped)."""
+        """Seconds from ``since_ns`` (this node's clock) until a joint state received with every joint
+        slower than STOPPED_SPEED (None: not seen within STOP_WATCH_S, e.g. the joint states stopped)."""
         ring = self._inputs.ring
         with ring.lock:
             cursor = ring.total
@@ -424,6 +452,7 @@ class ExperimentService:
 
     def _write_report(self, folder: Path, report: dict, t0: float) -> None:
         report["wall_s"]["total"] = time.monotonic() - t0
+        report["watch_max_interval_s"] = self.watch_gap_s
         try:
             write_json(folder / "experiment.json", _plain(report))
         except FrictionIdError as exc:

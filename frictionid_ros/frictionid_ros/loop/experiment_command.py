@@ -24,8 +24,11 @@ import time
 import warnings
 from pathlib import Path
 
+import numpy as np
+
 from frictionid_core import FrictionIdError, write_json
 from frictionid_core.loop import SERVO_BANDWIDTH_HZ
+from frictionid_ros.experiment import DEFAULT_RATES
 from frictionid_ros.loop.loop_command import Client, Processes
 from frictionid_ros.runtime import AUTO_PRIORITY, realtime_priority, reserve_domain
 
@@ -192,8 +195,6 @@ def send_goal(client: Client, goal, fault, procs: Processes, timeout: float = 90
 def held_still_s(record: dict, since_ns: int) -> float | None:
     """Seconds from ``since_ns`` until the arm stood still for good (every joint slower than
     STILL_SPEED from then to the end of the record); None when it never did."""
-    import numpy as np
-
     stamps, qd = record["stamp_ns"], np.abs(record["qd"])
     after = stamps >= since_ns
     if not after.any():
@@ -205,6 +206,21 @@ def held_still_s(record: dict, since_ns: int) -> float | None:
     if last + 1 >= len(stamps):
         return None
     return (int(stamps[last + 1]) - since_ns) / NS
+
+
+def hold_figures(record: dict, report: dict) -> dict:
+    """How the arm came to rest after an abort: the node's reaction (abort seen → hold sent, its clock),
+    the arm's stop (hold taken → every joint slower than STILL_SPEED for good, the arm's clock: a stalled
+    simulation's clock lags the wall clock), their sum ``held_still_s``; and from the fault's start to rest
+    on the arm's clock."""
+    holds = [int(x) for x in np.atleast_1d(record.get("hold_ns", []))]
+    reaction = (report["hold_sent_ns"] - report["detected_ns"]) / NS if report.get("hold_sent_ns") else None
+    stop = held_still_s(record, holds[0]) if holds else None
+    fault_ns = int(record.get("fault_ns", 0))
+    return {"reaction_s": reaction, "arm_stop_s": stop,
+            "held_still_s": reaction + stop if reaction is not None and stop is not None else None,
+            "fault_to_still_s": held_still_s(record, fault_ns) if fault_ns else None,
+            "node_saw_rest_after_s": report.get("stopped_after_s"), "abort_text": report.get("abort_text")}
 
 
 def relative_difference(a: dict, b: dict) -> float:
@@ -239,7 +255,6 @@ def offline(bag: str, result_file: str, out: Path) -> dict:
 
 def run(args) -> dict:
     """The experiment → the JSON figures."""
-    import numpy as np
     from frictionid_interfaces.srv import Identify
 
     from frictionid_core.loop import default_trajectory, hidden_friction, load_robot, truth_errors
@@ -263,6 +278,7 @@ def run(args) -> dict:
                     "-p", "command_interface:=position", "-p", f"q0:={[float(x) for x in q0]}",
                     "-p", f"position_noise:={float(args.position_noise)}",
                     "-p", f"effort_noise:={float(args.effort_noise)}", "-p", f"fault_joint:={int(args.fault_joint)}",
+                    "-p", f"stream_rate_hz:={DEFAULT_RATES['position']}",
                     "-p", f"record_file:={record_file}")
         client = Client(lease.id)
         client.wait_service(Identify, "/frictionid/identify", procs)
@@ -308,11 +324,9 @@ def run(args) -> dict:
     params_file = out / "parameters.json"
     result["nothing_applied"] = not res.applied and not params_file.exists()
     if res.aborted:
-        since = int(report.get("abort_stamp_ns") or 0)
-        result["held_still_s"] = held_still_s(record, since)
-        result["node_stopped_after_s"] = report.get("stopped_after_s")
-        result["fault_sent_ns"], result["fault_at_arm_ns"] = fault_state["sent"], int(record.get("fault_ns", 0))
-        result["abort_stamp_ns"] = since
+        result["hold"] = hold_figures(record, report)
+        result["held_still_s"] = result["hold"]["held_still_s"]
+        result["fault_sent_ns"] = fault_state["sent"]
     if res.result_file:
         params = json.loads(Path(res.result_file).read_text())["params"]
         result["truth_error_pct"] = truth_errors(params, joints, hidden_friction(args.robot, joints),

@@ -17,14 +17,15 @@ Steps run in a thread of their own at absolute times.
 experiment``): its servo (:class:`frictionid_core.loop.TrajectoryFollower`, in the step loop) holds the
 start pose ``q0`` and follows ``trajectory_msgs/JointTrajectory`` on ``trajectory_topic`` (header stamp =
 the start, 0: at once; an empty one: stop and hold here) and streamed ``std_msgs/Float64MultiArray``
-positions on ``position_topic``; effort = the servo's torque. ``position_noise`` [rad | m] and
+positions on ``position_topic`` (sent at ``stream_rate_hz``, played back from a buffer); effort = the
+servo's torque. ``position_noise`` [rad | m] and
 ``effort_noise`` [N·m | N] add white noise to what is published (not to what the servo sees).
 Faults, set at runtime with ``fault`` on joint ``fault_joint``: ``tracking`` (the joint blocked from then
 on, as against an obstacle, its drive folding its torque back to half its effort limit, as a drive's
 stall protection does), ``effort`` (its drive's torque jumps to 1.5 × its effort limit for 50 ms),
 ``silence`` (no joint state published for ``fault_s``); an empty ``fault`` clears it. With
-``record_file`` the true state of every step (stamp, q, q̇, torque) and the fault's start are written to
-that .npz at exit.
+``record_file`` the true state of every step (stamp, q, q̇, torque), the fault's start and when each hold
+came are written to that .npz at exit.
 """
 
 from __future__ import annotations
@@ -69,7 +70,7 @@ class SimNode(LoopNode):
             ("command_interface", "effort"), ("trajectory_topic", "/joint_trajectory_controller/joint_trajectory"),
             ("position_topic", "/forward_position_controller/commands"), ("q0", [0.0]),
             ("position_noise", 0.0), ("effort_noise", 0.0), ("noise_seed", 0), ("fault", ""), ("fault_joint", 0),
-            ("fault_s", 1.5), ("record_file", ""))}
+            ("fault_s", 1.5), ("record_file", ""), ("stream_rate_hz", 250.0))}
         self.robot = robot = load_robot(p["robot"])
         q0 = np.array(p["q0"], dtype=float) if len(p["q0"]) == robot.nv else default_trajectory(robot).q0
         self.sim = SimArm(robot, hidden_friction(p["robot"], robot.joints), q0=q0, law=p["hidden_friction"],
@@ -81,12 +82,13 @@ class SimNode(LoopNode):
         if p["command_interface"] == "position":
             from frictionid_core.loop import TrajectoryFollower
 
-            self.follower = TrajectoryFollower(robot, q0)
+            self.follower = TrajectoryFollower(robot, q0, stream_rate_hz=float(p["stream_rate_hz"]))
         self._noise = (float(p["position_noise"]), float(p["effort_noise"]), np.random.default_rng(p["noise_seed"]))
         self._fault_joint, self._fault_s = int(p["fault_joint"]), float(p["fault_s"])
         if not 0 <= self._fault_joint < robot.nv:
             raise FrictionIdError(f"fault_joint must be 0..{robot.nv - 1}, got {self._fault_joint}")
         self.fault, self.fault_ns, self._fault_state = "", 0, None
+        self.hold_ns: list[int] = []  # when the servo took each hold (stop) command [ns, the arm's clock]
         self.record_file = p["record_file"]
         if self.record_file:
             self._rec = {"stamp_ns": np.zeros(RECORD_CAPACITY, np.int64),
@@ -103,9 +105,10 @@ class SimNode(LoopNode):
         self._pub = self.input_node.create_publisher(JointState, p["joint_states_topic"], SENSOR)
         if self.follower is None:
             self.input_node.create_subscription(Float64MultiArray, p["command_topic"], self._on_command, SENSOR)
-        else:  # what a JointTrajectoryController and a forward position controller listen to (reliable, depth 10)
+        else:  # what a JointTrajectoryController and a forward position controller listen to (reliable; a stream
+            # is played back in sequence: deep enough to lose none of a burst)
             self.input_node.create_subscription(JointTrajectory, p["trajectory_topic"], self._on_trajectory, 10)
-            self.input_node.create_subscription(Float64MultiArray, p["position_topic"], self._on_position, 10)
+            self.input_node.create_subscription(Float64MultiArray, p["position_topic"], self._on_position, 100)
         self.add_on_set_parameters_callback(self._on_set)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, name="frictionid-sim", daemon=True)
@@ -178,6 +181,7 @@ class SimNode(LoopNode):
             kind = cmd[0]
             if kind == "hold":
                 f.hold(sim.q)
+                self.hold_ns.append(self._origin + round(sim.t * 1e9))
             elif kind == "position":
                 f.stream(sim.t, cmd[1])
             elif kind == "fault":
@@ -265,7 +269,7 @@ class SimNode(LoopNode):
         if self.record_file:
             n = self._n_rec
             np.savez(self.record_file, joints=np.array(self.robot.joints), fault=self.fault, fault_ns=self.fault_ns,
-                     **{k: v[:n] for k, v in self._rec.items()})
+                     hold_ns=np.array(self.hold_ns, dtype=np.int64), **{k: v[:n] for k, v in self._rec.items()})
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -2,15 +2,18 @@
 :class:`frictionid_ros.experiment.ExperimentService`, feedback every 0.2 s, cancel; and the commander
 through which it moves the robot.
 
-:class:`Commander` publishes on the goal's topic (reliable, depth 10, one publisher per topic for the
+:class:`Commander` publishes on the goal's topic (reliable, depth 100, one publisher per topic for the
 node's life, so that a hold is never lost to a publisher destroyed under it):
 
 * ``trajectory``: one ``trajectory_msgs/JointTrajectory`` per motion (header stamp = its start, every
   point with positions, velocities and accelerations), as a JointTrajectoryController takes on
   ``~/joint_trajectory``; the hold is an empty trajectory, which makes such a controller stop and hold
   its present position;
-* ``position``: ``std_msgs/Float64MultiArray`` positions (the robot's joint order) streamed at the goal's
-  rate along the motion, as a forward position controller takes; the hold repeats the last command.
+* ``position``: ``std_msgs/Float64MultiArray`` positions (the robot's joint order), as a forward position
+  controller takes: the motion's positions at its start + k / rate, each sent :data:`STREAM_LEAD` command
+  intervals ahead of its time (a robot plays a stream back from a buffer of about that much, which
+  absorbs this process's scheduling); several at once when this process fell behind, so that the values
+  stay evenly spaced in time whenever they are sent; the hold repeats the last command.
 """
 
 from __future__ import annotations
@@ -32,8 +35,11 @@ from frictionid_ros.inputs import NS
 from frictionid_ros.node.action import ServedAction
 from frictionid_ros.node.messages import parameters_msg
 
-COMMANDS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
+# Reliable, and deep enough that commands sent together (this process fell behind) are not overwritten
+# unacknowledged in the history: a stream's commands are played back in sequence.
+COMMANDS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=ReliabilityPolicy.RELIABLE)
 HOLD_REPEATS = 3  # a stream's last command is sent this many times on a hold
+STREAM_LEAD = 10  # a streamed command is sent this many intervals ahead of its time (the robot's buffer)
 
 
 def _duration(seconds: float) -> Duration:
@@ -55,10 +61,11 @@ class Commander:
     """The commands of one goal on ``topic`` (``interface`` trajectory | position) for ``joints``;
     ``publisher(type, topic)`` gives the node's publisher of that topic."""
 
-    def __init__(self, publisher, interface: str, topic: str, joints: list[str]):
+    def __init__(self, publisher, interface: str, topic: str, joints: list[str], rate_hz: float):
         self.interface, self.joints = interface, list(joints)
         self._pub = publisher(JointTrajectory if interface == "trajectory" else Float64MultiArray, topic)
-        self._motion, self._start = None, 0
+        self._motion, self._start, self._k = None, 0, 0
+        self._period_ns = int(round(NS / rate_hz))
         self._last = None  # the last streamed positions
         self._array = Float64MultiArray()
         self._array.layout.dim = [MultiArrayDimension(label="joints", size=len(joints), stride=len(joints))]
@@ -67,15 +74,24 @@ class Commander:
         if self.interface == "trajectory":
             self._pub.publish(trajectory_msg(motion, start_ns))
         else:
-            self._motion, self._start = motion, int(start_ns)
-            self.tick(start_ns)
+            self._motion, self._start, self._k = motion, int(start_ns), 0
 
     def tick(self, now_ns: int) -> None:
-        """A stream's command for ``now_ns`` (a trajectory needs none)."""
-        if self._motion is None:
+        """A stream's commands due by ``now_ns`` (a trajectory needs none)."""
+        motion = self._motion
+        if motion is None:
             return
-        q, _, _ = self._motion.at([(now_ns - self._start) / NS])
-        self._stream(q[0].tolist())
+        end = int(motion.duration * NS) + self._period_ns
+        while True:
+            t = self._k * self._period_ns
+            if t > end:  # the end point was sent: the robot holds it
+                self._motion = None
+                return
+            if self._start + t - STREAM_LEAD * self._period_ns > now_ns:
+                return
+            q, _, _ = motion.at([t / NS])
+            self._stream(q[0].tolist())
+            self._k += 1
 
     def _stream(self, q: list[float]) -> None:
         self._array.data = q
@@ -122,7 +138,8 @@ def experiment_service(node, settings, identify_service, active, worker, inputs,
                        log) -> ExperimentService:
     """The node's :class:`ExperimentService`, commanding through ``publishers``."""
     return ExperimentService(settings, identify_service, active, worker, inputs, topics,
-                             lambda interface, topic, joints: Commander(publishers, interface, topic, joints),
+                             lambda interface, topic, joints, rate_hz: Commander(publishers, interface, topic, joints,
+                                                                                 rate_hz),
                              serialize_message, log)
 
 

@@ -51,19 +51,33 @@ def test_a_hold_stops_the_arm_within_its_torque(tx40):
     assert np.abs(sim.qd).max() < 0.01  # still within 0.5 s
 
 
-def test_a_stream_is_followed_with_its_velocity(tx40):
+def test_a_stream_is_played_back_smoothly_from_its_buffer(tx40):
+    """Commands every 4 ms of a ramp at 0.5 rad/s, received on time or in pairs every 8 ms (the second of
+    a pair one interval early): the playback infers the sender's schedule from the earliest receipts and
+    plays command k ten intervals (the buffer) after it — the arm follows the ramp 10 intervals late, or
+    9 with the pairs' early commands, within 0.5 mrad; and the servo's
+    torque stays smooth: it changes by less than 0.05 N·m from one step to the next (a command taken as
+received, without the buffer, jumps by tens of N·m at each uneven arrival)."""
     q0 = np.zeros(6)
-    sim = SimArm(tx40, None, q0=q0)
-    f = TrajectoryFollower(tx40, q0)
-    speed = 0.5  # rad/s on every joint, commands every 4 ms
-    worst = 0.0
-    for k in range(1, 400):
-        if k % 4 == 0:
-            f.stream(sim.t, np.full(6, speed * sim.t))
-        sim.step(f.torque(sim.t, sim.q, sim.qd))
-        if k > 200:
-            worst = max(worst, np.abs(speed * sim.t - sim.q).max())
-    assert worst < 2e-3  # extrapolated along the stream's velocity: no lag of a command interval (2 mrad)
+    speed, period = 0.5, 0.004
+    for pattern, lag in (("even", 10), ("pairs", 9)):
+        sim = SimArm(tx40, None, q0=q0)
+        f = TrajectoryFollower(tx40, q0, stream_rate_hz=1.0 / period)
+        sent, worst, taus = 0, 0.0, []
+        for step in range(600):
+            now = sim.t
+            due = int(now / period) + 1 if pattern == "even" else 2 * (int(now / (2 * period)) + 1)
+            while sent < due:  # "pairs": two commands at once every 8 ms
+                f.stream(now, np.full(6, speed * sent * period))
+                sent += 1
+            tau = f.torque(sim.t, sim.q, sim.qd)
+            sim.step(tau)
+            if step > 300:
+                taus.append(tau)
+                worst = max(worst, np.abs(speed * (sim.t - lag * period) - sim.q).max())
+        assert worst < 5e-4, (pattern, worst)
+        jerk = np.abs(np.diff(np.array(taus), axis=0)).max()
+        assert jerk < 0.05, (pattern, jerk)
 
 
 def test_without_the_guard_a_stribeck_hump_chatters_under_the_servo(tx40):
@@ -79,3 +93,16 @@ def test_without_the_guard_a_stribeck_hump_chatters_under_the_servo(tx40):
         run(sim, f, 1.0)
         speeds.append(abs(sim.qd[4]))
     assert speeds[0] > 0.04 and speeds[1] < 0.005, speeds
+
+
+def test_a_stream_that_runs_dry_goes_on_then_holds(tx40):
+    f = TrajectoryFollower(tx40, np.zeros(6), stream_rate_hz=250.0)
+    for k in range(10):
+        f.stream(0.004 * k, np.full(6, 0.001 * k))  # 0.25 rad/s
+    h, start = 0.004, 0.04  # played from the first receipt + 10 intervals
+    q, v, _ = f.reference(start + 9 * h + 0.05)  # 50 ms past the last command: on along 0.25 rad/s
+    np.testing.assert_allclose(v, 0.25)
+    np.testing.assert_allclose(q, 0.009 + 0.25 * 0.05)
+    for t in (start + 9 * h + 0.2, start + 100.0):  # past MAX_STREAM_GAP_S: the last command, at rest
+        q, v, _ = f.reference(t)
+        np.testing.assert_allclose(q, 0.009) and np.testing.assert_allclose(v, 0.0)
