@@ -50,6 +50,7 @@ EFFORT_NOISE = 0.05  # [N·m]: the TX40's published torque noise (docs/reference
 POSITION_NOISE = 1e-6  # [rad]: an absolute encoder's noise (the TX40's: 1.0-3.0e-6 rad)
 MIN_SPEED = 0.2  # [rad/s]: 4 × the largest Stribeck speed of the hidden friction (docs/experiment.md#sim)
 CUTOFF_HZ = 30.0  # [Hz]: above the servo's bandwidth (docs/experiment.md#sim)
+REVERSAL_PERIODS = 1.0  # rows within one cut-off period of a reversal left out (docs/experiment.md#sim)
 
 
 def register(subparsers):
@@ -80,8 +81,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"filter cut-off of every joint [Hz] (default {CUTOFF_HZ:g}: above the arm's servo bandwidth, "
                         f"{SERVO_BANDWIDTH_HZ:g} Hz, whose response to each friction step is motion; 0: chosen from "
                         "the data)")
-    p.add_argument("--reversal-periods", type=float, default=0.0, metavar="P",
-                   help="rows within P cut-off periods of a reversal left out (default: the rule's)")
+    p.add_argument("--reversal-periods", type=float, default=REVERSAL_PERIODS, metavar="P",
+                   help=f"rows within P cut-off periods of a reversal left out (default {REVERSAL_PERIODS:g}: the servo's "
+                        "response to each friction step spreads over about that; 0: the rule's, none with a given "
+                        "--min-speed)")
     p.add_argument("--min-speed", type=float, default=MIN_SPEED, metavar="V",
                    help=f"rows slower than V [rad/s] left out (default {MIN_SPEED:g}: the arm's hidden Stribeck "
                         "friction, vs <= 0.05 rad/s, which the Coulomb law does not model; 0: chosen from the data)")
