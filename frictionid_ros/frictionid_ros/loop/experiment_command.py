@@ -82,9 +82,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         f"{SERVO_BANDWIDTH_HZ:g} Hz, whose response to each friction step is motion; 0: chosen from "
                         "the data)")
     p.add_argument("--reversal-periods", type=float, default=REVERSAL_PERIODS, metavar="P",
-                   help=f"rows within P cut-off periods of a reversal left out (default {REVERSAL_PERIODS:g}: the servo's "
-                        "response to each friction step spreads over about that; 0: the rule's, none with a given "
-                        "--min-speed)")
+                   help=f"rows within P cut-off periods of a reversal left out (default {REVERSAL_PERIODS:g}: the "
+                        "servo's response to each friction step spreads over about that; 0: the rule's, none with a "
+                        "given --min-speed)")
     p.add_argument("--min-speed", type=float, default=MIN_SPEED, metavar="V",
                    help=f"rows slower than V [rad/s] left out (default {MIN_SPEED:g}: the arm's hidden Stribeck "
                         "friction, vs <= 0.05 rad/s, which the Coulomb law does not model; 0: chosen from the data)")

@@ -198,8 +198,8 @@ def test_streamed_positions_and_a_dry_run(arm, ros):
     simulation's, which a loaded machine stalls now and then while the node's commands keep wall-clock
     time (and the node's own pauses, 0.2-0.35 s at worst, run the 40 ms buffer dry): the arm then falls
     behind them by as much. So the excitation is a slow one here (every acceleration within 1 rad/s²: a 4 s
-    period then leaves speeds ≲ 0.65 rad/s, 0.23 rad in 0.35 s) and the tracking threshold 0.25 rad (the trajectory interface, timed by the arm's own clock,
-    keeps the default 0.05)."""
+    period then leaves speeds ≲ 0.65 rad/s, 0.23 rad in 0.35 s) and the tracking threshold 0.25 rad (the
+    trajectory interface, timed by the arm's own clock, keeps the default 0.05)."""
     before = (arm.results / "parameters.json").read_text()
     status, result = run_goal(ros, [], command_interface="position", max_floor_ratio=100.0, dry_run=True,
                               max_tracking_error=0.25, **SLOW, **QUIET)
