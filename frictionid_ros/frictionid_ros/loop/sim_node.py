@@ -21,8 +21,9 @@ positions on ``position_topic`` (sent at ``stream_rate_hz``, played back from a 
 servo's torque. ``position_noise`` [rad | m] and
 ``effort_noise`` [N·m | N] add white noise to what is published (not to what the servo sees).
 Faults, set at runtime with ``fault`` on joint ``fault_joint``: ``tracking`` (the joint blocked from then
-on, as against an obstacle, its drive folding its torque back to half its effort limit, as a drive's
-stall protection does), ``effort`` (its drive's torque jumps to 1.5 × its effort limit for 50 ms),
+on, as by a brake that drags: a dry friction of twice its effort limit, MuJoCo's soft constraint, stops it
+within a few ms; its drive folds its torque back to half its effort limit, as a drive's stall protection
+does), ``effort`` (its drive's torque jumps to 1.5 × its effort limit for 50 ms),
 ``silence`` (no joint state published for ``fault_s``); an empty ``fault`` clears it. With
 ``record_file`` the true state of every step (stamp, q, q̇, torque), the fault's start and when each hold
 came are written to that .npz at exit.
@@ -52,6 +53,7 @@ CATCH_UP_S = 0.05  # a step later than this restarts the schedule instead of rac
 FAULTS = ("tracking", "effort", "silence")
 EFFORT_SPIKE = (1.5, 0.05)  # the effort fault: × the effort limit, for this long [s]
 STALL_FOLDBACK = 0.5  # the tracking fault: a blocked joint's drive torque, × its effort limit
+BLOCK = 2.0  # the tracking fault: the blocking dry friction, × the joint's effort limit
 RECORD_CAPACITY = 600_000  # steps kept by record_file (10 min at 1 kHz)
 NS = 1_000_000_000
 
@@ -188,8 +190,10 @@ class SimNode(LoopNode):
                 k = self._fault_joint
                 if cmd[1]:
                     self.fault_ns = self._origin + round(sim.t * 1e9)
-                    self._fault_state = {"tracking": sim.q[k], "effort": sim.t + EFFORT_SPIKE[1],
+                    self._fault_state = {"tracking": None, "effort": sim.t + EFFORT_SPIKE[1],
                                          "silence": sim.t + self._fault_s}[cmd[1]]
+                # the blocked joint: a dry friction of BLOCK × its effort limit (MuJoCo's, a soft constraint)
+                sim.model.dof_frictionloss[k] = BLOCK * f.limit[k] if cmd[1] == "tracking" else 0.0
                 self.fault = cmd[1]
             else:
                 _, stamp, t, q, qd, qdd = cmd
@@ -239,9 +243,6 @@ class SimNode(LoopNode):
                 self._origin = time.time_ns() - round((time.monotonic() - nxt) * 1e9) - round(sim.t * 1e9)
             else:
                 sim.step(cmd)
-                if self.fault == "tracking":  # blocked, as by a brake
-                    k = self._fault_joint
-                    sim.data.qpos[k], sim.data.qvel[k] = self._fault_state, 0.0
             stamp = self._origin + round(sim.t * 1e9)
             if self.record_file and self._n_rec < RECORD_CAPACITY:
                 r, n = self._rec, self._n_rec
