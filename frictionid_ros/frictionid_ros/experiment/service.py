@@ -33,6 +33,7 @@ from __future__ import annotations
 import json
 import math
 import time
+import traceback
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -113,6 +114,7 @@ class ExperimentService:
         self._sub: JobControl | None = None  # the worker job under way
         self.status = Status()
         self.watch_gap_s = 0.0  # the longest interval between two checks of a motion [s]
+        self.running = False  # an experiment is under way
         self.last_ok, self.last_status = True, "no experiment yet"
 
     # ------------------------------------------------------------------ input thread
@@ -139,9 +141,7 @@ class ExperimentService:
         outer = JobControl()  # the slot's: cancelled only by a node shutting down
         outer.on_cancel(lambda: control.cancel(outer.reason))
         control.on_cancel(self._cancel_sub)
-        self.status = Status()
-        self.watch_gap_s = 0.0
-        answer = self._service.exclusive(lambda: self._run(settings, robot, cols, control), outer,
+        answer = self._service.exclusive(lambda: self._running(settings, robot, cols, control), outer,
                                          (lambda _: on_wait(control)) if on_wait is not None else None,
                                          lambda value: value)
         if not isinstance(answer, ExperimentAnswer):  # busy, or the node shutting down
@@ -177,12 +177,24 @@ class ExperimentService:
                                   f"{buffered or 'none yet'})")
         return robot, np.array([buffered.index(j) for j in robot.joints])
 
+    def _running(self, s: Settings, robot, cols, control: JobControl) -> ExperimentAnswer:
+        """The experiment, in the identification slot."""
+        self.running, self.status, self.watch_gap_s = True, Status(), 0.0
+        try:
+            return self._run(s, robot, cols, control)
+        finally:
+            self.running = False
+
     def _run(self, s: Settings, robot, cols, control: JobControl) -> ExperimentAnswer:
         cfg = self._settings()
         t0 = time.monotonic()
         stamp = time.strftime("%Y%m%d-%H%M%S") + f"-{time.time_ns() % NS // 1_000_000:03d}"
         folder = Path(cfg.results_dir) / "experiments" / stamp
-        folder.mkdir(parents=True, exist_ok=False)
+        try:
+            folder.mkdir(parents=True, exist_ok=False)
+        except OSError as exc:
+            return ExperimentAnswer(False, f"{folder}: cannot create the experiment's folder ({exc.strerror or exc}); "
+                                           "nothing moved")
         report: dict = {"format": "frictionid_ros/experiment/1", "folder": str(folder), "robot": robot.name,
                         "system": cfg.system, "joints": list(robot.joints),
                         "command": {"interface": s.interface, "topic": s.topic, "rate_hz": s.rate_hz},
@@ -210,11 +222,14 @@ class ExperimentService:
                                                             folder, report)
         except Stopped as stop:
             return self._stopped(stop.abort, commander, monitor, cols, answer, folder, t0)
-        except (FrictionIdError, Cancelled) as exc:
+        except Exception as exc:  # whatever went wrong while the robot may move: it is told to hold
             if control.cancelled:
                 return self._stopped(Abort("cancel", control.reason, time.time()), commander, monitor, cols, answer,
                                      folder, t0)
-            if commander is not None:  # an error while the robot moved: hold it
+            if not isinstance(exc, (FrictionIdError, Cancelled)):
+                self._log.error("run_experiment:\n" + "".join(traceback.format_exception(exc)))
+                exc = FrictionIdError(f"{type(exc).__name__}: {exc}")
+            if commander is not None:
                 return self._stopped(Abort("error", str(exc), time.time()), commander, monitor, cols, answer, folder,
                                      t0)
             answer.message = str(exc)
@@ -459,9 +474,9 @@ class ExperimentService:
             self._log.error(f"run_experiment: {exc}")
 
     def diagnostics(self) -> tuple[bool, str, dict]:
-        """(ok, message, values) for /diagnostics."""
-        st = self.status
-        return self.last_ok, self.last_status[:300], {"phase": st.phase, "last_status": self.last_status}
+        """(ok, message, values) for /diagnostics: the last experiment's answer, and the phase of one under way."""
+        return self.last_ok, self.last_status[:300], {"last_success": self.last_ok, "last_status": self.last_status,
+                                                      "phase": self.status.phase if self.running else ""}
 
 
 def _effort_limits(robot) -> np.ndarray:

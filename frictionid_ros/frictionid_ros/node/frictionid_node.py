@@ -396,7 +396,7 @@ class FrictionIdNode(LifecycleNode):
                                              feedforward_on=self._ff_on, **self.inputs.feedforward_values())
         self._pub_diag.publish(diagnostic_array(self.get_fully_qualified_name(), [
             ("joint buffer", ok, message, values), ("identification", *ident), ("safety gate", *self.online.status()),
-            ("payload", *self.payload_service.status()),
+            ("payload", *self.payload_service.status()), ("experiment", *self.experiment.diagnostics()),
         ], self.get_clock().now().to_msg()))
 
 
