@@ -88,6 +88,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--min-speed", type=float, default=MIN_SPEED, metavar="V",
                    help=f"rows slower than V [rad/s] left out (default {MIN_SPEED:g}: the arm's hidden Stribeck "
                         "friction, vs <= 0.05 rad/s, which the Coulomb law does not model; 0: chosen from the data)")
+    p.add_argument("--max-tracking-error", type=float, default=0.05, metavar="RAD",
+                   help="abort when a joint is further than this from its commanded position (default 0.05)")
     p.add_argument("--validation-share", type=float, default=0.3, help="share held back for validation (0.3)")
     p.add_argument("--max-floor-ratio", type=float, default=1.5,
                    help="accepted when the validation error is at most this × its noise floor (default 1.5)")
@@ -102,7 +104,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def handler(args) -> int:
     """Run ``experiment``; FrictionIdError propagates to the CLI (one line, exit code 2)."""
     args.realtime = realtime_priority(args.realtime)
-    for name in ("duration", "validation_share", "max_floor_ratio"):
+    for name in ("duration", "validation_share", "max_floor_ratio", "max_tracking_error"):
         if not getattr(args, name) > 0:
             raise FrictionIdError(f"--{name.replace('_', '-')} must be > 0")
     if not (args.effort_noise >= 0 and args.position_noise >= 0):
@@ -149,7 +151,7 @@ def goal_of(args):
     return RunExperiment.Goal(duration_s=float(args.duration), evals=int(args.evals), seed=int(args.seed),
                               command_interface=args.interface, friction_model=args.friction, solver=args.solver,
                               cutoff_hz=float(args.cutoff), reversal_periods=float(args.reversal_periods),
-                              min_speed=float(args.min_speed),
+                              min_speed=float(args.min_speed), max_tracking_error=float(args.max_tracking_error),
                               validation_share=float(args.validation_share),
                               max_floor_ratio=float(args.max_floor_ratio))
 
@@ -214,14 +216,16 @@ def held_still_s(record: dict, since_ns: int) -> float | None:
 def hold_figures(record: dict, report: dict) -> dict:
     """How the arm came to rest after an abort: the node's reaction (abort seen → hold sent, its clock),
     the arm's stop (hold taken → every joint slower than STILL_SPEED for good, the arm's clock: a stalled
-    simulation's clock lags the wall clock), their sum ``held_still_s``; and from the fault's start to rest
-    on the arm's clock."""
+    simulation's clock lags the wall clock), their sum ``held_still_s`` (a stream's hold, which the arm
+    cannot tell from another command: the node's ``stopped_after_s``, abort seen → a joint state at rest
+    received); and from the fault's start to rest on the arm's clock."""
     holds = [int(x) for x in np.atleast_1d(record.get("hold_ns", []))]
     reaction = (report["hold_sent_ns"] - report["detected_ns"]) / NS if report.get("hold_sent_ns") else None
     stop = held_still_s(record, holds[0]) if holds else None
     fault_ns = int(record.get("fault_ns", 0))
-    return {"reaction_s": reaction, "arm_stop_s": stop,
-            "held_still_s": reaction + stop if reaction is not None and stop is not None else None,
+    # a stream's hold is its last command again, which the arm cannot tell from another: the node's view then
+    held = reaction + stop if reaction is not None and stop is not None else report.get("stopped_after_s")
+    return {"reaction_s": reaction, "arm_stop_s": stop, "held_still_s": held,
             "fault_to_still_s": held_still_s(record, fault_ns) if fault_ns else None,
             "node_saw_rest_after_s": report.get("stopped_after_s"), "abort_text": report.get("abort_text")}
 
