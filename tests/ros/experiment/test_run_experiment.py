@@ -203,9 +203,11 @@ def test_streamed_positions_and_a_dry_run(arm, ros):
     before = (arm.results / "parameters.json").read_text()
     status, result = run_goal(ros, [], command_interface="position", max_floor_ratio=100.0, dry_run=True,
                               max_tracking_error=0.25, **SLOW, **QUIET)
-    assert status == GoalStatus.STATUS_SUCCEEDED, result.json
+    report = json.loads(result.json or "{}")
+    # on a failure: what the monitor saw and how regularly the node checked (a loaded machine's pauses)
+    assert status == GoalStatus.STATUS_SUCCEEDED, (result.message, {k: report.get(k) for k in (
+        "monitor", "watch_max_interval_s", "wall_s", "abort_stamp_ns", "excitation_start_ns")})
     assert result.accepted and not result.applied and result.reason == "dry run: nothing applied"
-    report = json.loads(result.json)
     assert report["command"] == {"interface": "position", "topic": "/forward_position_controller/commands",
                                  "rate_hz": 250.0}
     assert max(report["monitor"]["max_tracking_error"].values()) < 0.25
