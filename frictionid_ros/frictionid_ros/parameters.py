@@ -206,8 +206,9 @@ class Config:
         False, "robot systems (tx40, urdf:PATH): every identification estimates physically consistent parameters "
         "(frictionid identify --consistent)", read_only=False)
     prior_weight: float = parameter(
-        0.0, "with consistent: weight of the log-det pull toward the URDF inertials (identify --prior urdf "
-        "--prior-weight); 0 = no prior", low=0.0, read_only=False)
+        0.0, "with consistent: weight of the log-det pull of every link toward the URDF inertials (identify "
+        "--prior urdf --prior-weight); 0 = none (what the data do not determine is held at the URDF's either way)",
+        low=0.0, read_only=False)
     input_executor: str = parameter(
         "events", "executor of the input callbacks: events (rclpy EventsExecutor, lighter) | single_threaded "
         "(SingleThreadedExecutor: latency measured from middleware receipt)", choices=("events", "single_threaded"))

@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from frictionid_core.compare import compare, noise_floor
-from frictionid_core.errors import InputError
 from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides, SolverOptions, build_model, identify
 from frictionid_core.io import load
 from frictionid_core.preprocess import Preprocessing
@@ -120,13 +119,15 @@ def test_full_robot_on_the_bundled_bags():
     assert 0 < summary["resolvable_5pct"] < model.k
 
 
-def test_full_robot_system_refuses_joint2_only_motion():
-    """Joints that never move are refused by name; with joint 2 alone fitted (the others held at
-    their logged positions) the model is the thesis model and fits as it does."""
+def test_full_robot_system_holds_what_joint2_only_motion_leaves_still():
+    """Joints that never move are held at their logged positions, by name: the fit is that of joint 2
+    alone (--joints joint_2), the thesis model, and fits as it does."""
     series = load(BAGS / "tx40_j2_validation")
-    with pytest.raises(InputError, match=r"joint_1 never moves faster than its min speed"):
-        identify(series, IdentifyRequest(system="tx40", friction="coulomb"))
+    whole = identify(series, IdentifyRequest(system="tx40", friction="coulomb"))
+    assert whole.joints == ["joint_2"] and whole.unexcited_joints == ["joint_1", "joint_3", "joint_4", "joint_5",
+                                                                       "joint_6"]
     robot = identify(series, IdentifyRequest(system="tx40", friction="coulomb", joints=["joint_2"]))
+    assert whole.params == pytest.approx(robot.params, rel=1e-9, abs=1e-12)
     thesis = identify(series.select(["joint_2"]), IdentifyRequest(system="tx40-j2", friction="coulomb"))
     assert set(robot.held_joints) == {"joint_1", "joint_3", "joint_4", "joint_5", "joint_6"}
     assert robot.identifiability["rank"] == robot.identifiability["columns"] == len(thesis.params)

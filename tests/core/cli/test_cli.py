@@ -233,7 +233,7 @@ def test_top_level_help_lists_core_and_plugin_commands():
 
 def test_command_help_shows_its_options():
     text, _ = _help_imports("identify", "--help")
-    assert "--friction {coulomb,threlfall,tustin,stribeck,lugre,gms}" in text and "--solver {ls,lm," in text
+    assert "--friction {coulomb,threlfall,tustin,stribeck,lugre,gms,auto}" in text and "--solver {ls,lm," in text
 
 
 def test_unknown_command_is_an_argparse_error(capsys):

@@ -107,12 +107,15 @@ def test_compare_with_truth_keeps_its_output(tmp_path, capsys):
     assert code == 0
     assert lines[0] == f"{r} vs truth ({truth})"
     assert lines[1] == (f"{'parameter':<22} {'estimate':>12} {'truth':>12} {'error %':>9} {'σ %':>9} {'err/σ':>7}"
-                        f" {'robust σ':>10}  determined  1.96σ covers (σ, robust)")
+                        f" {'robust σ':>10}  determined  1.96σ covers (σ, calibrated)")
     assert [ln.split()[0] for ln in lines[2:8]] == ["ZZ", "MX", "MY", "Fv", "Fc", "offset"]
     assert lines[8].startswith("6 of 6 parameters determined") or " of 6 parameters determined (σ < 1 % " in lines[8]
     assert " of 6 resolvable to 5 % (1.96 σ < 5 % of |truth|)" in lines[9]
-    assert lines[10] == (f"coverage: 1.96 σ holds the truth for {saved_cov(tmp_path)} parameters with a σ, "
-                         f"1.96 robust σ for {saved_cov(tmp_path, '_robust')}")
+    cal = json.loads((tmp_path / "c.json").read_text())["summary"]["coverage_calibrated"]
+    assert cal["sigma"] == "std_robust" and f"{cal['covered']} of {cal['identified']}" == saved_cov(tmp_path, "_robust")
+    assert lines[10] == ("coverage (identified parameters whose |error| ≤ 1.96 σ; about 95 % when σ is honest): "
+                         f"calibrated σ (std_robust) {saved_cov(tmp_path, '_robust')} "
+                         f"({100 * cal['share']:.0f} %); white-noise σ (std) {saved_cov(tmp_path)}")
     assert lines[11].startswith(f"validation {BAGS / 'tx40_j2_validation'}: OSA relative error ")
     assert len(lines) == 12
     saved = json.loads((tmp_path / "c.json").read_text())

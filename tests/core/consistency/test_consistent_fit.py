@@ -14,6 +14,7 @@ from frictionid_core.errors import FrictionIdError
 from frictionid_core.identification import IdentifyRequest, identify, validate
 from frictionid_core.io import load
 from frictionid_core.robots import example_robot_data_dir, load_urdf
+from frictionid_core.synthetic import expected_parameters
 from frictionid_core.systems import get_system, result_system
 from support.data import BAGS
 
@@ -39,14 +40,24 @@ def _within_sigma(a: dict, b: dict, std: dict, k: float = 3.0) -> list[str]:
 
 
 def test_consistent_equals_unconstrained_when_the_truth_is_feasible(tx40_fits):
-    """The truth is feasible and the data excite every base parameter: the constraints are
-    inactive, so the consistent estimate is the unconstrained one well within 3 σ (every
-    parameter), the cost barely moves, and `consistency` finds it FEASIBLE from its witness."""
+    """The truth is feasible (the bag is synthesised from the model): the consistent estimate stays
+    within 3 calibrated σ of the unconstrained one (every parameter; measured at most 1.7), the cost
+    barely moves, `consistency` finds it FEASIBLE from its witness, and the directions the data do
+    not determine, held at the model (the truth here), bring it nearer the truth: Σ (error/σ)² over
+    the identified parameters falls (measured 38.8 → 9.3 over 52; the test asks for less than 0.6 ×)."""
     free, cons = tx40_fits
     assert cons["consistency"]["feasible"] and cons["consistency"]["status"] == "optimal"
-    assert _within_sigma(free["params"], cons["params"], free["std"], 3.0) == []
-    assert cons["consistency"]["cost_increase_pct"] < 0.5
-    assert abs(cons["metrics"]["relerr_pct"] - free["metrics"]["relerr_pct"]) < 0.01
+    assert _within_sigma(free["params"], cons["params"], free["std_robust"], 3.0) == []
+    assert cons["consistency"]["held_directions"] > 0 and cons["consistency"]["data_scale"] >= 1.0
+    assert cons["consistency"]["cost_increase_pct"] < 5.0  # measured 2.2
+    assert abs(cons["metrics"]["relerr_pct"] - free["metrics"]["relerr_pct"]) < 0.02  # measured 0.0024
+    truth = expected_parameters(TRUTH, "tx40", free["joints"])
+    sigma = {n: s for n, s in free["std_robust"].items() if n in truth and np.isfinite(s) and s > 0}
+
+    def chi2(fit: dict) -> float:
+        return sum(((fit["params"][n] - truth[n]) / s) ** 2 for n, s in sigma.items())
+
+    assert len(sigma) > 40 and chi2(cons) < 0.6 * chi2(free)
     assert cons["std"] == free["std"]  # σ are those of the unconstrained estimate
     assert cons["consistency"]["sdp_wall_s"] < 5.0
     rep = report_for_result(cons, get_system("tx40"))
@@ -86,9 +97,11 @@ def test_short_data_unconstrained_infeasible_consistent_near_the_prior(short_fit
 
     free, cons = short_fits
     sys_ = get_system("tx40")
-    refused = r"refused to export an inconsistent or implausible result: link 'joint_.*--force"
-    with pytest.raises(FrictionIdError, match=refused):
-        export_data(free, sys_)  # the consistency check finds no witness
+    assert not report_for_result(free, sys_)["feasible"]  # the consistency check finds no exact witness
+    # export builds its links within the fit's calibrated σ, the rest at the model's: consistent, plausible
+    exported = export_data(free, sys_)
+    assert exported.feasible and exported.note.startswith("links reconstructed within ")
+    assert not exported.plausibility["implausible"]
     assert cons["consistency"]["feasible"] and report_for_result(cons, sys_)["feasible"]
     # identify itself names the links the 2 s fit cannot be (reconstructed from its base parameters),
     # and none of the prior's; 2 s do not resolve joint 6's mass (−0.01, 0.25, 0.45 kg at cut-offs of
@@ -113,9 +126,14 @@ def test_export_of_an_inconsistent_result_when_forced(short_fits, tmp_path, caps
     from frictionid_core.cli import main
 
     free, _ = short_fits
+    # the same base parameters claimed known to 1e-6 of their σ: no consistent links come within 3 σ of them
+    sure = dict(free, std_robust={n: 1e-6 * s for n, s in free["std_robust"].items()})
     path = tmp_path / "free.json"
-    path.write_text(json.dumps(free))
-    # (the refusal without --force: test_short_data_unconstrained_infeasible_consistent_near_the_prior)
+    path.write_text(json.dumps(sure))
+    assert main(["export", str(path), "--urdf", str(tmp_path / "x.urdf")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("frictionid: error: refused to export an inconsistent or implausible result: link ")
+    assert err.endswith("(identify with --consistent, or export anyway with --force)") and "\n" not in err
     assert main(["export", str(path), "--urdf", str(tmp_path / "x.urdf"), "--force"]) == 0
     assert "exporting an inconsistent or implausible result" in capsys.readouterr().out
 
@@ -219,8 +237,53 @@ def test_node_parameters_consistent_and_prior_weight(tx40_fits, tmp_path):
     request = node_request(cfg, [])
     assert (request.consistent, request.prior, request.prior_weight) == (True, "urdf", 10.0)
     free, cons = (IdentifyResult.from_dict(r) for r in tx40_fits)
-    assert cons.to_dict() == tx40_fits[1] and list(tx40_fits[1])[18:21] == ["consistency", "standard_parameters",
+    assert cons.to_dict() == tx40_fits[1] and list(tx40_fits[1])[19:22] == ["consistency", "standard_parameters",
                                                                              "preprocessing"]
     assert consistency_text(free) == ""
     text = summary(Job(cons.joints, node_request(cfg, cons.joints)), cons, 1000, 1.0)
     assert "; consistency: FEASIBLE (SDP " in text and "prior none" in text
+
+
+@pytest.mark.slow
+def test_a_short_log_s_consistent_fit_keeps_what_the_data_do_not_say_at_the_model():
+    """6 s of a synthetic UR5 (the URDF is the truth): --consistent with its defaults holds the links'
+    directions the data do not determine at the URDF's, so every link is plausible (before: the last
+    link at 0.07 kg, the URDF's 0.19, and export refused the tool's own output) and export takes it;
+    the plain fit's export builds its links within its calibrated σ."""
+    from frictionid_core.export import export_data
+    from support.payload_logs import loaded_logs
+
+    logs = loaded_logs("ur5")
+    request = IdentifyRequest(system=logs.system, friction="coulomb", window=(0.0, 6.0))
+    cons = identify(logs.base, replace(request, consistent=True)).to_dict()
+    assert cons["consistency"]["held_directions"] > 0 and not cons["plausibility"]["implausible"]
+    model = logs.robot.parameters()
+    masses = [link["mass"] for link in cons["standard_parameters"].values()]
+    assert np.allclose(masses, [model[10 * k] for k in range(6)], rtol=0.3)
+    exported = export_data(cons, result_system(cons))
+    assert exported.feasible and exported.note is None
+    free = identify(logs.base, request).to_dict()
+    assert export_data(free, result_system(free)).feasible
+
+
+@pytest.mark.slow
+def test_export_refuses_a_link_the_data_put_far_from_the_model(tmp_path, capsys):
+    """A 2.8 kg payload on the TX40's flange (its last link 0.2 kg in the model): the data determine the
+    link's mass, so the consistent fit leaves it heavy (2.6 kg; the directions the data do not determine
+    pull it a little toward the model) and export refuses it in one line naming the link and the way out."""
+    from frictionid_core.cli import main
+    from support.payload_logs import loaded_logs
+
+    logs = loaded_logs("tx40")
+    r = identify(logs.loaded, IdentifyRequest(system="tx40", friction="coulomb", consistent=True)).to_dict()
+    assert r["plausibility"]["implausible"] == ["joint_6"]
+    assert r["standard_parameters"]["joint_6"]["mass"] > 2.0
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps(r))
+    assert main(["export", str(path), "--urdf", str(tmp_path / "x.urdf")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("frictionid: error: refused to export an inconsistent or implausible result: link of joint "
+                          "'joint_6' implausible against the model (mass ") and "\n" not in err
+    assert err.endswith("check the robot model against the robot (a tool or payload on the arm, the URDF's units), "
+                        "or export anyway with --force)")
+    assert not (tmp_path / "x.urdf").exists()

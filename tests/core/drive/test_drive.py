@@ -115,7 +115,8 @@ def test_joint_columns_named_as_the_drive_are_reordered_and_log_names_kept():
 
 
 @pytest.mark.parametrize("joints, fragment", [(["a", "b"], "coupling term(s) between the joints [('c', 'a')]"),
-                                              (["a", "b", "x"], "missing ['c']")])
+                                              (["a", "b", "x"], "extra ['x'] (data joints the drive does not list"),
+                                              (["a", "b", "x"], "; missing ['c'] (drive joints the data lack)")])
 def test_data_joints_that_do_not_fit_the_drive(joints, fragment):
     s = random_series(joints)
     with pytest.raises(InputError) as e:
@@ -204,3 +205,50 @@ def test_unknown_drive_name_lists_bundled_drives():
     with pytest.raises(InputError) as e:
         load_drive("tx41")
     assert "tx41: no such drive file" in str(e.value) and "bundled: tx40" in str(e.value)
+
+
+def test_a_drive_listing_fewer_joints_than_the_log_names_the_extra_ones_and_the_way_out():
+    """The log has a joint the drive does not list: the message names it (it said "missing []"), and
+    its advice, followed (the log without it), converts the rest."""
+    d = Drive(joints=["a", "b"], effort_scale=[2.0, 3.0], name="two")
+    s = random_series(["a", "b", "x"])
+    with pytest.raises(InputError) as e:
+        d.to_joint_side(s)
+    assert str(e.value) == ("mem: the data joints ['a', 'b', 'x'] do not match drive 'two' joints ['a', 'b']: extra "
+                            "['x'] (data joints the drive does not list: add them to its 'joints' and per-joint lists, "
+                            "or leave them out of the data: --joints a,b)")
+    out = d.to_joint_side(s.select(["a", "b"]))
+    np.testing.assert_array_equal(out.effort, s.effort[:, :2] * [2.0, 3.0])
+
+
+@pytest.mark.parametrize("text, fragments", [
+    (BASE + "gear_ratio: [1, 1e-4, 3]\n", ["key 'gear_ratio': value of joint 'b' is 0.0001, near zero (below 0.001 in "
+                                           "magnitude): motor angle = gear_ratio × joint angle would vanish",
+                                           "a negative value is allowed: it reverses the direction"]),
+    (BASE + "effort_scale: [1, 1e-12, 3]\n", ["key 'effort_scale': value of joint 'b' is 1e-12, near zero",
+                                             "torque = effort_scale × recorded effort would vanish"]),
+    (BASE + "coupling: [[1, 2, 1e-12]]\n", ["key 'coupling': term [1, 2, 1e-12] has a zero ratio",
+                                            "leave the term out"]),
+    # motors 0 and 1 turn with joints 0 and 1 at ratios 1 : 1 and 1 : 0.999999: nearly one motor
+    (BASE + "coupling: [[0, 1, 1], [1, 0, 0.999999]]\n", ["keys 'gear_ratio' and 'coupling' give a singular or "
+                                                          "near-singular motor←joint matrix (condition number of "
+                                                          "diag(gear_ratio)⁻¹·R 4e+06, above 1e+06)"]),
+])
+def test_near_singular_drives_are_refused_in_one_line(tmp_path, text, fragments):
+    path = tmp_path / "drive.yaml"
+    path.write_text(text)
+    with pytest.raises(InputError) as e:
+        load_drive(path)
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith(str(path))
+    for f in fragments:
+        assert f in msg
+
+
+def test_negative_ratios_and_scales_reverse_a_direction():
+    """A negative gear ratio is a motor turning against its joint (the TX40's −48); a negative effort
+    scale an effort logged against the joint axis (what the effort-sign check writes)."""
+    s = random_series(["a", "b"], seed=7)
+    flipped = Drive(joints=["a", "b"], side="motor", gear_ratio=[-2.0, 4.0], effort_scale=[1.0, -1.0]).to_joint_side(s)
+    np.testing.assert_allclose(flipped.position, s.position / [-2.0, 4.0], rtol=1e-15)
+    np.testing.assert_allclose(flipped.effort, s.effort * [-2.0, -4.0], rtol=1e-15)

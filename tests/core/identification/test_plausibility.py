@@ -143,7 +143,8 @@ def test_each_implausible_parameter_is_named():
     w = parameter_warnings(names, values, std, lower, upper, physical={"J", "b/Fv_pos", "M"})
     # J = 0.00098 is 98 σ from its bound 0 (the false "at a search bound" warning is gone);
     # vs is 0.1 σ from its bound, M 0.02 σ from 0 and b/Fv_pos exactly at 0 (σ "—"): named
-    assert w[0] == ("parameter(s) at a search bound: vs (lower 0.0199): the optimum may lie beyond; widen the "
+    assert w[0] == ("parameter(s) at a search bound: vs (lower 0.0199): the optimum may lie beyond (no σ: not an "
+                    "identified value); widen the "
                     "bounds (--bounds NAME=LO:HI) or check the model")
     assert w[1].startswith("parameter(s) held at 0, their physical bound") and ": b/Fv_pos, M;" in w[1]
     assert "J" not in w[0] + w[1]

@@ -26,9 +26,9 @@ from support.data import EMPS_ESTIMATION
 
 # The keys of 'frictionid identify --json' (a closed-form fit), in their order: a contract.
 RESULT_KEYS = ["system", "joint_map", "friction", "asymmetric", "solver", "source", "joints", "params", "std",
-               "std_robust", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds",
-               "preprocessing", "layout", "identifiability", "no_effort_joints", "request", "uncertainty",
-               "velocity_range"]
+               "std_robust", "at_bound", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed",
+               "bounds", "preprocessing", "layout", "identifiability", "no_effort_joints", "unexcited_joints",
+               "request", "uncertainty", "velocity_range"]
 OPTIMIZER_KEYS = ["optimizer", "varpro", "warm_start"]  # after "bounds", with an optimiser
 
 

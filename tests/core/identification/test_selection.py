@@ -258,14 +258,19 @@ def test_fixed_dip_carrying_and_nonlinear_parameters_in_every_search(solver, var
     assert r.fixed == {"Fc": 1.0, "vs": 0.05}
 
 
-def test_every_nonlinear_parameter_fixed_makes_ls_possible():
+def test_ls_searches_the_shape_parameters_by_variable_projection_unless_they_are_fixed():
+    """``ls`` on Stribeck: vs and δ searched by lm (variable projection), the rest in closed form;
+    with every shape parameter fixed, the closed form alone."""
     s = friction_series()
-    with pytest.raises(FrictionIdError, match=r"nonlinear parameter\(s\) \['vs', 'delta'\].*--fix"):
-        identify(s, IdentifyRequest(system="friction-only", friction="stribeck"))
+    searched = identify(s, IdentifyRequest(system="friction-only", friction="stribeck", preprocessing=DIP_RATES))
+    assert searched.solver == "ls" and searched.optimizer is not None
+    for name in ("Fv", "Fc", "Fs"):
+        assert searched.params[name] == pytest.approx(STRIBECK[name], rel=0.03), name
     r = identify(s, IdentifyRequest(system="friction-only", friction="stribeck", fixed={"vs": 0.05, "delta": 1.0},
                                     preprocessing=DIP_RATES))
     for name in ("Fv", "Fc", "Fs"):
         assert r.params[name] == pytest.approx(STRIBECK[name], rel=0.03), name
+    assert r.optimizer is None
 
 
 def test_fixed_names_full_base_and_family():

@@ -62,17 +62,18 @@ def test_a_joint_that_does_not_stick_keeps_its_rows():
     assert r["params"]["Fc"] == pytest.approx(FC, rel=0.01)
 
 
-def test_validate_keeps_the_stick_speeds_and_rechooses_the_rest(sticking):
-    """On another log (another motion: its cut-off chosen from its own data) the result's stick
-    speed is kept (a property of the robot), the data's settings are chosen again and said so;
-    a cut-off the user gives is set."""
+def test_validate_keeps_the_stick_speeds_and_the_cutoffs_and_rechooses_the_rest(sticking):
+    """On another log (another motion) the result's stick speed is kept (a property of the robot)
+    and so are its cut-offs (chosen by what they predict), the settings that follow the record
+    (decimation, trims, min speed) are chosen again and said so; a cut-off the user gives is set."""
     _, r = sticking
     other = friction_log(STICK, f1=0.5, seed=1)
     model, _ = model_from_result(other, r)
     report = model.obs.report
-    assert "stick_speed" in report["kept"] and "cutoff_hz" in report["rechosen"]
+    assert "stick_speed" in report["kept"] and "cutoff_hz" in report["kept"]
+    assert "cutoff_hz" not in report["rechosen"] and "min_speed" in report["rechosen"]
     assert model.obs.preprocessing.stick_speed == r["preprocessing"]["stick_speed"]
-    assert model.obs.preprocessing.cutoff_hz["a"] != pytest.approx(r["preprocessing"]["cutoff_hz"]["a"])
+    assert model.obs.preprocessing.cutoff_hz["a"] == r["preprocessing"]["cutoff_hz"]["a"]
     model, _ = model_from_result(other, r, preprocessing=PreprocessingOverrides(cutoff_hz={"a": 7.0}))
     assert model.obs.preprocessing.cutoff_hz == {"a": 7.0} and "cutoff_hz" in model.obs.report["set"]
     assert "cutoff_hz" not in model.obs.report["rechosen"]

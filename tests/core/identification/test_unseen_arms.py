@@ -16,13 +16,13 @@ import pytest
 from frictionid_core.cli import main
 from frictionid_core.errors import InputError
 from frictionid_core.excitation.design import FourierTrajectory, fit_to_limits
-from frictionid_core.friction import FrictionModel
 from frictionid_core.identification import IdentifyRequest, identify, model_from_result, validate
 from frictionid_core.io import save_csv
 from frictionid_core.robots import load_urdf
 from frictionid_core.synthetic import synthesize
 from frictionid_core.systems import get_system, nominal_parameters
 from frictionid_core.timeseries import JointSeries
+from support.arm_logs import pendulum
 
 ARM = ["shoulder", "elbow", "wrist"]
 FRICTION = {"pan": (0.5, 0.3), "shoulder": (1.5, 0.8), "elbow": (1.0, 0.5), "wrist": (0.4, 0.2),
@@ -306,16 +306,21 @@ def test_fix_takes_rigid_body_names_with_a_slash(lifter):
 
 # -------------------------------------------------------------------------- several logs
 def test_joint_wise_sweeps_are_fitted_together(arm_urdf, tmp_path, capsys):
-    """Three logs, each moving one joint (the others still, gravity-loaded): alone, a sweep
-    refuses naming the joints that do not move in it; together the fit resolves more than any
-    sweep alone and recovers each joint's friction; an error about one log names it."""
+    """Three logs, each moving one joint (the others still, gravity-loaded): alone, a sweep fits
+    the joint it moves and holds the others where they stand, naming them; together each joint is
+    fitted where it moves, the fit resolves more than any sweep alone and recovers each joint's
+    friction; an error about one log names it."""
     sweeps = [recording(arm_urdf, [j], seed=10 + k, q0={"shoulder": 0.2 * k, "elbow": 0.5 - 0.3 * k},
                         source=f"sweep_{j}") for k, j in enumerate(ARM)]
     request = IdentifyRequest(system=f"urdf:{arm_urdf}", hold={"finger_l": FINGER, "finger_r": FINGER},
                               hold_missing=True)
-    with pytest.raises(InputError, match=r"sweep_shoulder: elbow never moves.*record it moving"):
-        identify(sweeps[0], request)
+    first = identify(sweeps[0], request)
+    assert first.joints == ["shoulder"] and first.unexcited_joints == ["elbow", "wrist"]
+    assert first.held_joints["elbow"] == pytest.approx(0.5, abs=1e-4) and "elbow/Fc" not in first.params
+    assert any(w.startswith("sweep_shoulder: elbow, wrist do not move enough to excite their columns (elbow: motion "
+                            "is noise") and "as --hold would" in w for w in first.warnings), first.warnings
     r = identify(sweeps, request)
+    assert r.unexcited_joints == ARM  # each one still in the two sweeps of the others
     assert r.source == [s.source for s in sweeps] and r.joints == ARM
     # each joint judged where it moves: no joint's still q̈ in another sweep reads as noise-dominated
     assert not any("the acceleration is noise-dominated" in w for w in r.warnings), r.warnings
@@ -354,19 +359,6 @@ def test_a_joint_without_effort_is_left_out_and_named(arm_urdf):
 
 
 # --------------------------------------------------------------------- gravity, one joint
-def pendulum(seconds=20.0, phase=0.4, seed=0, source="pendulum"):
-    """τ = J·q̈ + Fv·q̇ + Fc·sign(q̇) + m·g·l·sin(q + φ) + offset at 1 kHz, q = 0.8·sin(2π·0.3 t) + …"""
-    t = np.arange(int(seconds * 1000)) * 1e-3
-    w = 2 * np.pi * 0.3
-    q = 0.8 * np.sin(w * t) + 0.3 * np.sin(2.3 * w * t + phase)
-    qd = 0.8 * w * np.cos(w * t) + 0.3 * 2.3 * w * np.cos(2.3 * w * t + phase)
-    qdd = -0.8 * w**2 * np.sin(w * t) - 0.3 * (2.3 * w) ** 2 * np.sin(2.3 * w * t + phase)
-    coulomb = FrictionModel("coulomb").torque([0.7, 0.4], qd)
-    tau = 0.05 * qdd + coulomb + 3.0 * np.sin(q + 0.5) + 0.1
-    noise = np.random.default_rng(seed).normal(0.0, 0.01, t.size)
-    return JointSeries(t, ["j"], q[:, None], (tau + noise)[:, None], source=source)
-
-
 def test_gravity_in_the_one_joint_model(tmp_path):
     s, val = pendulum(), pendulum(seed=1, phase=1.1, source="val")
     r = identify(s, IdentifyRequest(system="joint", gravity=True))

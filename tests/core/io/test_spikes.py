@@ -113,11 +113,3 @@ def test_a_wrong_stamp_is_interpolated():
     np.testing.assert_array_equal(out.position, s.position)
     assert warned == ["synthetic: 1 time stamp(s) out of line with both neighbours (first at sample 700) replaced by "
                       "interpolation between them"]
-
-
-def test_values_beyond_any_measurement_are_refused():
-    s = noisy(200)
-    s.effort[[50, 60], 0] = 1.7976931348623157e308
-    with pytest.raises(InputError, match=r"synthetic: 2 samples beyond ±1e\+15 \(not measured values\) in field "
-                                         r"'effort' \(joint 'emps': 2, first at t = 0.05 s\)"):
-        check_series(s)

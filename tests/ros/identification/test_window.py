@@ -61,7 +61,14 @@ def test_window_refuses_empty_fields_and_nan(tmp_path):
     m = JointState(name=["a", "b"], position=[np.nan, 0.0], effort=[0.0, 0.0])
     m.header.stamp = stamp_time(T0 + 300 * PERIOD)
     inputs.joint_state(m, 0)
-    with pytest.raises(InputError, match=r"1 NaN/inf samples in field 'position' \(joint 'a'"):
+    sel = select_window(cfg, inputs)  # a broken message is skipped and said, not the window refused
+    assert len(sel.series) == 300 and any("1 broken row(s) skipped" in n and "field 'position', joint 'a': nan" in n
+                                          for n in sel.notes)
+    for k in range(301, 700):
+        m = JointState(name=["a", "b"], position=[np.nan, 0.0], effort=[0.0, 0.0])
+        m.header.stamp = stamp_time(T0 + k * PERIOD)
+        inputs.joint_state(m, 0)
+    with pytest.raises(InputError, match=r"400 NaN/inf samples in field 'position' \(joint 'a': 400 of 700"):
         select_window(cfg, inputs)
 
 

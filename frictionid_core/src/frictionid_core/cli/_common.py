@@ -37,7 +37,8 @@ def add_source_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--strict-time", action="store_true",
                    help="fail on duplicated or out-of-order time stamps instead of repairing them")
     p.add_argument("--strict-rows", action="store_true",
-                   help="fail on a broken row of a CSV (malformed, not numeric, truncated) instead of skipping "
+                   help="fail on a broken row (of a CSV: malformed, not numeric, truncated; of any log: a value NaN, "
+                        "inf or beyond any measurement, a time stamp off the log's time line) instead of skipping "
                         "broken rows with a warning")
     p.add_argument("--start", type=float, metavar="S", help="use the data from S seconds after the first sample")
     p.add_argument("--end", type=float, metavar="S", help="use the data up to S seconds after the first sample")
@@ -213,6 +214,12 @@ def preprocessing_line(p: dict) -> str:
               f"trims {fmt(p.get('trim_start_s'), 3)} + {fmt(p.get('trim_end_s'), 3)} s"
               f"{mark('trim_start_s', 'trim_end_s')}",
               f"min speed {speed}{mark('min_speed')}", f"velocity from {p.get('velocity', 'position')}"]
+    lags = {channel: sorted({v for v in per_joint.values() if v})
+            for channel, per_joint in (p.get("lag_s") or {}).items()}  # the channel lags the loader removed
+    lagged = [f"{channel} {'…'.join(fmt(v * 1e3, 3) for v in dict.fromkeys((values[0], values[-1])))} ms"
+              for channel, values in lags.items() if values]
+    if lagged:
+        parts.append(f"channel lag removed: {', '.join(lagged)}")
     for key, what in (("stick_rows", "stick rows left out"), ("reversal_rows", "rows near reversals left out")):
         counts = {j: n for j, n in (p.get(key) or {}).items() if n}
         if counts:
@@ -226,6 +233,34 @@ def preprocessing_line(p: dict) -> str:
             reasons.setdefault(why.get(n, "") if key == "kept" else "", []).append(n)
         parts += [f"{what}{f' ({reason})' if reason else ''}: {', '.join(names)}" for reason, names in reasons.items()]
     return "preprocessing: " + ", ".join(parts)
+
+
+def choice_line(p: dict) -> str | None:
+    """One line saying how the cut-offs were chosen by cross-validation (the candidates, by their
+    highest cut-off, with their errors), or None when they were not."""
+    cv = p.get("cross_validation")
+    if not cv:
+        return None
+    if cv.get("cutoff_hz") is None:
+        return f"cut-off: the rule's, not cross-validated ({cv.get('skipped', 'too little data')})"
+    scores = ", ".join(f"{'rule ' if k == 0 else '≤ '}{fmt(max(c['cutoff_hz'].values()), 3)} Hz "
+                       f"{fmt(c['cv_relerr_pct'], 3)} %" for k, c in enumerate(cv["candidates"]))
+    return (f"cut-off chosen by {cv['folds']}-fold blocked cross-validation (each part's torque predicted from "
+            f"the others): {cutoff_text(cv['cutoff_hz'])} Hz; candidates by highest cut-off, error: {scores}")
+
+
+def law_line(choice: dict) -> str:
+    """One line saying which friction law ``--friction auto`` took, why, and every candidate's
+    cross-validated error."""
+    def label(c: dict) -> str:
+        gravity = " + gravity" if c.get("gravity") else ""
+        score = "failed" if c.get("failed") else f"{fmt(c['cv_relerr_pct'], 3)} %"
+        bound = f" ({', '.join(c['at_bound'])} at a bound)" if c.get("at_bound") else ""
+        return f"{c['friction']}{gravity} {score}{bound}"
+
+    chosen = choice["chosen"] + (" + gravity" if choice.get("gravity") else "")
+    return (f"friction chosen by {choice['folds']}-fold cross-validation (each half's moving rows predicted from the "
+            f"other): {chosen}, {choice['why']}; candidates: {', '.join(label(c) for c in choice['candidates'])}")
 
 
 def cutoff_text(cutoff) -> str:
@@ -247,6 +282,10 @@ def print_table(result: dict, out=None) -> None:
     print(f"source: {', '.join(map(str, sources))}", file=out)
     if result.get("preprocessing"):
         print(preprocessing_line(result["preprocessing"]), file=out)
+        if (line := choice_line(result["preprocessing"])) is not None:
+            print(line, file=out)
+    if result.get("law_choice"):
+        print(law_line(result["law_choice"]), file=out)
     if result.get("drive"):
         d = result["drive"]
         print(f"drive: {d.get('name') or 'unnamed'} ({d['side']}-side log, friction on the {d['friction_on']}s"
@@ -258,7 +297,11 @@ def print_table(result: dict, out=None) -> None:
     if result.get("fixed"):
         print("fixed: " + ", ".join(f"{k} = {fmt(v)}" for k, v in result["fixed"].items()), file=out)
     print(f"{'parameter':<16}{'value':>14}{'σ':>12}", file=out)
+    at_bound = result.get("at_bound") or {}
     for name, value in result["params"].items():
+        if name in at_bound:  # not an identified value: the bound it ends at, no σ
+            print(f"{name:<16}{'at bound ' + fmt(at_bound[name]):>14}{'—':>12}", file=out)
+            continue
         print(f"{name:<16}{fmt(value):>14}{fmt(result['std'].get(name)):>12}", file=out)
     print_metrics(result["metrics"], out)
 

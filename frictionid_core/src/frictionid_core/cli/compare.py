@@ -152,7 +152,7 @@ def _truth_block(path: Path, result: dict, args, truth_all: dict) -> dict:
     out = compare(result, select_truth(truth_all, args.bag or result.get("source")))
     print(f"{path} vs truth ({args.truth}{'' if not args.bag else ' · ' + args.bag})")
     print(f"{'parameter':<22} {'estimate':>12} {'truth':>12} {'error %':>9} {'σ %':>9} {'err/σ':>7} "
-          f"{'robust σ':>10}  determined  1.96σ covers (σ, robust)")
+          f"{'robust σ':>10}  determined  1.96σ covers (σ, calibrated)")
     covers = {True: "yes", False: "NO", None: "—"}
     for name, r in out["parameters"].items():
         print(f"{name:<22} {fmt(r['estimate']):>12} {fmt(r['truth']):>12} {fmt(r['relerr_pct'], 3):>9} "
@@ -166,8 +166,10 @@ def _truth_block(path: Path, result: dict, args, truth_all: dict) -> dict:
           f"max |error| {fmt(s['max_abs_relerr_pct_resolvable_5pct'])} %; the other "
           f"{s['parameters'] - s['resolvable_5pct']} cannot be placed within {tol} with 95 % confidence "
           f"on this recording")
-    (hit, n), (hit_r, n_r) = s["coverage"], s["coverage_robust"]
-    print(f"coverage: 1.96 σ holds the truth for {hit} of {n} parameters with a σ, 1.96 robust σ for {hit_r} of {n_r}")
+    (hit, n), cal = s["coverage"], s["coverage_calibrated"]
+    share = f" ({100 * cal['share']:.0f} %)" if cal["identified"] else ""
+    print(f"coverage (identified parameters whose |error| ≤ {Z95:g} σ; about 95 % when σ is honest): calibrated σ "
+          f"(std_robust) {cal['covered']} of {cal['identified']}{share}; white-noise σ (std) {hit} of {n}")
     return out
 
 

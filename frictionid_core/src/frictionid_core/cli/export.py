@@ -40,6 +40,8 @@ def run(args) -> int:
                        {"RESULT": args.result, "--system": system_file(result.system), "--payload": args.payload})
     result, payload = payload_of(result, args.result, args.payload)
     data = export_data(result, result_system(result), args.force, payload)
+    if data.note:
+        print(data.note)
     if not data.feasible:
         print("frictionid: warning: exporting an inconsistent or implausible result (--force): "
               + "; ".join(data.problems))

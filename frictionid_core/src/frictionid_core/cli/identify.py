@@ -64,7 +64,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                                     "(default emps)")
     p.add_argument("--joint-map", help="bag joint → model joint names when they differ: a=b,c=d")
     add_drive_argument(p)
-    p.add_argument("--friction", choices=FRICTIONS, help="friction model (default coulomb)")
+    p.add_argument("--friction", choices=(*FRICTIONS, "auto"),
+                   help="friction model (default coulomb; auto: the law that predicts best, by cross-validation)")
     p.add_argument("--asymmetric", action="store_true", default=None, help="separate parameters for v > 0 and v < 0")
     p.add_argument("--elements", type=int, metavar="N",
                    help="--friction gms: number of Maxwell-slip elements (default 4; 1: Dahl's law with Fs = Fc)")

@@ -321,10 +321,19 @@ def link_plausibility(info, pi: np.ndarray, source: str) -> dict:
             "implausible": [j for j, v in links.items() if v["problems"]]}
 
 
-def plausibility_warnings(block: dict) -> list[str]:
-    """One warning per implausible link of a :func:`link_plausibility` block, naming it."""
+def plausibility_warnings(block: dict, prior: str | None = None, prior_weight: float = 1.0) -> list[str]:
+    """One warning per implausible link of a :func:`link_plausibility` block, naming it, and the
+    way out its fit has not taken: ``--consistent`` for links reconstructed from base parameters; a
+    consistent fit holds at the model what the data do not determine (and, with ``prior`` ``urdf``,
+    pulls every link toward it with ``prior_weight``), so its implausible link is one the data put
+    there: the warning names the model to check, no flag that would bring it back."""
     what = block["source"]
+    if what.startswith("the consistent fit"):
+        under = f" even under --prior urdf (weight {prior_weight:g})" if prior == "urdf" else ""
+        way = (f"the data determine it{under} (the consistent fit holds at the model only what they do not): check "
+               "the robot model against the robot (a tool or payload on the arm, the URDF's units)")
+    else:
+        way = ("base parameters the data do not determine, or a model (URDF) far from the robot; --consistent holds "
+               "what the data do not determine at the model")
     return [f"link of joint '{j}' ({what}) is implausible against the robot model: "
-            + "; ".join(block["links"][j]["problems"])
-            + " — base parameters the data do not determine, or a model (URDF) far from the robot; "
-              "--consistent --prior urdf keeps the links near the model" for j in block["implausible"]]
+            + "; ".join(block["links"][j]["problems"]) + f" — {way}" for j in block["implausible"]]

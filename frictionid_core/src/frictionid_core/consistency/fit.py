@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from frictionid_core.consistency.check import PSEUDO_INERTIA_BASIS, body_report, pseudo_inertia
+from frictionid_core.consistency.prior import HOLD_WEIGHT, undetermined_directions
 from frictionid_core.errors import FrictionIdError
 
 # Smallest eigenvalue of each pseudo-inertia (kg·m²): strictly inside the cone, so the witness
@@ -64,7 +65,8 @@ def _friction_kind(name: str) -> str:
 
 
 def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = None, prior_weight: float = 0.0,
-                   stribeck_order: bool = False, margin: float = MARGIN, released=frozenset()) -> ConsistentFit:
+                   stribeck_order: bool = False, margin: float = MARGIN, released=frozenset(),
+                   data_scale: float = 1.0, hold_weight: float = HOLD_WEIGHT) -> ConsistentFit:
     """Consistent standard + friction parameters on the rows of ``model`` (an IdentificationModel
     of a robot system) with the nonlinear shapes of ``x0`` (its unconstrained solution, (k,));
     ``robot``: the system's :class:`~frictionid_core.systems.system.RobotInfo`; ``prior``:
@@ -72,7 +74,11 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
     (default: the model's own); ``stribeck_order``: also Fs ≥ Fc per branch. A fixed parameter
     of the model keeps its value, a base parameter as A·π; one whose index is in ``released``
     (held only because the data do not resolve it) is left free when it is a base parameter:
-    the prior's divergence (or the tie-break) decides it."""
+    the prior's divergence (or the tie-break) decides it. The directions of the links the data do
+    not determine (:func:`~frictionid_core.consistency.prior.undetermined_directions`, with
+    ``hold_weight``; 0: none) are held at the prior's values; ``data_scale`` (≥ 1): the variance of
+    the calibrated σ over the white one, by which the data term's σ̂² grows (residuals that are
+    coloured or carry model error inform less than white ones)."""
     import cvxpy as cp
 
     rows = robot.rows or robot.model
@@ -96,7 +102,9 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
     x_unc = np.asarray(x0, dtype=float)
     rss_unc = float(np.sum((y - X @ x_unc[model.linear_index]) ** 2))
     dof = max(int(np.count_nonzero(model.obs.used)) - L, 1)
-    s2 = max(rss_unc / dof, np.finfo(float).tiny)
+    if not (np.isfinite(data_scale) and data_scale >= 1.0):
+        raise FrictionIdError(f"consistent fit: data scale must be ≥ 1, got {data_scale}")
+    s2 = max(rss_unc / dof, np.finfo(float).tiny) * data_scale
     # z = [π (P), friction and offset levels (L − r)]; c = M·z.
     pi0 = rows_parameters(robot) if prior is None else np.asarray(prior, dtype=float)
     floor = np.concatenate([np.tile([1.0, 0.1, 0.1, 0.1] + [0.01] * 6, nb), np.full(nrot, 0.01)])
@@ -116,10 +124,22 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
         Js.append(J)
     if nrot:
         cons.append(z[10 * nb : P] >= 0)
+    held_rows = []
     for pos in range(r):
         i = model.linear_index[pos]
         if i in model.fixed_values and i not in released:
             cons.append(A[pos] @ z[:P] == model.fixed_values[i])
+            held_rows.append(A[pos] * D[:P])
+    held = np.zeros((0, 10 * nb))
+    if hold_weight > 0:  # the links' directions the data do not determine: at the prior's values
+        information = G.T @ G / s2
+        if held_rows:  # what a fixed value holds is determined (by the user or the model)
+            rows_u = np.hstack([np.array(held_rows), np.zeros((len(held_rows), L - r))])
+            information += (1e6 * max(float(np.max(np.diag(information))), 1.0)) * rows_u.T @ rows_u
+        held, with_prior = undetermined_directions(information, pi0, D, nb, hold_weight)
+        if held.size:
+            index = np.array([10 * k + i for k in with_prior for i in range(10)], dtype=int)
+            objective = objective + 0.5 * hold_weight * cp.sum_squares(held @ (u[index] - pi0[index] / D[index]))
     used_prior = []
     weight = prior_weight if prior_weight > 0 else TIE_BREAK
     if weight > 0:
@@ -173,6 +193,9 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
         "prior_weight": float(prior_weight),
         "tie_break_weight": 0.0 if prior_weight > 0 else TIE_BREAK,
         "prior_links": [robot.model.joints[k] for k in used_prior],
+        "held_directions": int(held.shape[0]),
+        "hold_weight": float(hold_weight),
+        "data_scale": float(data_scale),
         "stribeck_order": bool(stribeck_order),
         "margin": margin,
         "sigma2": s2,
@@ -181,6 +204,52 @@ def consistent_fit(model, x0: np.ndarray, robot, *, prior: np.ndarray | None = N
                         "Fv ≥ 0, Fc ≥ 0, Fs ≥ 0" + (", Fs ≥ Fc" if stribeck_order else "")],
     }
     return ConsistentFit(x, pi, names, record)
+
+
+def links_within_sigma(robot, beta: np.ndarray, sigma: np.ndarray, *, margin: float = MARGIN,
+                       hold_weight: float = HOLD_WEIGHT) -> tuple[np.ndarray, float]:
+    """(consistent standard parameters π (P,) of ``robot`` (a RobotInfo) whose base parameters A·π lie
+    as near identified ones ``beta`` (r,) as their σ ``sigma`` (r,; NaN or inf: not determined, 0:
+    held) say, the largest |A·π − β|/σ): minimise ½‖(A·π − β)/σ‖² with the links' directions these σ
+    do not determine held at the model's (:func:`~frictionid_core.consistency.prior.undetermined_directions`),
+    each link's pseudo-inertia ⪰ ε·max(1, m), rotor inertias ≥ 0. What ``export`` builds links from
+    when a result without ``--consistent`` has no consistent or plausible exact witness."""
+    import cvxpy as cp
+
+    A = robot.base.combination_matrix()
+    r, P = A.shape
+    nb = robot.model.model.njoints - 1
+    nrot = P - 10 * nb
+    pi0 = rows_parameters(robot)
+    floor = np.concatenate([np.tile([1.0, 0.1, 0.1, 0.1] + [0.01] * 6, nb), np.full(nrot, 0.01)])
+    D = np.maximum(np.abs(pi0), floor)
+    beta = np.asarray(beta, dtype=float)
+    sigma = np.asarray(sigma, dtype=float)
+    known = np.isfinite(sigma) & np.isfinite(beta)
+    tiny = 1e-9 * np.maximum(np.abs(beta), 1.0)
+    weight = np.where(known, 1.0 / np.maximum(np.where(known, sigma, 1.0), tiny), 0.0)
+    G = (weight[:, None] * A) * D
+    target = np.where(known, weight * beta, 0.0)
+    u = cp.Variable(P)
+    z = cp.multiply(D, u)
+    objective = 0.5 * cp.sum_squares(G @ u - target)
+    cons = []
+    for k in range(nb):
+        J = cp.Variable((4, 4), symmetric=True)
+        cons += [J == sum(z[10 * k + i] * PSEUDO_INERTIA_BASIS[i] for i in range(10)), J >> margin * np.eye(4),
+                 J - margin * J[3, 3] * np.eye(4) >> 0]
+        J0 = pseudo_inertia(pi0[10 * k : 10 * k + 10])
+        if np.linalg.eigvalsh(J0)[0] > margin:
+            objective = objective + TIE_BREAK * (-cp.log_det(J) + cp.trace(np.linalg.inv(J0) @ J))
+    if nrot:
+        cons.append(z[10 * nb :] >= 0)
+    held, with_prior = undetermined_directions(G.T @ G, pi0, D, nb, hold_weight)
+    if held.size:
+        index = np.array([10 * k + i for k in with_prior for i in range(10)], dtype=int)
+        objective = objective + 0.5 * hold_weight * cp.sum_squares(held @ (u[index] - pi0[index] / D[index]))
+    solve_program(cp.Problem(cp.Minimize(objective), cons), u, "links within the base parameters' σ")
+    pi = D * u.value
+    return pi, float(np.max(np.abs(weight * (A @ pi - np.where(known, beta, 0.0))), initial=0.0))
 
 
 def solve_program(problem, variable, what: str) -> float:

@@ -48,6 +48,16 @@ SIDES = ("joint", "motor")
 DRIVE_KEYS = ("name", "joints", "side", "gear_ratio", "coupling", "effort_scale", "position_offset",
               "friction_on")
 MAX_CONDITION = 1e12  # cond(R) above this: R is not invertible in floating point
+# Near-singular drives: a gear ratio below MIN_GEAR_RATIO in magnitude (a joint a thousand times
+# faster than its motor is no gearbox: a unit or a typo), an effort scale or a coupling ratio below
+# MIN_SCALE (zero to round-off), or a coupling whose referred matrix C = diag(N)⁻¹·R has a condition
+# number above MAX_COUPLING_CONDITION (motors that do not tell their joints apart: the TX40's wrist
+# gives 2.6). A negative value is a direction: a motor turning against its joint (gear_ratio, the
+# TX40's −48), an effort logged against the joint axis (effort_scale −1, as the effort-sign check
+# writes), a coupling of the opposite sense.
+MIN_GEAR_RATIO = 1e-3
+MIN_SCALE = 1e-9
+MAX_COUPLING_CONDITION = 1e6
 
 
 @dataclass(frozen=True)
@@ -83,13 +93,21 @@ class Drive:
             if getattr(self, key) not in SIDES:
                 raise InputError(f"{where}: key '{key}' is {getattr(self, key)!r}; choose one of {', '.join(SIDES)}")
         per_joint = {
-            "gear_ratio": _numbers(self.gear_ratio, "gear_ratio", joints, where, default=1.0, nonzero=True),
-            "effort_scale": _numbers(self.effort_scale, "effort_scale", joints, where, default=1.0, nonzero=True),
+            "gear_ratio": _numbers(self.gear_ratio, "gear_ratio", joints, where, default=1.0,
+                                   smallest=(MIN_GEAR_RATIO, "motor angle = gear_ratio × joint angle")),
+            "effort_scale": _numbers(self.effort_scale, "effort_scale", joints, where, default=1.0,
+                                     smallest=(MIN_SCALE, "torque = effort_scale × recorded effort")),
             "position_offset": _numbers(self.position_offset, "position_offset", joints, where, default=0.0),
         }
         for key, value in {"joints": joints, **per_joint,
                            "coupling": _coupling(self.coupling, joints, where)}.items():
             object.__setattr__(self, key, value)
+        cond = np.linalg.cond(self.C) if self.coupling else 1.0
+        if not cond <= MAX_COUPLING_CONDITION:
+            raise InputError(f"{where}: keys 'gear_ratio' and 'coupling' give a singular or near-singular motor←joint "
+                             f"matrix (condition number of diag(gear_ratio)⁻¹·R {cond:.3g}, above "
+                             f"{MAX_COUPLING_CONDITION:.0e}): the motor angles do not determine the joint angles; "
+                             "check the coupling's [motor, joint, ratio] terms")
         cond = np.linalg.cond(self.R)
         if not cond < MAX_CONDITION:
             raise InputError(f"{where}: keys 'gear_ratio' and 'coupling' give a singular motor←joint matrix R "
@@ -242,8 +260,16 @@ class Drive:
         known = [j for j in named if j in self.joints]
         if known or len(series.joints) != len(joints):
             missing = [j for j in joints if j not in named]
+            extra = [log for log, j in zip(series.joints, named) if j not in self.joints]
+            why = []
+            if known and extra:
+                kept = ",".join(log for log, j in zip(series.joints, named) if j in self.joints)
+                why.append(f"extra {extra} (data joints the drive does not list: add them to its 'joints' and "
+                           f"per-joint lists, or leave them out of the data: --joints {kept})")
+            if known and missing:
+                why.append(f"missing {missing} (drive joints the data lack)")
             raise InputError(f"{series.source}: the data joints {series.joints} do not match {self._label} "
-                             f"joints {joints}" + (f" (missing {missing})" if known else ""))
+                             f"joints {joints}" + (f": {'; '.join(why)}" if why else ""))
         return series
 
     @property
@@ -318,8 +344,9 @@ def _number(value) -> float | None:
 
 
 def _numbers(value, key: str, joints: tuple[str, ...], where: str, *, default: float,
-             nonzero: bool = False) -> tuple[float, ...]:
-    """One finite number per joint (``default`` for all when None)."""
+             smallest: tuple[float, str] | None = None) -> tuple[float, ...]:
+    """One finite number per joint (``default`` for all when None); ``smallest``: (the least
+    magnitude allowed, what the value does) for a scale that must not vanish."""
     if value is None:
         return (default,) * len(joints)
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
@@ -332,8 +359,10 @@ def _numbers(value, key: str, joints: tuple[str, ...], where: str, *, default: f
         x = _number(v)
         if x is None:
             raise InputError(f"{where}: key '{key}': value {v!r} of joint '{j}' is not a finite number")
-        if nonzero and x == 0:
-            raise InputError(f"{where}: key '{key}': value of joint '{j}' is zero")
+        if smallest is not None and abs(x) < smallest[0]:
+            what = "zero" if x == 0 else f"{x:.3g}, near zero (below {smallest[0]:g} in magnitude)"
+            raise InputError(f"{where}: key '{key}': value of joint '{j}' is {what}: {smallest[1]} would vanish "
+                             "(a negative value is allowed: it reverses the direction)")
         out.append(x)
     return tuple(out)
 
@@ -357,8 +386,9 @@ def _coupling(value, joints: tuple[str, ...], where: str) -> tuple[tuple[int, in
         if motor == joint:
             raise InputError(f"{where}: key 'coupling': term {list(term)} is on the diagonal; "
                              "state that ratio in 'gear_ratio'")
-        if ratio == 0:
-            raise InputError(f"{where}: key 'coupling': term {list(term)} has a zero ratio")
+        if abs(ratio) < MIN_SCALE:
+            raise InputError(f"{where}: key 'coupling': term {[motor, joint, ratio]} has a zero ratio (below "
+                             f"{MIN_SCALE:g} in magnitude): leave the term out")
         if (motor, joint) in seen:
             raise InputError(f"{where}: key 'coupling': [motor {motor}, joint {joint}] is given twice")
         seen.add((motor, joint))

@@ -2,7 +2,10 @@
 
 The standard parameters exported are the result's own (``identify --consistent``) or, for an
 unconstrained result, the consistent witness :func:`~frictionid_core.consistency.check.report_for_result`
-finds; a result with no consistent witness is refused unless forced (the error names the link).
+finds; when it has none that is consistent and plausible, the consistent links whose base parameters lie
+within :data:`WITHIN_SIGMAS` of the result's calibrated σ, the directions those σ do not determine held at
+the model's (:func:`~frictionid_core.consistency.links_within_sigma`); a result with neither is refused
+unless forced (the error names the link).
 
 * URDF: a ``urdf:PATH`` robot's own file with each moving joint's child link given the
   identified inertial (mass, centre of mass, inertia about it, in the link = joint frame) and
@@ -34,7 +37,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from frictionid_core.consistency import link_plausibility, report_for_result, standard_record
+from frictionid_core.consistency import (
+    body_report,
+    link_plausibility,
+    links_within_sigma,
+    report_for_result,
+    standard_record,
+)
 from frictionid_core.drive import friction_rows
 from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import elements_of, get_model
@@ -42,6 +51,10 @@ from frictionid_core.robots import PAYLOAD, Payload, link_frame, link_name, payl
 from frictionid_core.safety import payload_refusals, result_refusals
 from frictionid_core.systems import result_system
 
+# Links reconstructed for a result without --consistent reproduce each base parameter within this many of
+# its calibrated σ (a robot has ~40: 4 σ leaves a right fit out 1 time in 400), or the result is refused
+# as its data show it (its exact witness's problems).
+WITHIN_SIGMAS = 4.0
 # MuJoCo joint attribute ← friction parameter
 MUJOCO_FRICTION = {"damping": "Fv", "frictionloss": "Fc"}
 # Speeds a law is matched over: this many, evenly spread over the data's range; without a range in
@@ -64,6 +77,7 @@ class ExportData:
         source: ``urdf:PATH`` file of the robot, or None (built-in model).
         payload: a payload fixed to one of its links (a fixed link ``payload`` in the URDF and
             MuJoCo model, the ``payload`` block of the YAML), or None.
+        note: how the links were built when not from an exact witness (:func:`export_data`), or None.
     """
 
     robot: object
@@ -76,6 +90,7 @@ class ExportData:
     match: dict
     plausibility: dict
     payload: Payload | None = None
+    note: str | None = None
 
 
 def export_data(result: dict, system, force: bool = False, payload: Payload | None = None) -> ExportData:
@@ -88,13 +103,20 @@ def export_data(result: dict, system, force: bool = False, payload: Payload | No
     rep = report_for_result(result, system)
     names = (info.rows or info.model).parameter_names()
     pi = np.array([rep["standard_parameters"][n] for n in info.model.parameter_names()])
+    problems, plausibility = _link_problems(info, pi)
+    note = None
+    if problems and not result.get("standard_parameters"):  # no exact witness: the links within the result's σ
+        try:
+            within, worst = links_within_sigma(info, *_base_and_sigma(result, system))
+        except FrictionIdError:  # the solver found none: the exact witness's problems stand
+            within, worst = pi, np.inf
+        again, checked = _link_problems(info, within)
+        if not again and worst <= WITHIN_SIGMAS:
+            pi, problems, plausibility = within, again, checked
+            note = (f"links reconstructed within {worst:.2g} calibrated σ (std_robust) of the base parameters: no "
+                    "consistent, plausible links reproduce them exactly; the directions they do not determine at "
+                    "the model's")
     links = standard_record(info, names, pi)
-    problems = [f"link '{j}' (mass {b['mass']:.4g} kg, pseudo-inertia λmin {b['pseudo_inertia_min_eig']:.3g})"
-                for j, b in rep["bodies"].items() if not b["consistent"]]
-    problems += [f"rotor of '{j}' (Ia {r['Ia']:.4g} kg·m²)" for j, r in rep["rotors"].items() if not r["consistent"]]
-    plausibility = link_plausibility(info, pi, "exported")
-    problems += [f"link of joint '{j}' implausible against the model ("
-                 + "; ".join(plausibility["links"][j]["problems"]) + ")" for j in plausibility["implausible"]]
     friction, match = _joint_friction(result, info)
     for j, f in match.items():
         problems += [f"joint '{j}' {k} {v:.4g} < 0" for k, v in f["fitted"].items() if v < 0]
@@ -104,11 +126,40 @@ def export_data(result: dict, system, force: bool = False, payload: Payload | No
             problems.append(f"payload on '{payload.link}' (mass {payload.mass:.4g} kg): its pseudo-inertia is not "
                             "positive definite")
     if problems and not force:
+        way_out = ("the consistent fit holds at the model only what the data do not determine, so the data put these "
+                   "links there: check the robot model against the robot (a tool or payload on the arm, the URDF's "
+                   "units), or export anyway with --force" if result.get("standard_parameters")
+                   else "identify with --consistent, or export anyway with --force")
         raise FrictionIdError("refused to export an inconsistent or implausible result: " + "; ".join(problems)
-                              + " (identify with --consistent [--prior urdf], or export anyway with --force)")
+                              + f" ({way_out})")
     source = system.name.split(":", 1)[1] if system.name.startswith("urdf:") else None
     return ExportData(info.model, links, friction, not problems, problems, source, result, match, plausibility,
-                      payload)
+                      payload, note)
+
+
+def _link_problems(info, pi: np.ndarray) -> tuple[list[str], dict]:
+    """(what keeps standard parameters ``pi`` of the robot ``info`` from export: links not physically
+    consistent, negative rotor inertias, links implausible against the model; the plausibility block)."""
+    nb = info.model.model.njoints - 1
+    problems = []
+    for k, joint in enumerate(info.model.joints[:nb]):
+        body = body_report(pi[10 * k : 10 * k + 10])
+        if not body["consistent"]:
+            problems.append(f"link '{joint}' (mass {body['mass']:.4g} kg, pseudo-inertia λmin "
+                            f"{body['pseudo_inertia_min_eig']:.3g})")
+    problems += [f"rotor of '{j}' (Ia {a:.4g} kg·m²)" for j, a in zip(info.model.joints, pi[10 * nb :]) if a < -1e-12]
+    plausibility = link_plausibility(info, pi, "exported")
+    problems += [f"link of joint '{j}' implausible against the model ("
+                 + "; ".join(plausibility["links"][j]["problems"]) + ")" for j in plausibility["implausible"]]
+    return problems, plausibility
+
+
+def _base_and_sigma(result: dict, system) -> tuple[np.ndarray, np.ndarray]:
+    """(the base parameters of ``result``, their calibrated σ (``std_robust``, else ``std``; NaN where
+    none: not determined))."""
+    sigma = result.get("std_robust") or result.get("std") or {}
+    beta = np.array([result["params"][n] for n in system.rigid_names], dtype=float)
+    return beta, np.array([float(sigma.get(n, np.nan)) for n in system.rigid_names], dtype=float)
 
 
 def _joint_friction(result: dict, info) -> tuple[dict, dict]:
@@ -349,6 +400,8 @@ def yaml_text(data: ExportData) -> str:
                        "joint_friction": data.friction, "friction_match": data.match,
                        "plausibility": data.plausibility,
                        "rotor_inertia": {j: v["rotor_inertia"] for j, v in data.links.items()}}
+    if data.note:
+        plain["export"]["links_note"] = data.note
     if data.payload is not None:
         plain["payload"] = data.payload.to_dict()
     return yaml.safe_dump(plain, sort_keys=False, allow_unicode=True)

@@ -5,11 +5,13 @@
     result = identify(series, IdentifyRequest(system="emps", friction="coulomb"))
     metrics = validate(other_series, result)
 
-One module per job: ``request`` (the request, its YAML file; ``settings``: its solver and
+One module per job: ``at_bound`` (parameters that end at a bound: not identified values),
+``request`` (the request, its YAML file; ``settings``: its solver and
 pre-processing parts; ``checks``: its field checks), ``result`` (the result and its JSON;
 ``result_fields``: the key-by-key checks of a result file),
 ``orchestration`` (:func:`identify`), ``effort_sign`` (an effort logged against its joint's axis),
-``plan`` (what each source gives a fit),
+``plan`` (what each source gives a fit), ``joint_signals`` (a joint's motion that excites its columns,
+its effort's information),
 ``identifiability`` (what the data resolve), ``payload_identification`` and ``payload_fit`` (a payload on a
 link from a loaded log and a base result), ``model_building`` (data → identification model,
 metrics), ``solve`` (solver glue), ``linear_case`` (a law's Coulomb case: the bounds it grounds, the
@@ -24,6 +26,7 @@ from frictionid_core import lazy
 
 # Public names -> the module that defines them (loaded on first use).
 _LAZY = {
+    **dict.fromkeys(("nonlinear_at_bound",), "frictionid_core.identification.at_bound"),
     **dict.fromkeys(("FieldError",), "frictionid_core.identification.checks"),
     **dict.fromkeys((
         "as_sources", "build_model", "metric_model", "model_metrics", "observe_sources", "Sources",
@@ -49,8 +52,8 @@ _LAZY = {
 __all__ = ["FieldError", "IdentifyRequest", "IdentifyResult", "PayloadRequest", "PayloadResult",
            "PreprocessingOverrides", "SolverOptions", "Sources", "as_sources", "budget_field", "build_model",
            "check_metrics", "identify", "identify_payload", "loaded_result", "metric_model", "model_from_result",
-           "model_metrics", "observe_sources", "payload_of", "read_payload", "read_request", "read_result",
-           "solve_model", "validate", "validation_metrics", "validation_record", "validation_settings",
+           "model_metrics", "nonlinear_at_bound", "observe_sources", "payload_of", "read_payload", "read_request",
+           "read_result", "solve_model", "validate", "validation_metrics", "validation_record", "validation_settings",
            "window_record", "write_request"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

@@ -6,15 +6,14 @@ them in ``result["warnings"]`` and the command line prints each as ``frictionid:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
+from frictionid_core.identification.at_bound import bounds_reached
 from frictionid_core.model import parameter_kind
 from frictionid_core.preprocess import QDD_NOISE_SHARE_LIMIT
 
-# A parameter is at a bound when it lies within this many σ of it (judged against its own σ, not
-# the width of the search range); without a finite σ, when it is at the bound to round-off.
-AT_BOUND_SIGMAS = 0.1
-AT_BOUND_RTOL = 1e-9
 # A joint moves in one direction only when fewer than this share of its used rows go the other way.
 ONE_DIRECTION_SHARE = 0.01
 FRICTION_LEVELS = ("Fv", "Fc", "Fs")
@@ -27,36 +26,29 @@ def _listing(names: list[str]) -> str:
     return ", ".join(names[:_LISTED]) + more
 
 
-def _at(x: float, b: float, sd: float) -> bool:
-    if not np.isfinite(b):
-        return False
-    if np.isfinite(sd) and sd > 0.0:
-        return abs(x - b) <= AT_BOUND_SIGMAS * sd
-    return abs(x - b) <= AT_BOUND_RTOL * max(abs(b), 1.0)
-
-
 def parameter_warnings(names: list[str], values: np.ndarray, std: dict[str, float], lower: np.ndarray,
-                       upper: np.ndarray, physical: set[str] = frozenset()) -> list[str]:
-    """Parameters at a search bound (within :data:`AT_BOUND_SIGMAS` σ of it), held at 0 by the
-    sign constraint (``physical``: the names it holds), σ larger than the value, Fs < Fc, and
-    negative friction levels, masses or inertias (each named). Parameters with lower == upper
-    (fixed) are not judged."""
+                       upper: np.ndarray, physical: set[str] = frozenset(),
+                       at_bound: Mapping[str, float] | None = None) -> list[str]:
+    """Parameters at a search bound (``at_bound`` {name: bound}, default: those within
+    :data:`~frictionid_core.identification.at_bound.AT_BOUND_SIGMAS` σ of ``lower`` or ``upper``),
+    held at 0 by the sign constraint (``physical``: the names it holds), σ larger than the value,
+    Fs < Fc, and negative friction levels, masses or inertias (each named). Parameters with lower
+    == upper (fixed) are not judged."""
     out = []
-    at_bound, held = [], []
-    for name, x, lo, hi in zip(names, values, lower, upper):
-        if lo == hi:
+    if at_bound is None:
+        at_bound = bounds_reached(names, values, std, lower, upper)
+    searched, held = [], []
+    for name, lo, hi in zip(names, lower, upper):
+        if name not in at_bound:
             continue
-        sd = float(std.get(name, np.nan))
-        for side, b in (("lower", lo), ("upper", hi)):
-            if not _at(x, b, sd):
-                continue
-            if side == "lower" and b == 0.0 and name in physical:
-                held.append(name)
-            else:
-                at_bound.append(f"{name} ({side} {b:.6g})")
-    if at_bound:
-        out.append(f"parameter(s) at a search bound: {_listing(at_bound)}: the optimum may lie beyond; "
-                   "widen the bounds (--bounds NAME=LO:HI) or check the model")
+        b = at_bound[name]
+        if b == 0.0 and name in physical:
+            held.append(name)
+        else:
+            searched.append(f"{name} ({'lower' if abs(b - lo) <= abs(b - hi) else 'upper'} {b:.6g})")
+    if searched:
+        out.append(f"parameter(s) at a search bound: {_listing(searched)}: the optimum may lie beyond (no σ: not an "
+                   "identified value); widen the bounds (--bounds NAME=LO:HI) or check the model")
     if held:
         out.append(f"parameter(s) held at 0, their physical bound (the data pull them below: torque the model does "
                    f"not explain, or too little motion): {_listing(held)}; --bounds NAME=LO:HI lets one go")
@@ -105,19 +97,27 @@ def acceleration_warnings(report: dict, cutoff_hz: float | dict[str, float], cho
                 f"position noise at its {fc:.4g} Hz cut-off): inertia comes out low")
         if clean.get(joint):
             why = "the data chose too high a cut-off for this noise" if chosen else "lower the cut-off"
-            out.append(head + f"; {why}: use --cutoff {joint}={clean[joint]:.3g}")
+            out.append(head + f"; {why}: use --cutoff {joint}={_rounded_down(clean[joint])}")
         else:
             out.append(head + "; no cut-off keeps the noise below the motion: record larger or longer motion")
     return out
 
 
+def _rounded_down(x: float, digits: int = 3) -> str:
+    """``x`` to ``digits`` significant digits, rounded down: a cut-off named as the way out keeps the
+    noise within the limit as printed (rounded up it could let a hair more in)."""
+    scale = 10.0 ** (digits - 1 - int(np.floor(np.log10(x))))
+    return f"{np.floor(x * scale) / scale:.{digits}g}"
+
+
 # Words of the notes that report a repair of the data (each such note is a warning of the result).
-REPAIR_WORDS = ("stamp", "broken row", "spike")
+REPAIR_WORDS = ("stamp", "broken row", "repeated row", "spike", "channel lag")
 
 
 def stamp_warnings(notes: list[str]) -> list[str]:
     """The notes that say the data were repaired, with their counts: stamps repaired, samples
-    resampled, the log cut into segments at gaps of its stamps, broken rows skipped, spikes replaced."""
+    resampled, the log cut into segments at gaps of its stamps, broken rows skipped, repeated rows
+    dropped, spikes replaced, a lag of the velocity or effort removed."""
     return [n for n in notes if any(word in n for word in REPAIR_WORDS)]
 
 

@@ -1,11 +1,12 @@
 """The dip-refit policy: a friction dip (Stribeck, Threlfall) that the pre-processing rates chosen
 from the data cannot follow makes the identification refit at the rates its estimate needs
-(:func:`fit_at_dip_rates`), or warns when the user set those rates (:func:`dip_warnings`)."""
+(:func:`fit_at_dip_rates`), or warns when the user set those rates, naming rates that, passed back,
+hold (:func:`dip_advice`, :func:`settled_dip_advice`)."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -15,6 +16,7 @@ from frictionid_core.preprocess import Preprocessing, cutoff_range, dip_needs, r
 
 # At most this many refits when a friction dip needs finer rates than those chosen.
 DIP_ROUNDS = 4
+ADVICE_MARGIN = 0.02  # a cut-off advised for a dip: this much above its need
 
 
 def fit_at_dip_rates(model: IdentificationModel, settings: Preprocessing,
@@ -111,16 +113,56 @@ def dip_changes(model: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:
     return changes, why
 
 
-def dip_warnings(model: IdentificationModel, x: np.ndarray) -> list[str]:
-    """A warning when the settings the user gave are too coarse for the dip of ``x`` (a static law's)."""
+@dataclass(frozen=True)
+class DipAdvice:
+    """The rates a fit's friction dip needs where the user set coarser ones (:func:`dip_advice`)."""
+
+    why: str  # which dip needs what
+    here: str  # the rates used
+    decimate: int  # the decimation to use
+    cutoff_hz: float  # the cut-off to use (every joint)
+
+    def warning(self) -> str:
+        return (f"{self.why} (here {self.here}): vs and δ come out biased; use --decimate {self.decimate} --cutoff "
+                f"{self.cutoff_hz:.3g}")
+
+
+def dip_advice(model: IdentificationModel, x: np.ndarray) -> DipAdvice | None:
+    """The rates the dip of ``x`` (a static law's) needs when the settings the user gave are too
+    coarse for it; None when they are fine. A fit at too coarse rates overestimates vs, so a fit at
+    these rates may need finer ones still: :func:`settled_dip_advice` follows the advice until it
+    holds."""
     if model.friction.is_dynamic:
-        return []
+        return None
     n, needs, why, _ = model_dip_needs(model, x)
     pre = model.obs.preprocessing
     if n >= pre.decimate and not cutoff_shortfall(pre.cutoff_hz, needs):
-        return []
+        return None
     low, high = cutoff_range(pre.cutoff_hz)
-    here = f"{low:.3g} Hz" if low == high else f"{low:.3g}…{high:.3g} Hz"
-    need = max([*needs.values(), high])
-    return [f"{why} (here {model.obs.report['analysis_rate_hz']:.4g} Hz and {here}): vs and δ come out "
-            f"biased; use --decimate {min(n, pre.decimate)} --cutoff {need:.3g}"]
+    here = f"{model.obs.report['analysis_rate_hz']:.4g} Hz and " + (f"{low:.3g} Hz" if low == high
+                                                                    else f"{low:.3g}…{high:.3g} Hz")
+    return DipAdvice(why, here, min(n, pre.decimate), _advised_cutoff(max([*needs.values(), high])))
+
+
+def _advised_cutoff(need: float) -> float:
+    """``need`` with ADVICE_MARGIN, rounded up to the 3 digits a warning prints (what a user passes
+    back is what was tried, and a refit's need a hair above its estimate's holds)."""
+    x = need * (1.0 + ADVICE_MARGIN)
+    digits = 2 - int(np.floor(np.log10(x)))
+    return float(np.ceil(x * 10.0**digits) / 10.0**digits)
+
+
+def settled_dip_advice(advice: DipAdvice, refit: Callable[[int, float], DipAdvice | None]) -> DipAdvice:
+    """``advice`` followed until it holds: ``refit(decimate, cutoff_hz)`` fits again at those rates
+    (as a user passing them would) and gives its own advice (None: they suffice). The advice of the
+    warning, followed, does not bring the warning back (DIP_ROUNDS rounds at most; the last advice
+    otherwise)."""
+    first = advice.why
+    for _ in range(DIP_ROUNDS):
+        finer = refit(advice.decimate, advice.cutoff_hz)
+        if finer is None:
+            break
+        advice = replace(advice, why=f"{first}; fitted again at the rates it needs, {finer.why}",
+                         decimate=min(finer.decimate, advice.decimate),
+                         cutoff_hz=max(finer.cutoff_hz, advice.cutoff_hz))
+    return advice

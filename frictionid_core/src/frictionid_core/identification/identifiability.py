@@ -77,8 +77,9 @@ class Identifiability:
                 "action": self.action, "tolerance": RANK_TOL, "held": dict(self.held),
                 "folded_into": {k: dict(v) for k, v in self.folded_into.items()}, "no_effect": list(self.no_effect)}
 
-    def warning(self) -> list[str]:
-        """One line naming the unresolved parameters and what was done with them (none when all resolved)."""
+    def warning(self, robot: bool = True) -> list[str]:
+        """One line naming the unresolved parameters and what was done with them (none when all
+        resolved); ``robot``: a robot system, whose URDF values ``--prior urdf`` can hold them at."""
         if not self.held:
             return []
         names = list(self.held)
@@ -94,9 +95,9 @@ class Identifiability:
                 f"{self.columns}): {', '.join(shown)}{more}")
         if self.action == "prior":
             return [f"{head}: held at the robot model's values (--prior urdf; no model value: 0), σ undetermined"]
+        prior = "hold them at the URDF values with --prior urdf, " if robot else ""
         return [f"{head}: dropped (held at 0, σ undetermined; each effect folds into the parameters it is collinear "
-                "with); hold them at the URDF values with --prior urdf, fix them with --fix NAME=VALUE, or record "
-                "motion that excites them"]
+                f"with); {prior}fix them with --fix NAME=VALUE, or record motion that excites them"]
 
 
 def identifiability(model: IdentificationModel, prior: dict[str, float] | None = None) -> Identifiability:

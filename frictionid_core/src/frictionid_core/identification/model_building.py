@@ -74,14 +74,16 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None, *, all_ro
         fastest = max(cutoff_range(choose_preprocessing(resample_uniform(_preprocessed(sp, system)), requested)[0]
                                    .cutoff_hz)[1] for sp in plan.sources)  # one for every joint of every source
         requested = replace(requested, cutoff_hz=fastest)
-    observations = [observe(first.series, system, requested, held=first.held, rows=first.rows, all_rows=all_rows)]
+    observations = [observe(first.series, system, on_source(requested, first.series), held=first.held,
+                            rows=first.rows, all_rows=all_rows)]
     resolved = observations[0].preprocessing
     if requested is not (settings or system.preprocessing):
         observations[0].report["from_data"].insert(0, "cutoff_hz")
     speeds = dict(resolved.min_speed)
+    given = requested.cutoff_hz if isinstance(requested.cutoff_hz, dict) else resolved.cutoff_hz
     for sp in rest:
         series = _preprocessed(sp, system)
-        cutoffs = {j: resolved.cutoff_hz.get(j, max(resolved.cutoff_hz.values())) for j in sp.series.joints}
+        cutoffs = {j: given.get(j, max(given.values())) for j in sp.series.joints}
         missing = [j for j in series.joints if j not in speeds]
         if missing:
             own = choose_preprocessing(resample_uniform(series), replace(resolved, min_speed=None, cutoff_hz={
@@ -91,8 +93,8 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None, *, all_ro
                                     held=sp.held, rows=sp.rows, all_rows=all_rows))
     if not rest:
         return observations[0]
-    merged = replace(resolved, min_speed=speeds)
     joints = list(dict.fromkeys(j for o in observations for j in o.joints))
+    merged = replace(resolved, min_speed=speeds, cutoff_hz=_every_cutoff(observations))
     names = system.parameter_names(joints)
     stacked = [_on_rows(o, joints, names, system.per_joint, merged) for o in observations]
     out = concat_observations(stacked)
@@ -100,6 +102,31 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None, *, all_ro
     for o in (out.sampled, out.full, out.full and out.full.sampled):
         if o is not None:
             o.report = out.report
+    return out
+
+
+def on_source(settings: Preprocessing, series: JointSeries) -> Preprocessing:
+    """``settings`` for one source: a per-joint cut-off or min speed restricted to its joints (a
+    joint missing from them: the highest cut-off given)."""
+    cut, speed = settings.cutoff_hz, settings.min_speed
+    if isinstance(cut, dict):
+        cut = {j: cut.get(j, max(cut.values())) for j in series.joints}
+    if isinstance(speed, dict) and all(j in speed for j in series.joints):
+        speed = {j: speed[j] for j in series.joints}
+    return replace(settings, cutoff_hz=cut, min_speed=speed)
+
+
+def _every_cutoff(observations: list[Observation]) -> float | dict[str, float]:
+    """The cut-off of every joint of ``observations`` (the first source's, then each joint the
+    first source lacks — one it holds still — from the first source that has it)."""
+    first = observations[0].preprocessing.cutoff_hz
+    if not isinstance(first, dict):
+        return first
+    out = dict(first)
+    for o in observations[1:]:
+        own = o.preprocessing.cutoff_hz
+        for j, hz in (own.items() if isinstance(own, dict) else ((j, own) for j in o.joints)):
+            out.setdefault(j, hz)
     return out
 
 
@@ -150,6 +177,14 @@ def _merged_report(reports: list[dict]) -> dict:
         elif key == "moving_joints":
             out[key] = list(dict.fromkeys(j for r in reports for j in r.get(key, [])))
     return out
+
+
+def rule_series(series: JointSeries, system: System) -> JointSeries:
+    """``series`` as the pre-processing rule sees it (:func:`frictionid_core.systems.observe`): on
+    the joint side, its longest segment, on uniform stamps."""
+    if system.drive is not None:
+        series = system.drive.to_joint_side(series, system.joint_map)
+    return resample_uniform(max(series.segments(), key=len))
 
 
 def as_sources(series: Sources, window: tuple[float | None, float | None] | None = None) -> list[JointSeries]:

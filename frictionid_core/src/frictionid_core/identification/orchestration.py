@@ -12,11 +12,15 @@ import numpy as np
 from frictionid_core.consistency import plausibility_warnings
 from frictionid_core.drive import drive_from_dict, load_drive
 from frictionid_core.errors import FrictionIdError, InputError
+from frictionid_core.friction import get_model
 from frictionid_core.identification import diagnostics
-from frictionid_core.identification.dip_refit import dip_warnings, fit_at_dip_rates
+from frictionid_core.identification.at_bound import fit_at_bound
+from frictionid_core.identification.cross_validation import choose_by_cross_validation, record_choice
+from frictionid_core.identification.dip_refit import dip_advice, fit_at_dip_rates, settled_dip_advice
 from frictionid_core.identification.dynamic_fit import fit_dynamic
 from frictionid_core.identification.effort_sign import checked_effort_sign
 from frictionid_core.identification.identifiability import identifiability
+from frictionid_core.identification.law_choice import AUTO, identify_auto
 from frictionid_core.identification.linear_case import holdout_comparison, linear_fallback, with_data_bounds
 from frictionid_core.identification.load_dependent_fit import fit_with_load
 from frictionid_core.identification.model_building import (
@@ -37,7 +41,14 @@ from frictionid_core.identification.request import IdentifyRequest
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.solve import Fit, fit_static
 from frictionid_core.identification.stick import exclude_stick_phases
-from frictionid_core.identification.uncertainty import jacobian_std, robust_std, uncertainty_record, white_covariance
+from frictionid_core.identification.uncertainty import (
+    calibration_scale,
+    jacobian_std,
+    robust_std,
+    sigma_with_held,
+    uncertainty_record,
+    white_covariance,
+)
 from frictionid_core.model import IdentificationModel
 from frictionid_core.parallel import single_threaded_libraries
 from frictionid_core.systems import LINK_TORQUE, KnownRigidBody, System, as_system, known_rigid_body, nominal_parameters
@@ -71,17 +82,24 @@ def identify(series: Sources, request: IdentifyRequest | None = None, *, progres
     stops the run). A motor-side drive's friction, offsets and rotor inertias are per motor
     (``motor_<k>/…``), its metrics on the joint torques. Unresolved directions are held (at 0, or at
     the model's values with ``prior``: :mod:`.identifiability`), σ NaN; ``consistent`` keeps the
-    unconstrained fit's σ. Joints whose friction ends ≤ 0 get the effort-sign check
+    unconstrained fit's σ. Every fit gets the effort-sign check, joint by joint
     (:mod:`.effort_sign`)."""
     t0 = time.perf_counter()
     request = IdentifyRequest() if request is None else request
     if not isinstance(request, IdentifyRequest):
         raise FrictionIdError(f"identify takes an IdentifyRequest, got {type(request).__name__}")
 
-    def fit(data: Sources, asked: IdentifyRequest) -> IdentifyResult:
-        return fit_request(data, asked, progress)
+    def fit(data: Sources, asked: IdentifyRequest, keep: dict | None = None) -> IdentifyResult:
+        return fit_request(data, asked, progress, keep)
 
-    result = checked_effort_sign(fit, series, request, fit(series, request), logged_joints(series, request))
+    logged: dict = {}  # the as-logged fit's model, which the effort-sign check screens
+    if request.friction == AUTO:  # the law that predicts best, its request the one the sign check refits
+        first, asked = identify_auto(series, request, fit, logged)
+    else:
+        first, asked = fit(series, request, logged), request
+    result = checked_effort_sign(fit, series, asked, first, logged_joints(series, request), logged.get("model"))
+    if request.friction == AUTO:
+        result = replace(result, request=request, law_choice=first.law_choice)
     return replace(result, wall_s=time.perf_counter() - t0)
 
 
@@ -93,8 +111,16 @@ def logged_joints(series: Sources, request: IdentifyRequest) -> list[str]:
     return names
 
 
-def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> IdentifyResult:
-    """The fit of :func:`identify`, the log's effort signs as they are."""
+def fit_request(series: Sources, request: IdentifyRequest, progress=None, keep: dict | None = None) -> IdentifyResult:
+    """The fit of :func:`identify`, the log's effort signs as they are; ``keep["model"]`` receives
+    its model at the rule's rates (the unresolved directions held)."""
+    return _fit_request(series, request, progress, keep)[0]
+
+
+def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep: dict | None = None, *,
+                 settle: bool = True) -> tuple[IdentifyResult, object]:
+    """(:func:`fit_request`'s result, the advice of its dip warning or None); ``settle``: follow that
+    advice (fit again at the rates it names) until it holds, and warn with the rates that hold."""
     t0 = time.perf_counter()
     sys_ = request_system(request)
     settings = request.preprocessing.apply(sys_.preprocessing)
@@ -109,11 +135,21 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
     held: dict[str, float] = {}  # the directions the data do not resolve, held (identifiability)
     fit_plan = replace(plan, system=rigid.fit_system) if rigid else plan
 
-    def rebuild(pre) -> IdentificationModel:
-        return with_data_bounds(build_model(fit_plan, fit_plan.system, request.friction, request.asymmetric, pre,
-                                            request.bounds, fixed={**fixed_request, **held}, elements=request.elements))
+    chosen, choice = settings, None
+    if settings.cutoff_hz is None and not get_model(request.friction).is_dynamic:  # those that predict best
+        cutoffs, choice = choose_by_cross_validation(fit_plan, settings, request.asymmetric, fixed_request)
+        if cutoffs is not None:
+            chosen = replace(settings, cutoff_hz=cutoffs)
 
-    model, fit_settings = exclude_stick_phases(rebuild(settings), settings)
+    def rebuild(pre) -> IdentificationModel:
+        model = with_data_bounds(build_model(fit_plan, fit_plan.system, request.friction, request.asymmetric, pre,
+                                             request.bounds, fixed={**fixed_request, **held},
+                                             elements=request.elements))
+        if choice is not None:
+            record_choice(model.obs.report, choice)
+        return model
+
+    model, fit_settings = exclude_stick_phases(rebuild(chosen), chosen)
     errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
     if errors:
         raise InputError(f"{where}: " + "; ".join(errors))
@@ -123,6 +159,8 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
         held.update(resolved.held)
         model = replace(model, fixed={**fixed_request, **held})
     at_rule_rates = model
+    if keep is not None:
+        keep["model"] = model
 
     def fit(m: IdentificationModel, previous: Fit | None = None) -> Fit:
         return (fit_dynamic if m.friction.is_dynamic else fit_static)(m, solver, progress, previous)
@@ -132,29 +170,42 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
         model, first = fit_with_load(model, first, warnings, fit)
     x, std, cond, res = first.x, first.std, first.cond, first.optim
     inertia_warnings = list(sys_.robot.model.inertia_warnings) if sys_.robot is not None else []
-    warnings = inertia_warnings + plan.warnings() + resolved.warning() + warnings + dip_warnings(model, x)
+    advice = dip_advice(model, x)
+    if advice is not None and settle:
+        def refit(decimate: int, cutoff_hz: float):
+            asked = replace(request, preprocessing=replace(request.preprocessing, decimate=decimate,
+                                                           cutoff_hz=cutoff_hz))
+            return _fit_request(series, asked, progress, settle=False)[1]
+
+        advice = settled_dip_advice(advice, refit)
+    warnings = (inertia_warnings + plan.warnings() + resolved.warning(sys_.robot is not None) + warnings
+                + ([] if advice is None else [advice.warning()]))
     if res is not None:
         std, design = jacobian_std(model, x, model.held_at_box(x))
         cond = float(np.linalg.cond(design))
     holdout = None
     if not model.is_linear and solver.warm_start and not model.friction.is_dynamic and not request.load_dependent:
         model, x, std, cond, holdout = against_linear_case(model, at_rule_rates, x, (std, cond), solver, warnings)
-    std = {**std, **dict.fromkeys(held, float("nan"))}
+    closed_form = res is None or solver.varpro or "returned" in (holdout or {})  # the linear part: the box holds it
+    at_bound = fit_at_bound(model, x, {**std, **dict.fromkeys(held, float("nan"))}, closed_form)
+    std = {**sigma_with_held(model, x, std, set(at_bound)), **dict.fromkeys(held, float("nan"))}
     undetermined = {n for n, v in std.items() if not np.isfinite(v)}
     std_robust, robust_cov, robust_names, bandwidth = robust_std(model, x, undetermined)
     consistency = standard = None
     if request.consistent:
         # dropped directions are free in the program (0 need not be physical); the prior's stay at its values
         released = {model.names.index(n) for n in held} if resolved.action == "dropped" else set()
-        x, consistency, standard = consistent_parameters(model, x, sys_, request, released)
+        scale = calibration_scale(std, std_robust, model.obs.rigid_names)  # the data inform as the calibrated σ say
+        x, consistency, standard = consistent_parameters(model, x, sys_, request, released, scale)
     metrics = model_metrics(model, x)
     metrics["cost"] = float(model.batch_cost(x[None])[0])
     metrics["cond"] = cond
     check_fit(model, x, metrics, where)
     notes = [*(note for s in sources for note in s.notes), *model.obs.notes, *plan.notes()]
-    warnings = result_warnings(model, x, std, notes, warnings)
+    warnings = result_warnings(model, x, std, notes, warnings, at_bound)
     params, std, std_robust, fixed, plausibility = reported_parameters(
-        model, x, (std, std_robust, robust_names, robust_cov), held, rigid, sys_, standard, warnings, plan.held)
+        model, x, (std, std_robust, robust_names, robust_cov), held, rigid, sys_, standard, warnings, plan.held,
+        (request.prior, request.prior_weight))
     return IdentifyResult(
         system=sys_.name, joint_map=dict(sys_.joint_map), friction=request.friction, asymmetric=request.asymmetric,
         solver=solver.method, source=sources[0].source if len(sources) == 1 else [s.source for s in sources],
@@ -166,20 +217,21 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None) -> Ide
         consistency=consistency, standard_parameters=standard,
         preprocessing=preprocessing_record(model.obs, metrics, sys_.preprocessing, settings),
         identifiability=resolved.to_dict(), held_joints=dict(plan.held) if sys_.robot is not None else None,
-        no_effort_joints=list(plan.no_effort), request=request,
+        no_effort_joints=list(plan.no_effort), unexcited_joints=list(plan.unexcited), request=request,
         std_robust=std_robust, uncertainty=uncertainty_record(bandwidth, model), velocity_range=velocity_range(model),
-        holdout=holdout, plausibility=plausibility)
+        holdout=holdout, plausibility=plausibility, at_bound=at_bound), advice
 
 
 def reported_parameters(model: IdentificationModel, x: np.ndarray, sigmas: tuple, held: dict[str, float],
                         rigid: KnownRigidBody | None, sys_: System, standard: dict | None, warnings: list[str],
-                        held_joints: dict[str, float]) -> tuple[dict, dict, dict, dict, dict | None]:
+                        held_joints: dict[str, float], prior: tuple[str | None, float] = (None, 1.0)
+                        ) -> tuple[dict, dict, dict, dict, dict | None]:
     """(params, std, std_robust, fixed, plausibility) of a fit as its result reports them: by name,
     ``fixed`` without the directions held because the data do not resolve them; a known rigid
     body's in the robot's base parameters (:func:`known_rigid_body_report`); a robot fit's links
     judged against the model (their warnings appended to ``warnings``; the links of ``held_joints``, the
     model joints held still, kept as modelled). ``sigmas``: (std, std_robust, the robust covariance's
-    names, that covariance)."""
+    names, that covariance); ``prior``: the fit's (``urdf`` or None) and its weight, for the warnings' way out."""
     std, std_robust, robust_names, robust_cov = sigmas
     params = dict(zip(model.names, map(float, x)))
     fixed = {model.names[i]: v for i, v in model.fixed_values.items() if model.names[i] not in held}
@@ -192,7 +244,7 @@ def reported_parameters(model: IdentificationModel, x: np.ndarray, sigmas: tuple
     elif sys_.robot is not None:
         held_links = [j for j in held_joints if j in sys_.robot.model.joints]
         plausibility = robot_plausibility(params, sys_, standard, held_links)
-        warnings += plausibility_warnings(plausibility)
+        warnings += plausibility_warnings(plausibility, *prior)
     return params, std, std_robust, fixed, plausibility
 
 
@@ -216,10 +268,10 @@ def against_linear_case(model: IdentificationModel, linear_rates: Identification
 
 
 def result_warnings(model: IdentificationModel, x: np.ndarray, std: dict[str, float], notes: list[str],
-                    warnings: list[str]) -> list[str]:
+                    warnings: list[str], at_bound: dict[str, float] | None = None) -> list[str]:
     """Every warning of a fit: the stamps (from ``notes``), the accelerations, ``warnings`` (the
-    directions, the dip, the linear special case) and the parameters (at a bound, held at 0 by
-    the sign constraint, undetermined, negative)."""
+    directions, the dip, the linear special case) and the parameters (``at_bound``: at a bound,
+    held at 0 by the sign constraint; undetermined, negative)."""
     obs = model.obs
     lo, hi = model.bounds()
     free = model.free_index
@@ -228,21 +280,22 @@ def result_warnings(model: IdentificationModel, x: np.ndarray, std: dict[str, fl
             + diagnostics.acceleration_warnings(obs.report, obs.preprocessing.cutoff_hz,
                                                 "cutoff_hz" in obs.report["from_data"])
             + warnings + diagnostics.parameter_warnings([model.names[i] for i in free], x[free], std,
-                                                        lo[free], hi[free], physical))
+                                                        lo[free], hi[free], physical, at_bound))
 
 
 def consistent_parameters(model: IdentificationModel, x: np.ndarray, sys_: System, request: IdentifyRequest,
-                          released: set[int] = frozenset()) -> tuple[np.ndarray, dict, dict]:
+                          released: set[int] = frozenset(), data_scale: float = 1.0) -> tuple[np.ndarray, dict, dict]:
     """(the consistent parameters, the ``consistency`` record with the unconstrained fit's
     metrics, the standard parameters per link) at the nonlinear shapes of ``x``; ``released``:
     the indices of parameters held only because the data do not resolve them (the program
-    leaves the rigid-body ones to the prior)."""
+    leaves the rigid-body ones to the prior); ``data_scale``: the calibrated σ's variance over the
+    white one (the directions the data do not determine are held at the model's links)."""
     from frictionid_core.consistency import consistent_fit, standard_record
 
     use_prior = request.prior == "urdf"
     unconstrained = model_metrics(model, x)
     fit = consistent_fit(model, x, sys_.robot, prior_weight=request.prior_weight if use_prior else 0.0,
-                         stribeck_order=request.stribeck_order, released=released)
+                         stribeck_order=request.stribeck_order, released=released, data_scale=data_scale)
     fit.record["unconstrained"] = {"params": dict(zip(model.names, map(float, x))),
                                    "relerr_pct": unconstrained.get("relerr_pct"), "rmse": unconstrained.get("rmse")}
     fit.record["prior"] = "urdf" if use_prior else "none"

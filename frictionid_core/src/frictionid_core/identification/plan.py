@@ -1,17 +1,23 @@
 """What a fit takes from each source (:func:`plan_fit`): the joints whose efforts it fits, the model
-joints it holds still, and the joints whose logged effort is unusable.
+joints it holds still, and the joints whose logged signals it cannot use.
 
-* **Rows.** The request's joints (default: every data joint) are the rows fitted. A robot system
-  also keeps the source's other model joints: their motion enters the fitted joints' dynamics; one
-  that does not move (range within MOVING_FACTOR × its position noise) is held still at its
-  logged (median) position, so that its noise makes no columns of its own.
+* **Rows.** The request's joints (default: every data joint) are the rows fitted where their motion
+  excites their columns. A robot system also keeps the source's other model joints: their motion
+  enters the fitted joints' dynamics.
+* **Unexcited joints** (:func:`~frictionid_core.identification.joint_signals.unexcited_joints`): in a
+  source where a joint's motion is noise or a tremble (its range below a hundredth of the fit's
+  motion scale), it is not fitted: a robot system holds it still at its logged (median) position, as
+  ``--hold`` would, so that its noise or tremble makes no columns of its own; a fitted joint so held
+  is named in a warning (:attr:`FitPlan.unexcited`). A joint swept in one source and trembling in the
+  others (joint-wise sweeps) is fitted where it is swept.
 * **Held joints** (robot systems, :class:`Holds`): a model joint the source lacks stays still at a
   position (q̇ = q̈ = 0 in the regressor): ``hold`` names it with its position (a logged column of
   it is then not used), ``hold_missing`` holds every absent one at 0 (at the drive's
   ``position_offset`` when the drive lists it). The robot's base parameters are then those of
   that regressor (:func:`~frictionid_core.systems.robot.restricted_system`).
-* **No usable effort** (:func:`no_effort_joints`): a joint that moves while its effort stays a
-  sliver of the other joints' (or one value most of the time) is left out of the rows.
+* **No usable effort** (:func:`~frictionid_core.identification.joint_signals.no_effort_joints`): a
+  joint that moves while its effort carries no information by its own signal-to-noise ratio (or
+  reads one value most of the time) is left out of the rows.
 """
 
 from __future__ import annotations
@@ -21,20 +27,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from frictionid_core.errors import InputError
-from frictionid_core.preprocess import MOVING_FACTOR, noise_density
+from frictionid_core.identification.joint_signals import moving_joints, no_effort_joints, unexcited_joints
+from frictionid_core.preprocess import MOVING_FACTOR
 from frictionid_core.systems import System, restricted_system
 from frictionid_core.timeseries import JointSeries
-
-# A moving joint's effort is unusable when its spread (σ over the samples where it moves) is below
-# this share of the largest spread among the source's other joints: a live joint of a real arm
-# stays above ~2 % of the shoulder's even at the wrist (7-DOF arms: 1/60 … 1/30); a channel that
-# reports nothing (noise, round-off) sits near 0.3 % (TIAGo arm_5…7: 0.2–0.4 %).
-NO_EFFORT_SHARE = 0.01
-# … or when one and the same value makes up at least this share of those samples (a channel
-# reporting 0, or a constant).
-STUCK_SHARE = 0.5
-# A sample moves when |q̇| (central difference) exceeds this share of the joint's top speed (99th percentile).
-MOVING_SPEED_SHARE = 0.05
 
 
 @dataclass(frozen=True)
@@ -81,12 +77,15 @@ class SourcePlan:
         rows: the data joints whose efforts are fitted.
         held: {model joint: position} held still.
         no_effort: {data joint: why} joints that move without a usable effort (not fitted).
+        unexcited: {data joint: why} joints the fit would fit whose motion here does not excite
+            their columns (held still, or left out of the rows of a system without a robot model).
     """
 
     series: JointSeries
     rows: list[str]
     held: dict[str, float]
     no_effort: dict[str, str]
+    unexcited: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass
@@ -99,6 +98,8 @@ class FitPlan:
         rows: the data joints fitted in any source, in order of appearance.
         held: {model joint: position} held still in every source (what ``system`` is restricted to).
         no_effort: {data joint: why} joints left out for want of a usable effort (any source).
+        unexcited: the data joints not fitted in some source because their motion there does not
+            excite their columns (in order of appearance).
     """
 
     system: System
@@ -106,11 +107,26 @@ class FitPlan:
     rows: list[str]
     held: dict[str, float]
     no_effort: dict[str, str]
+    unexcited: list[str] = field(default_factory=list)
 
     def warnings(self) -> list[str]:
-        """One line per source with joints left out for want of a usable effort."""
+        """One line per source with joints not fitted there: their motion does not excite their
+        columns, or they lack a usable effort."""
         out = []
+        robot = self.system.robot is not None
         for sp in self.sources:
+            if sp.unexcited:
+                whys = "; ".join(f"{j}: {why}" for j, why in sp.unexcited.items())
+                named = ", ".join(sp.unexcited)
+                if robot:
+                    at = ", ".join(f"{j} = {sp.held[m]:.4g}" for j, m in zip(sp.unexcited, self.system.model_joints(
+                        list(sp.unexcited))) if m in sp.held)
+                    done = f"held still at their logged positions ({at}), as --hold would hold them"
+                else:
+                    done = "left out of its rows"
+                out.append(f"{sp.series.source}: {named} do not move enough to excite their columns ({whys}): {done}; "
+                           "not fitted from this source (their rows would sit at one configuration, with a friction "
+                           "that never slides); record them moving to identify them")
             if sp.no_effort:
                 whys = "; ".join(f"{j}: {why}" for j, why in sp.no_effort.items())
                 out.append(f"{sp.series.source}: no usable effort from {', '.join(sp.no_effort)} ({whys}): left out "
@@ -131,11 +147,13 @@ def plan_fit(sources: list[JointSeries], system: System, rows: list[str] | tuple
     joints to fit (None: every data joint), ``holds`` the held joints (robot systems);
     ``structure``: the held joints the robot system is restricted to (default: those held in
     every source; a result's ``held_joints`` when its parameters are reloaded); ``judge_effort``:
-    leave out the joints without a usable effort (False: fit every one of ``rows``, as a
+    judge each joint's signals — hold the joints whose motion does not excite their columns, leave
+    out those without a usable effort (False: fit every one of ``rows`` that moves, as a
     cross-test of a result does).
 
-    Raises InputError naming the source when a requested joint is in none of them, or a source
-    has no joint with a usable effort to fit."""
+    Raises InputError naming the source when a requested joint is in none of them, a source has
+    no joint to fit that moves enough or has a usable effort, or a joint asked for by name is
+    excited in no source."""
     holds = holds or Holds()
     robot = system.robot is not None
     wanted = None if rows is None else list(rows)
@@ -144,9 +162,17 @@ def plan_fit(sources: list[JointSeries], system: System, rows: list[str] | tuple
         if absent:
             raise InputError(f"joint(s) {absent} in none of the sources "
                              f"({'; '.join(f'{s.source}: {list(s.joints)}' for s in sources)})")
-    plans = []
-    for s in sources:
-        plans.append(_source_plan(s, system, wanted, holds, robot, judge_effort))
+    kept = [_kept_joints(s, system, wanted, holds, robot) for s in sources]
+    kinds = _joint_kinds(system, sources)
+    ranges = [_joint_side_ranges(s.select(keep) if keep != list(s.joints) else s, system)
+              for s, keep in zip(sources, kept)]
+    scale: dict[str, float] = {}
+    for keep, r in zip(kept, ranges):
+        for j, value in zip(keep, r):
+            scale[kinds.get(j, "revolute")] = max(scale.get(kinds.get(j, "revolute"), 0.0), float(value))
+    excitation = (scale, kinds) if judge_effort else None
+    plans = [_source_plan(s, system, wanted, holds, robot, keep, r, excitation)
+             for s, keep, r in zip(sources, kept, ranges)]
     union = list(dict.fromkeys(j for sp in plans for j in sp.rows))
     if wanted is not None:
         union = [j for j in wanted if j in union]
@@ -155,11 +181,21 @@ def plan_fit(sources: list[JointSeries], system: System, rows: list[str] | tuple
     if robot:
         system = restricted_system(system, held, system.model_joints(union))
     no_effort = {j: why for sp in plans for j, why in sp.no_effort.items()}
-    return FitPlan(system, plans, union, held, no_effort)
+    logged = dict.fromkeys(j for s in sources for j in s.joints)
+    unexcited = [j for j in logged if any(j in sp.unexcited for sp in plans)]
+    if wanted is not None:  # asked for by name and excited nowhere: nothing of it to fit
+        never = [j for j in wanted if j in unexcited and j not in union]
+        if never:
+            whys = "; ".join(f"{sp.series.source}: {j}: {sp.unexcited[j]}" for j in never for sp in plans
+                             if j in sp.unexcited)
+            raise InputError(f"joint(s) {never} asked for (--joints) but their motion excites their columns in no "
+                             f"source ({whys}): record them moving, or leave them out of --joints")
+    return FitPlan(system, plans, union, held, no_effort, unexcited)
 
 
-def _source_plan(s: JointSeries, system: System, wanted: list[str] | None, holds: Holds, robot: bool,
-                 judge_effort: bool) -> SourcePlan:
+def _kept_joints(s: JointSeries, system: System, wanted: list[str] | None, holds: Holds, robot: bool) -> list[str]:
+    """The data joints of ``s`` the fit takes: those to fit in the request's order, then (robot
+    systems) the other model joints of the log (not held by ``holds``, within the drive's)."""
     mapped = dict(zip(s.joints, system.model_joints(list(s.joints))))
     if wanted is not None:
         both = [j for j in wanted if mapped.get(j) in holds.values]
@@ -167,73 +203,77 @@ def _source_plan(s: JointSeries, system: System, wanted: list[str] | None, holds
             raise InputError(f"joint(s) {both} are both fitted (--joints) and held still (--hold)")
     model = set(system.joints) if isinstance(system.joints, tuple) else set()
     drive = set(system.drive.joints) if system.drive is not None else None
-    # the joints to fit in the request's order, then (robot systems) the other model joints of the log
     keep = [j for j in (s.joints if wanted is None else wanted) if j in mapped]
     if robot:
         keep = [j for j in keep if mapped[j] not in holds.values]  # held: its logged column is not used
         keep += [j for j in s.joints if j not in keep and mapped[j] in model and mapped[j] not in holds.values
                  and (drive is None or mapped[j] in drive)]
+    return keep
+
+
+def _source_plan(s: JointSeries, system: System, wanted: list[str] | None, holds: Holds, robot: bool,
+                 keep: list[str], ranges: np.ndarray, excitation: tuple[dict, dict] | None) -> SourcePlan:
+    """The plan of source ``s``: ``keep`` the joints the fit takes from it (:func:`_kept_joints`),
+    ``ranges`` their joint-side ranges; ``excitation`` (the fit's motion scale by kind, the joints'
+    kinds) judges which joints excite their columns, and their efforts (None: every joint of
+    ``keep`` used as it is, as a cross-test of a result does)."""
+    mapped = dict(zip(s.joints, system.model_joints(list(s.joints))))
     candidates = [j for j in keep if wanted is None or j in wanted]
     if not candidates:
         raise InputError(f"{s.source}: none of the joints to fit {wanted} (data joints: {list(s.joints)})")
     series = s if keep == list(s.joints) else s.select(keep)
-    no_effort = no_effort_joints(series, candidates) if judge_effort else {}
-    rows = [j for j in candidates if j not in no_effort]
+    unexcited = {}
+    if excitation is not None:
+        scale, kinds = excitation
+        unexcited = unexcited_joints(series, keep, ranges, scale, kinds)
+        if all(j in unexcited for j in candidates):
+            _refuse_still(s.source, {j: unexcited[j] for j in candidates})
+    fitted = [j for j in candidates if j not in unexcited]
+    no_effort = no_effort_joints(series, fitted) if excitation is not None else {}
+    rows = [j for j in fitted if j not in no_effort]
     if not rows:
-        raise InputError(f"{s.source}: no joint to fit with a usable effort (joints {candidates}; "
+        raise InputError(f"{s.source}: no joint to fit with a usable effort (joints {fitted}; "
                          + "; ".join(f"{j}: {why}" for j, why in no_effort.items()) + ")")
     held = {}
     if robot:
         moving = dict(zip(series.joints, moving_joints(series)))
-        still = [j for j in series.joints if j not in candidates and not moving[j]]
+        still = [j for j in series.joints if (j not in candidates and not moving[j]) or j in unexcited]
         if still:
             held = {mapped[j]: float(np.median(series.position[:, series.joints.index(j)])) for j in still}
             series = series.select([j for j in series.joints if j not in still])
         held.update(holds.resolve(system, [mapped[j] for j in series.joints] + list(held)))
+    elif unexcited:
+        series = series.select([j for j in series.joints if j not in unexcited])
     system.check_joints(list(series.joints), s.source, held)
-    return SourcePlan(series, rows, held, no_effort)
+    return SourcePlan(series, rows, held, no_effort, {j: why for j, why in unexcited.items() if j in candidates})
 
 
-def moving_joints(series: JointSeries) -> np.ndarray:
-    """(J,) True for the joints of ``series`` whose range exceeds MOVING_FACTOR × their position
-    noise (the pre-processing's rule of a moving joint)."""
-    t, q = series.t, series.position
-    if len(t) < 3:
-        return np.ptp(q, axis=0) > 0
-    fs = (len(t) - 1) / (t[-1] - t[0])
-    return np.ptp(q, axis=0) > MOVING_FACTOR * np.sqrt(noise_density(q, fs) * fs / 2)
+def _refuse_still(source: str, whys: dict[str, str]) -> None:
+    """InputError: no joint to fit in ``source`` excites its columns (``whys``: each one's reason)."""
+    detail = "; ".join(f"{j}: {why}" for j, why in whys.items())
+    if all(why.startswith("motion is noise") for why in whys.values()):
+        raise InputError(f"{source}: no joint moves more than {MOVING_FACTOR:g}× its position noise ({detail}): "
+                         "nothing to identify; record the joints moving")
+    raise InputError(f"{source}: no joint to fit moves enough to excite its columns ({detail}): record the joints "
+                     "moving")
 
 
-def no_effort_joints(series: JointSeries, candidates: list[str]) -> dict[str, str]:
-    """{joint: why} of the ``candidates`` that move (range above MOVING_FACTOR × their position
-    noise) while their effort is unusable: over the samples where the joint moves, its spread is
-    below NO_EFFORT_SHARE of the largest spread among the other joints of ``series``, or one
-    value makes up STUCK_SHARE of them."""
-    t, q, e = series.t, series.position, series.effort
-    if len(t) < 3:
+def _joint_kinds(system: System, sources: list[JointSeries]) -> dict[str, str]:
+    """{data joint: ``revolute`` or ``prismatic``} (a robot model's joint types; other systems: every
+    joint revolute, one kind)."""
+    if system.robot is None:
         return {}
-    moves = moving_joints(series)
-    speed = np.abs(np.gradient(q, t, axis=0))
-    spread_all = np.std(e, axis=0)
-    out = {}
-    for j in candidates:
-        k = series.joints.index(j)
-        top = np.percentile(speed[:, k], 99)
-        moving = speed[:, k] > MOVING_SPEED_SHARE * top
-        if not moves[k] or top <= 0 or moving.sum() < 10:
-            continue  # a joint that does not move is not judged here
-        x = e[moving, k]
-        spread = float(np.std(x))
-        others = float(np.max(np.delete(spread_all, k))) if len(series.joints) > 1 else 0.0
-        stuck = float(np.max(np.unique(x, return_counts=True)[1]) / x.size)
-        share = spread / others if others > 0 else np.inf
-        if stuck >= STUCK_SHARE or share < NO_EFFORT_SHARE:
-            reason = (f"{100 * stuck:.0f} % of its samples in motion read {_mode(x):.3g}" if stuck >= STUCK_SHARE
-                      else f"its effort spread is {100 * share:.2g} % of the largest other joint's")
-            out[j] = f"effort within {x.min():.3g} … {x.max():.3g} while it moves, {reason}"
-    return out
+    prismatic = set(system.robot.model.prismatic)
+    names = list(dict.fromkeys(j for s in sources for j in s.joints))
+    return {j: "prismatic" if m in prismatic else "revolute" for j, m in zip(names, system.model_joints(names))}
 
 
-def _mode(x: np.ndarray) -> float:
-    values, counts = np.unique(x, return_counts=True)
-    return float(values[np.argmax(counts)])
+def _joint_side_ranges(series: JointSeries, system: System) -> np.ndarray:
+    """(J,) each joint's range on the joint side: a motor-side drive's motor angles over each
+    motor's own gear ratio."""
+    ranges = np.ptp(series.position, axis=0) if len(series.t) else np.zeros(len(series.joints))
+    drive = system.drive
+    if drive is None or drive.side != "motor":
+        return ranges
+    ratio = dict(zip(drive.joints, np.abs(drive.gear_ratio)))
+    return ranges / np.array([ratio.get(m, 1.0) for m in system.model_joints(list(series.joints))])

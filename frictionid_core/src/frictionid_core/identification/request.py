@@ -120,7 +120,7 @@ class IdentifyRequest:
             raise FieldError("joint_map", f" must map data joint names to model joint names, got {joint_map!r}")
         set_(self, "joint_map", joint_map)
         set_(self, "drive", drive_value(self.drive))
-        choice("friction", self.friction, FRICTIONS, "friction model")
+        choice("friction", self.friction, (*FRICTIONS, "auto"), "friction model")
         choice("effort_sign", self.effort_sign, EFFORT_SIGNS, "effort sign policy")
         set_(self, "asymmetric", flag("asymmetric", self.asymmetric))
         set_(self, "solver", _nested("solver", self.solver, SolverOptions, "method"))
@@ -128,7 +128,7 @@ class IdentifyRequest:
         set_(self, "window", window_value(self.window))
         set_(self, "fixed", {k: number(f"fixed.{k}", v) for k, v in mapping("fixed", self.fixed).items()})
         set_(self, "bounds", {k: bound_value(f"bounds.{k}", v) for k, v in mapping("bounds", self.bounds).items()})
-        if self.elements is not None:
+        if self.elements is not None and self.friction != "auto":
             from frictionid_core.friction import get_model
 
             try:

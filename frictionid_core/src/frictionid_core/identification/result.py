@@ -21,8 +21,8 @@ from frictionid_core.identification.result_fields import REQUIRED_KEYS, result_f
 
 # Keys left out of the JSON when their field is None.
 OPTIONAL_KEYS = ("optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "output_error", "idm",
-                 "idm_params", "identifiability", "held_joints", "no_effort_joints", "request", "uncertainty",
-                 "velocity_range", "holdout", "plausibility")
+                 "idm_params", "identifiability", "held_joints", "no_effort_joints", "unexcited_joints", "request",
+                 "uncertainty", "velocity_range", "holdout", "plausibility", "law_choice")
 
 
 @dataclass(frozen=True)
@@ -60,6 +60,9 @@ class IdentifyResult:
         held_joints: robot systems: {model joint: position (rad or m)} held still in every
             source (None for the other systems).
         no_effort_joints: data joints that moved without a usable effort, left out of the fit.
+        unexcited_joints: data joints not fitted in some source because their motion there (noise,
+            a tremble) does not excite their columns: held still there at their logged positions
+            (robot systems), each named with its reason in the warnings.
         request: the request that produced it (None: built by hand).
         uncertainty: how ``std`` and ``std_robust`` were obtained (the HAC bandwidth).
         velocity_range: {friction row (joint or motor): [slowest, fastest] |velocity| of the rows
@@ -68,6 +71,11 @@ class IdentifyResult:
             {held_back_rows, law_relerr_pct, linear_relerr_pct, beats_linear[, returned]}.
         plausibility: robot systems: the links (fitted or reconstructed) against the robot model's,
             with the thresholds used (:func:`frictionid_core.consistency.check.link_plausibility`).
+        law_choice: ``--friction auto``: the law chosen by what it predicts, every candidate's
+            cross-validated error and why (:mod:`frictionid_core.identification.law_choice`).
+        at_bound: {name: the bound} of the parameters that end at a bound of their search or of the
+            closed form (held at 0 by a sign constraint too): not identified values, σ NaN
+            (:mod:`~frictionid_core.identification.at_bound`).
     """
 
     system: str
@@ -100,20 +108,23 @@ class IdentifyResult:
     identifiability: dict | None = None
     held_joints: dict[str, float] | None = None
     no_effort_joints: list[str] | None = None
+    unexcited_joints: list[str] | None = None
     request: IdentifyRequest | None = None
     std_robust: dict[str, float] = field(default_factory=dict)
     uncertainty: dict | None = None
     velocity_range: dict[str, list[float]] | None = None
     holdout: dict | None = None
     plausibility: dict | None = None
+    law_choice: dict | None = None
+    at_bound: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The result's JSON: the keys of ``frictionid identify --json`` in their order."""
         head = ("system", "joint_map", "friction", "asymmetric", "solver", "source", "joints", "params", "std",
-                "std_robust", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed", "bounds",
-                "optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "preprocessing", "layout",
-                "output_error", "idm", "idm_params", "identifiability", "held_joints", "no_effort_joints", "request",
-                "uncertainty", "velocity_range", "holdout", "plausibility")
+                "std_robust", "at_bound", "metrics", "wall_s", "warnings", "notes", "drive", "window", "fixed",
+                "bounds", "optimizer", "varpro", "warm_start", "consistency", "standard_parameters", "preprocessing",
+                "layout", "output_error", "idm", "idm_params", "identifiability", "held_joints", "no_effort_joints",
+                "unexcited_joints", "request", "uncertainty", "velocity_range", "holdout", "plausibility", "law_choice")
         out = {}
         for key in head:
             value = getattr(self, key)
@@ -125,6 +136,13 @@ class IdentifyResult:
         if self.request is not None:
             out["request"] = self.request.to_dict()
         return out
+
+    def nonlinear_at_bound(self) -> list[str]:
+        """The nonlinear friction parameters (vs, delta, v0, …) that end at a bound: the law needed a
+        bound to fit (:func:`~frictionid_core.identification.at_bound.nonlinear_at_bound`)."""
+        from frictionid_core.identification.at_bound import nonlinear_at_bound
+
+        return nonlinear_at_bound(self)
 
     def friction_rows(self) -> list[str]:
         """Who owns the friction and offset parameters (the ``<name>/`` prefixes): the drive's

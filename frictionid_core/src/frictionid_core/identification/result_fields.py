@@ -31,7 +31,7 @@ def result_fields(data: Mapping, names: list[str]) -> dict:
     from frictionid_core.friction import FRICTIONS
 
     given = {name: data[name] for name in names if data.get(name) is not None}
-    defaults = {"solver": "", "source": "", "joints": [], "std": {}, "std_robust": {}, "metrics": {},
+    defaults = {"solver": "", "source": "", "joints": [], "std": {}, "std_robust": {}, "at_bound": {}, "metrics": {},
                 "wall_s": 0.0}
     checks = {
         "system": lambda k, v: _text(k, v),
@@ -41,7 +41,7 @@ def result_fields(data: Mapping, names: list[str]) -> dict:
         "layout": lambda k, v: _text(k, v, empty=True),
         "source": _source,
         "joints": _names,
-        "params": _parameters, "fixed": _parameters, "idm_params": _parameters,
+        "params": _parameters, "fixed": _parameters, "idm_params": _parameters, "at_bound": _parameters,
         "std": _sigmas, "std_robust": _sigmas,
         "metrics": _metrics,
         "wall_s": lambda k, v: number(k, v),
@@ -51,13 +51,13 @@ def result_fields(data: Mapping, names: list[str]) -> dict:
         "window": lambda k, v: window_value(mapping(k, v)),
         "bounds": lambda k, v: {n: bound_value(f"{k}.{n}", b) for n, b in mapping(k, v).items()},
         "optimizer": mapping, "consistency": mapping, "idm": mapping,
-        "uncertainty": mapping, "holdout": mapping, "plausibility": mapping,
+        "uncertainty": mapping, "holdout": mapping, "plausibility": mapping, "law_choice": mapping,
         "velocity_range": _velocity_range,
         "standard_parameters": _standard_parameters,
         "preprocessing": _preprocessing,
         "identifiability": mapping,
         "held_joints": _parameters,  # {model joint: position (rad or m)}, each finite
-        "no_effort_joints": _names,
+        "no_effort_joints": _names, "unexcited_joints": _names,
         "request": lambda k, v: v,  # IdentifyRequest.from_dict checks it
     }
     nulls = [k for k in REQUIRED_KEYS if data[k] is None]

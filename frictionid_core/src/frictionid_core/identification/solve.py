@@ -39,7 +39,10 @@ def fit_static(model: IdentificationModel, solver: SolverOptions, progress=None,
     """``solver`` (its ``varpro`` resolved) on ``model`` of a static law: closed form (with σ and
     the condition number) or an optimiser. With ``previous`` (the fit of a coarser round of the
     dip refit, by an optimiser), a local solver (lm, hybrid's polish) only polishes from its point:
-    the finer rates move the optimum, not its basin."""
+    the finer rates move the optimum, not its basin. ``ls`` on a law with shape parameters to
+    search (vs, δ, …) is variable projection with ``lm``, as for the dynamic laws."""
+    if solver.method == "ls" and model.searched_nonlinear_index.size:
+        solver = SolverOptions("lm", solver.seed, calls=solver.calls, varpro=True)
     if is_closed_form(model, solver):
         return Fit(*model.fit_linear())
     if previous is not None and solver.method in ("lm", "hybrid"):

@@ -19,6 +19,10 @@ import numpy as np
 
 from frictionid_core.model import IdentificationModel
 
+# Each half of a specification split is fitted with this share of the full data's information per
+# parameter added toward the full estimate: a parameter the half does not determine stays put.
+SPLIT_RIDGE = 0.02
+SPLITS = ("time", "speed", "acceleration")  # the row splits of the specification term
 # Newey–West (1994) bandwidth selection for the Bartlett kernel.
 NW_PILOT_FACTOR = 4.0  # pilot lags n = 4·(T/100)^(2/9)
 NW_GAMMA_FACTOR = 1.1447
@@ -70,6 +74,16 @@ def jacobian_std(model: IdentificationModel, x: np.ndarray, held: set[str] = fro
     return std, X
 
 
+def sigma_with_held(model: IdentificationModel, x: np.ndarray, std: dict[str, float], held: set[str]
+                    ) -> dict[str, float]:
+    """``std`` with the parameters ``held`` (at a bound: not identified values) NaN and the others'
+    σ taken again with those held, as known (``std`` itself when every one of them already has no σ)."""
+    if all(not np.isfinite(std.get(n, np.nan)) for n in held):
+        return {**std, **dict.fromkeys(held, float("nan"))}
+    again, _ = jacobian_std(model, x, model.held_at_box(x) | set(held))
+    return {**again, **dict.fromkeys(held, float("nan"))}
+
+
 def newey_west_bandwidth(scores: np.ndarray) -> int:
     """The Bartlett bandwidth L (instants) of Newey and West (1994) for the scores (T, m)."""
     T = scores.shape[0]
@@ -85,24 +99,94 @@ def newey_west_bandwidth(scores: np.ndarray) -> int:
     return int(min(T - 1, max(1, NW_GAMMA_FACTOR * abs(s1 / s0) ** (2.0 / 3.0) * T ** (1.0 / 3.0))))
 
 
-def hac_covariance(J: np.ndarray, e: np.ndarray, instants: int) -> tuple[np.ndarray, int]:
-    """(the HAC covariance H⁻¹·S·H⁻¹ (m, m) of least-squares estimates with residual Jacobian J
-    (R, m) and residuals e (R,), rows joint-major over ``instants`` instants, the bandwidth L).
-    LinAlgError when H is singular.
-
-    S is the Bartlett-weighted sum of the score products up to L instants apart, computed as the
-    sums of L+1 consecutive scores (zero-padded at both ends), which weighs a pair l apart by
-    exactly 1 − l/(L+1)."""
+def instant_scores(J: np.ndarray, e: np.ndarray, instants: int) -> np.ndarray:
+    """The scores g_t = Σ_j J_jt·e_jt of each instant (instants, m): every joint's row at that
+    instant summed (rows joint-major), so joints may share a disturbance."""
     m = J.shape[1]
-    scores = (J * e[:, None]).reshape(-1, instants, m).sum(axis=0)
-    L = newey_west_bandwidth(scores)
+    return np.einsum("jtm,jt->tm", J.reshape(-1, instants, m), e.reshape(-1, instants))
+
+
+def bartlett_sum(scores: np.ndarray, bandwidth: int) -> np.ndarray:
+    """Σ_t Σ_s (1 − |t − s|/(L+1))·g_t·g_sᵀ over |t − s| ≤ L (m, m), as the sums of L+1 consecutive
+    scores (zero-padded at both ends): a pair l apart is weighed by exactly 1 − l/(L+1)."""
+    L, m = bandwidth, scores.shape[1]
     padded = np.concatenate([np.zeros((L + 1, m)), scores, np.zeros((L, m))])
     cumulative = np.cumsum(padded, axis=0)
     window = cumulative[L + 1 :] - cumulative[: -(L + 1)]
-    S = window.T @ window / (L + 1)
+    return window.T @ window / (L + 1)
+
+
+def hac_covariance(J: np.ndarray, e: np.ndarray, instants: int) -> tuple[np.ndarray, int]:
+    """(the HAC covariance H⁻¹·S·H⁻¹ (m, m) of least-squares estimates with residual Jacobian J
+    (R, m) and residuals e (R,), rows joint-major over ``instants`` instants, the bandwidth L).
+    LinAlgError when H is singular. S: :func:`bartlett_sum` of the :func:`instant_scores` at the
+    bandwidth of :func:`newey_west_bandwidth`."""
+    m = J.shape[1]
+    scores = instant_scores(J, e, instants)
+    L = newey_west_bandwidth(scores)
+    S = bartlett_sum(scores, L)
     Hinv = np.linalg.inv(J.T @ J)
     dof = instants / max(instants - m, 1)
     return dof * Hinv @ S @ Hinv, L
+
+
+def specification_variance(J: np.ndarray, e: np.ndarray, instants: int, splits: dict[str, np.ndarray],
+                           bandwidth: int) -> dict[str, np.ndarray]:
+    """{split: the variance (m,) that the disagreement of the split's two halves adds to each estimate}
+    (the specification term of the calibrated σ, module doc). ``splits``: {name: rows (R,) of the
+    first half} (the others the second); J, e, ``instants`` as :func:`hac_covariance`, whose
+    ``bandwidth`` the halves' covariance takes.
+
+    Each half's estimate is one Gauss–Newton step from the full fit on its rows,
+    θ_h − θ̂ = (H_h + ε·D)⁻¹·J_hᵀe (D = diag(JᵀJ), ε = :data:`SPLIT_RIDGE`: a parameter the half
+    does not determine stays at θ̂); d = θ_1 − θ_2 has the HAC covariance V_d of its per-instant
+    shares under a right model; what d² exceeds it by, over 4 (the half-range of the two halves),
+    is the variance the residuals alone do not show: max(0, d² − V_d)/4."""
+    m = J.shape[1]
+    H = J.T @ J
+    ridge = SPLIT_RIDGE * np.diag(np.diag(H))
+    dof = instants / max(instants - m, 1)
+    out = {}
+    for name, first in splits.items():
+        H1 = masked_gram(J, first)
+        inverses = [np.linalg.pinv(H1 + ridge), np.linalg.pinv(H - H1 + ridge)]
+        scores = [instant_scores(J, e * half, instants) for half in (first, ~first)]
+        shares = scores[0] @ inverses[0].T - scores[1] @ inverses[1].T  # each instant's share of d
+        d = shares.sum(axis=0)
+        var = dof * np.diag(bartlett_sum(shares, bandwidth))
+        out[name] = np.maximum(d**2 - var, 0.0) / 4.0
+    return out
+
+
+def masked_gram(J: np.ndarray, rows: np.ndarray, chunk: int = 65536) -> np.ndarray:
+    """J[rows]ᵀ·J[rows] (m, m), a chunk of rows at a time (no copy of J's selected rows at once)."""
+    out = np.zeros((J.shape[1], J.shape[1]))
+    for start in range(0, J.shape[0], chunk):
+        part = J[start : start + chunk][rows[start : start + chunk]]
+        out += part.T @ part
+    return out
+
+
+def specification_splits(model: IdentificationModel) -> dict[str, np.ndarray]:
+    """The row splits of the specification term (rows joint-major): ``time`` (the instants before
+    the middle of the used ones), ``speed`` and ``acceleration`` (each joint's rows at or below
+    the median |q̇|, |q̈| of its used rows). A drift, friction that leaves the law at low or high
+    speed, an inertia the filters misstate at high acceleration: each makes its halves disagree."""
+    obs = model.obs
+    T, nj = obs.n_samples, len(obs.joints)
+    used = obs.used.reshape(nj, T)
+    speed = np.abs(obs.velocity).T  # (nj, T)
+    with np.errstate(divide="ignore", invalid="ignore"):  # sources joined end to end: a step of 0 s
+        acc = np.nan_to_num(np.abs(np.gradient(obs.velocity, obs.t, axis=0)), nan=0.0, posinf=0.0).T if T > 2 else speed
+    instants = np.flatnonzero(used.any(axis=0))
+    splits = {"time": np.tile(np.arange(T) < (np.median(instants) if instants.size else T / 2), nj)}
+    for name, value in zip(SPLITS[1:], (speed, acc)):
+        below = np.zeros((nj, T), dtype=bool)
+        for j in range(nj):
+            if used[j].any():
+                below[j] = value[j] <= np.median(value[j][used[j]])
+        splits[name] = below.ravel()
+    return splits
 
 
 def robust_std(model: IdentificationModel, x: np.ndarray, held: set[str] = frozenset()
@@ -119,12 +203,25 @@ def robust_std(model: IdentificationModel, x: np.ndarray, held: set[str] = froze
     if not keep:
         return std, None, kept, None
     used = model.obs.used
+    Ju, e = J[:, keep] * used[:, None], model.residuals(x) * used
     try:
-        cov, bandwidth = hac_covariance(J[:, keep] * used[:, None], model.residuals(x) * used, model.obs.n_samples)
+        cov, bandwidth = hac_covariance(Ju, e, model.obs.n_samples)
     except np.linalg.LinAlgError:
         return std, None, kept, None
+    extra = specification_variance(Ju, e, model.obs.n_samples, specification_splits(model), bandwidth)
+    cov = cov + np.diag(sum(extra.values(), np.zeros(len(kept))))
     std.update(zip(kept, map(float, np.sqrt(np.clip(np.diag(cov), 0.0, None)))))
     return std, cov, kept, bandwidth
+
+
+def calibration_scale(std: dict[str, float], std_robust: dict[str, float], names: list[str]) -> float:
+    """The median over ``names`` (those with both σ finite and > 0) of (calibrated σ / white σ)²,
+    at least 1: how much less the rows inform than white residuals of their variance would (1
+    without such a name)."""
+    ratios = [(std_robust[n] / std[n]) ** 2 for n in names
+              if n in std and n in std_robust and np.isfinite(std[n]) and np.isfinite(std_robust[n]) and std[n] > 0
+              and std_robust[n] > 0]
+    return max(1.0, float(np.median(ratios))) if ratios else 1.0
 
 
 def white_covariance(model: IdentificationModel, x: np.ndarray, names: list[str]) -> np.ndarray | None:
@@ -145,6 +242,10 @@ def uncertainty_record(bandwidth: int | None, model: IdentificationModel) -> dic
     """The ``uncertainty`` block: how ``std`` and ``std_robust`` were obtained."""
     rate = model.obs.report.get("analysis_rate_hz")
     return {"std": "white residuals: std(e)·sqrt(diag((JᵀJ)⁻¹))",
-            "std_robust": "HAC sandwich (Newey–West, Bartlett kernel, bandwidth chosen from the data)",
+            "std_robust": "calibrated: HAC sandwich (Newey–West, Bartlett kernel, bandwidth chosen from the data) "
+                          "+ the specification term (halves of the rows split by time, speed and acceleration "
+                          "that disagree beyond their own σ)",
+            "calibrated": "std_robust",
+            "splits": list(SPLITS),
             "bandwidth_instants": bandwidth,
             "bandwidth_s": None if bandwidth is None or not rate else bandwidth / float(rate)}

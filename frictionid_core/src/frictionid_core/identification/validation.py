@@ -1,6 +1,6 @@
 """A result reloaded on other data: its model (:func:`model_from_result`) with the pre-processing
-settings the result chose from its data chosen again from these where they can
-(:func:`validation_settings`), and the cross-test (:func:`validate`)."""
+of the result, the settings that follow the record (decimation, trims, min speed) chosen again
+from these data (:func:`validation_settings`), and the cross-test (:func:`validate`)."""
 
 from __future__ import annotations
 
@@ -12,13 +12,20 @@ import numpy as np
 from frictionid_core.drive import result_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import elements_of
-from frictionid_core.identification.model_building import Sources, as_sources, build_model, metric_model, model_metrics
+from frictionid_core.identification.model_building import (
+    Sources,
+    as_sources,
+    build_model,
+    metric_model,
+    model_metrics,
+    rule_series,
+)
 from frictionid_core.identification.plan import Holds, plan_fit
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.settings import PreprocessingOverrides
 from frictionid_core.model import LOAD_NAME, IdentificationModel
-from frictionid_core.preprocess import Preprocessing, cutoff_interval, resample_uniform
-from frictionid_core.systems import System, as_system, result_system
+from frictionid_core.preprocess import Preprocessing
+from frictionid_core.systems import as_system, result_system
 from frictionid_core.timeseries import JointSeries
 
 # The settings a result may have chosen from its data (its ``preprocessing.from_data``), and the
@@ -28,22 +35,22 @@ FOUND_SETTINGS = ("stick_speed",)
 FIXED_WHY = "fixed in the identification"
 FOUND_WHY = "found by the identification (the robot's stick phases)"
 REVERSAL_WHY = "the identification's (rows near reversals left out)"
+CHOSEN_WHY = "the identification's, chosen by what they predict"
 
 
 def validation_settings(record: Mapping, series: JointSeries, overrides: PreprocessingOverrides | None = None
                         ) -> tuple[Preprocessing, dict]:
     """The pre-processing to cross-test a result with, from its ``preprocessing`` block ``record``
     and the data ``series`` (the first source as the rule sees it: :func:`rule_series`): its
-    settings, those it chose from its data (``from_data``) chosen again from ``series`` — but a
-    joint's cut-off is kept where these data resolve the rule less finely than the identification's
-    (a shorter record: coarser periodogram, fewer cycles) and that cut-off lies within the rule's
-    bounds on them (:func:`frictionid_core.preprocess.cutoff_interval`: it keeps their motion and
-    stays below their noise) — and ``overrides`` (the user's) over all (a min speed given replaces
-    the stick phases, as on ``identify``).
+    settings, its cut-offs kept (fixed, or chosen by what they predict: the identification's
+    choice is the one the data validated), the others it chose from its data (``from_data``:
+    decimation, trims, min speed, which follow the record's rate, length and noise) chosen again
+    from ``series``, and ``overrides`` (the user's) over all (a min speed given replaces the stick
+    phases, as on ``identify``).
 
     Returns the settings and which were ``rechosen``, ``kept`` (with ``kept_why``: {setting:
-    reason}) and ``set``; the cut-off may be in both ``rechosen`` and ``kept`` (per joint). A
-    decimation chosen again drops the result's row thinning (set for its own dips and rates)."""
+    reason}) and ``set``. A decimation chosen again drops the result's row thinning (set for its
+    own dips and rates)."""
     settings = Preprocessing.from_dict(record, 1.0 / series.dt)
     given = (overrides or PreprocessingOverrides()).changes()
     from_data = record.get("from_data", [])
@@ -61,49 +68,13 @@ def validation_settings(record: Mapping, series: JointSeries, overrides: Preproc
         if settings.reversal_periods and "reversal_periods" not in given:
             why["reversal_periods"] = REVERSAL_WHY
     if "cutoff_hz" in chosen:
-        kept, reason = kept_cutoffs(record, settings.cutoff_hz, series, settings.order)
-        values["cutoff_hz"] = kept or None
-        if kept:
-            why["cutoff_hz"] = reason
-        if set(kept) >= set(series.joints):
-            chosen.remove("cutoff_hz")
+        chosen.remove("cutoff_hz")
+        values.pop("cutoff_hz")
+        why["cutoff_hz"] = CHOSEN_WHY
     if "decimate" in chosen:
         values.update(thin=1, dip_scale=None)
     settings = replace(settings, **values, **given)
     return settings, {"rechosen": chosen, "kept": list(why), "kept_why": why, "set": sorted(given)}
-
-
-def kept_cutoffs(record: Mapping, cutoff_hz: float | dict[str, float], series: JointSeries, order: int
-                 ) -> tuple[dict[str, float], str]:
-    """({joint: Hz} of the result's cut-off ``cutoff_hz`` kept on ``series``, why): those the
-    identification's user fixed (not in its ``cutoff_from_data``), and those of the rule where
-    ``series`` is shorter than the identification's record (``record_s``) and the cut-off lies within
-    the rule's bounds on ``series``; results without ``record_s`` (earlier versions) keep only the first."""
-    joints = list(series.joints)
-    result = cutoff_hz if isinstance(cutoff_hz, dict) else dict.fromkeys(joints, cutoff_hz)
-    result = {j: float(v) for j, v in result.items() if j in joints}
-    by_rule = record.get("cutoff_from_data")
-    by_rule = joints if by_rule is None else by_rule
-    kept = {j: v for j, v in result.items() if j not in by_rule}
-    reasons = [f"{', '.join(kept)}: {FIXED_WHY}"] if kept else []
-    record_s, here_s = record.get("record_s"), float(series.t[-1] - series.t[0])
-    if record_s is not None and here_s < record_s:
-        interval = cutoff_interval(series, order)
-        suits = {j: v for j, v in result.items()
-                 if j in by_rule and j in interval and interval[j][0] <= v <= interval[j][1]}
-        if suits:
-            kept.update(suits)
-            reasons.append(f"{', '.join(suits)}: these {here_s:.3g} s of data resolve the rule less finely than the "
-                           f"identification's {record_s:.3g} s, and its cut-off lies within the rule's bounds on them")
-    return kept, "; ".join(reasons)
-
-
-def rule_series(series: JointSeries, system: System) -> JointSeries:
-    """``series`` as the pre-processing rule sees it (:func:`frictionid_core.systems.observe`): on
-    the joint side, its longest segment, on uniform stamps."""
-    if system.drive is not None:
-        series = system.drive.to_joint_side(series, system.joint_map)
-    return resample_uniform(max(series.segments(), key=len))
 
 
 def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, system: str | None = None,

@@ -1,4 +1,5 @@
-"""Sanity checks shared by every loader: finite samples, ordered unique stamps, spikes; lost samples."""
+"""Sanity checks shared by every loader (:func:`check_series`): broken and repeated rows
+(:mod:`.rows`), ordered unique stamps, spikes, a lag of the logged velocity and effort; lost samples."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import numpy as np
 from scipy import ndimage
 
 from frictionid_core.errors import InputError
+from frictionid_core.io.rows import Origin, broken_rows, repeated_rows
 from frictionid_core.timeseries import SEGMENT_GAP_PERIODS, SEGMENT_GAP_S, JointSeries, sample_period
 
 MIN_SAMPLES = 3
@@ -21,62 +23,79 @@ SPIKE_FACTOR = 10.0
 SPIKE_WINDOW = 11  # samples: runs of up to 3 spike samples are found
 SPIKE_STEP_QUANTILE = 99.0  # the sample-to-sample change of a signal: this percentile of |Δx|
 SPIKE_FIELDS = ("position", "effort", "velocity")
-# No measured value (s, rad, m, N·m, N and their rates) comes near this; beyond it, squares and sums
-# of the fit overflow.
-MAX_MAGNITUDE = 1e15
+# Stamps whose intervals scatter by more than this share of the mean period are judged against the
+# samples (:func:`_samples_on_a_clock`) …
+CLOCK_JITTER = 0.05
+# … and replaced by a uniform clock where the positions run at least this much smoother on it.
+CLOCK_SMOOTHER = 2.0
 
 
-def check_series(series: JointSeries, *, strict_time: bool = False) -> JointSeries:
-    """Validate ``series``; unless ``strict_time`` repair stamps (isolated wrong stamps, clock
-    jumps back, disorder, duplicates); replace spike samples by interpolation (:func:`find_spikes`).
+def check_series(series: JointSeries, *, strict_time: bool = False, strict_rows: bool = False,
+                 lines: np.ndarray | None = None) -> JointSeries:
+    """Validate ``series`` and take out what is not a sample, in this order:
 
-    Repairs are recorded in ``series.notes`` and issued as a ``UserWarning``.
+    * broken rows (:func:`~frictionid_core.io.rows.broken_rows`: a value NaN, inf or beyond any
+      measurement, a stamp off the log's time line) are skipped (``strict_rows``: refused);
+    * unless ``strict_time``, stamps are repaired (isolated wrong stamps, clock jumps back);
+      disordered stamps are re-sorted (``strict_time``: refused);
+    * repeated rows (:func:`~frictionid_core.io.rows.repeated_rows`: a sample recorded twice, a
+      stale sample republished under a new stamp) are dropped (``strict_time``: duplicated stamps
+      refused);
+    * spike samples are replaced by interpolation (:func:`find_spikes`);
+    * a lag of the logged velocity and effort behind the position is removed
+      (:func:`frictionid_core.preprocess.remove_channel_lag`).
+
+    ``lines``: the file line of each row (a CSV), for messages (else a row is named by its index).
+    What was done is recorded in ``series.notes`` and issued as a ``UserWarning``, one per kind.
     """
+    from frictionid_core.preprocess import remove_channel_lag
+
     src = series.source
     if len(series) < MIN_SAMPLES:
         done = f" ({'; '.join(series.notes)})" if series.notes else ""
         raise InputError(f"{src}: only {len(series)} samples; at least {MIN_SAMPLES} are needed{done}")
-    if not np.all(np.isfinite(series.t)):
-        bad = np.flatnonzero(~np.isfinite(series.t))
-        raise InputError(f"{src}: {bad.size} non-finite time stamps (first at sample {bad[0]})")
-    if np.max(np.abs(series.t)) > MAX_MAGNITUDE:
-        raise InputError(f"{src}: time stamps up to {np.max(np.abs(series.t)):.3g} s are not seconds; a layout gives "
-                         "the time's unit with 'time: {column: …, scale: …}' (1e-9 for ns)")
-    for name in ("position", "effort", "velocity"):
-        arr = getattr(series, name)
-        if arr is None:
-            continue
-        for bad, what in ((~np.isfinite(arr), "NaN/inf samples"),
-                          (np.abs(arr) > MAX_MAGNITUDE, f"samples beyond ±{MAX_MAGNITUDE:.0e} (not measured values)")):
-            if bad.any():
-                col = int(np.flatnonzero(bad.any(axis=0))[0])
-                rows = np.flatnonzero(bad[:, col])
-                raise InputError(f"{src}: {int(bad.sum())} {what} in field '{name}' (joint '{series.joints[col]}': "
-                                 f"{rows.size}, first at t = {series.t[rows[0]]:.6g} s)")
+    origin = Origin.of(len(series), lines)
     notes = []
+    broken = broken_rows(series, origin)
+    restamp = np.flatnonzero(broken.restamp)
+    if broken.mask.any():
+        if strict_rows:
+            raise broken.strict_error(series, origin)
+        notes.append(broken.note(series, origin))
+        keep = np.flatnonzero(~broken.mask)
+        restamp = np.searchsorted(keep, restamp)
+        series, origin = series.take(keep), origin.take(keep)
     if not strict_time:
-        series = _repair_stamps(series, notes)
-    series = _order_stamps(series, strict_time, notes)
+        series = _repair_stamps(series, notes, origin, restamp)
+        series = _samples_on_a_clock(series, notes)
+    series, origin = _order_stamps(series, strict_time, notes, origin)
     series = _repair_spikes(series, notes)
+    series, lag_note = remove_channel_lag(series)
+    if lag_note:
+        notes.append(lag_note)
     for note in notes:
         series.notes.append(note)
         warnings.warn(note, stacklevel=2)
     return series
 
 
-def _repair_stamps(series: JointSeries, notes: list[str]) -> JointSeries:
-    """Stamps out of line with both neighbours (spikes of the stamps) interpolated between them;
-    at a clock jump back longer than a gap (SEGMENT_GAP_PERIODS periods and SEGMENT_GAP_S), the
-    later stamps shifted to follow after a gap as long as the jump (the gap splits the series:
-    :meth:`JointSeries.segments`). Smaller steps back are disorder: :func:`_order_stamps` re-sorts them."""
+def _repair_stamps(series: JointSeries, notes: list[str], origin: Origin,
+                   glitches: np.ndarray | None = None) -> JointSeries:
+    """Stamps out of line with both neighbours (spikes of the stamps, and ``glitches``: rows off
+    the time line whose values are in line) interpolated between them; at a clock jump back longer
+    than a gap (SEGMENT_GAP_PERIODS periods and SEGMENT_GAP_S), the later stamps shifted to follow
+    after a gap as long as the jump (the gap splits the series: :meth:`JointSeries.segments`).
+    Smaller steps back are disorder: :func:`_order_stamps` re-sorts them."""
     src = series.source
     t = series.t
     spikes = find_spikes(t)
+    if glitches is not None and glitches.size:
+        spikes = np.union1d(spikes, glitches)
     if spikes.size:
         t = t.copy()
         t[spikes] = _interpolated(np.arange(t.size, dtype=float), t, spikes)
-        notes.append(f"{src}: {spikes.size} time stamp(s) out of line with both neighbours (first at sample "
-                     f"{spikes[0]}) replaced by interpolation between them")
+        notes.append(f"{src}: {spikes.size} time stamp(s) out of line with both neighbours (first at "
+                     f"{origin.name(spikes[0])}) replaced by interpolation between them")
     jumps = np.flatnonzero(np.diff(t) < -max(SEGMENT_GAP_PERIODS * sample_period(t), SEGMENT_GAP_S))
     if jumps.size:
         where = ", ".join(f"{t[k] - t[k + 1]:.6g} s back after t = {t[k] - t[0]:.6g} s" for k in jumps[:3])
@@ -93,30 +112,72 @@ def _repair_stamps(series: JointSeries, notes: list[str]) -> JointSeries:
                        dict(series.extras), dict(series.meta), list(series.notes))
 
 
-def _order_stamps(series: JointSeries, strict: bool, notes: list[str]) -> JointSeries:
+def _samples_on_a_clock(series: JointSeries, notes: list[str]) -> JointSeries:
+    """``series`` on a uniform clock in row order when its stamps scatter (by more than
+    CLOCK_JITTER of the mean period) but its positions run CLOCK_SMOOTHER times smoother on that
+    clock than on the stamps (the median |second divided difference| of each moving joint, their
+    geometric mean): the samples were taken on a clock and stamped late by varying amounts (a
+    driver stamping at receipt). Trusting such stamps turns their scatter into position noise
+    (resampled onto a grid, or re-sorted where they step back). A log with gaps keeps its stamps."""
+    t, q = series.t, series.position
+    n = len(t)
+    if n < 8 or t[-1] <= t[0]:
+        return series
+    period = (t[-1] - t[0]) / (n - 1)
+    steps = np.diff(t)
+    if np.std(steps) <= CLOCK_JITTER * period or steps.max() > SEGMENT_GAP_PERIODS * period:
+        return series
+    clock = t[0] + period * np.arange(n)
+    moving = np.ptp(q, axis=0) > 0
+    if not moving.any():
+        return series
+    with np.errstate(divide="ignore", invalid="ignore"):
+        on_stamps, on_clock = (_roughness(times, q[:, moving]) for times in (t, clock))
+        ratio = float(np.exp(np.mean(np.log(on_stamps / on_clock)))) if np.all(on_clock > 0) else np.inf
+    if not ratio >= CLOCK_SMOOTHER:
+        return series
+    notes.append(f"{series.source}: the time stamps scatter by {np.std(steps) / period:.2g} of their mean period, "
+                 f"but the positions run {ratio:.3g}× smoother on a uniform clock (their second differences): the "
+                 f"samples were taken on a clock and stamped irregularly; the stamps replaced by a uniform "
+                 f"{1 / period:.6g} Hz clock in row order")
+    return JointSeries(clock, list(series.joints), series.position, series.effort, series.velocity, series.source,
+                       dict(series.extras), dict(series.meta), list(series.notes))
+
+
+def _roughness(t: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(J,) the median |second divided difference| of each column of ``q`` (N, J) at times ``t``
+    (a stamp that steps back or repeats gives an infinite one, as a sample out of place is)."""
+    v = np.diff(q, axis=0) / np.diff(t)[:, None]
+    a = np.diff(v, axis=0) / (0.5 * (t[2:] - t[:-2]))[:, None]
+    return np.median(np.abs(np.nan_to_num(a, nan=np.inf)), axis=0)
+
+
+def _order_stamps(series: JointSeries, strict: bool, notes: list[str], origin: Origin
+                  ) -> tuple[JointSeries, Origin]:
+    """``series`` sorted by its stamps (a note says how many were out of order), without its
+    repeated rows (:func:`~frictionid_core.io.rows.repeated_rows`, one note); ``strict``: InputError
+    for stamps out of order or duplicated."""
+    src = series.source
     dt = np.diff(series.t)
     n_back = int(np.count_nonzero(dt < 0))
-    n_dup = int(np.count_nonzero(dt == 0))
-    if n_back == 0 and n_dup == 0:
-        return series
-    src = series.source
     if strict:
-        raise InputError(
-            f"{src}: time stamps not strictly increasing: {n_back} go backwards, {n_dup} duplicated"
-        )
-    order = np.argsort(series.t, kind="stable")
-    t_sorted = series.t[order]
-    keep = np.concatenate(([True], np.diff(t_sorted) > 0))
-    idx = order[keep]
-    n_dropped = len(series) - idx.size
-    out = series.take(idx)
+        n_dup = int(np.count_nonzero(dt == 0))
+        if n_back or n_dup:
+            raise InputError(
+                f"{src}: time stamps not strictly increasing: {n_back} go backwards, {n_dup} duplicated"
+            )
     if n_back:
+        order = np.argsort(series.t, kind="stable")
+        series, origin = series.take(order), origin.take(order)
         notes.append(f"{src}: {n_back} out-of-order time stamps: samples re-sorted by time")
-    if n_dropped:
-        notes.append(f"{src}: {n_dropped} samples with duplicated time stamps dropped (first kept)")
-    if len(out) < MIN_SAMPLES:
-        raise InputError(f"{src}: only {len(out)} samples left after removing duplicated stamps")
-    return out
+    repeated = repeated_rows(series)
+    if repeated.mask.any():
+        notes.append(repeated.note(series, origin))
+        keep = np.flatnonzero(~repeated.mask)
+        series, origin = series.take(keep), origin.take(keep)
+        if len(series) < MIN_SAMPLES:
+            raise InputError(f"{src}: only {len(series)} samples left after removing repeated rows")
+    return series, origin
 
 
 def find_spikes(x: np.ndarray) -> np.ndarray:

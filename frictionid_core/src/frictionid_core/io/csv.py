@@ -38,6 +38,11 @@ JUDGED_ROWS = 1000  # from this many rows read, broken rows outnumbering good on
 
 def load_csv(path: Path, *, strict_rows: bool = False) -> JointSeries:
     """Load a CSV file written in the layout above (``strict_rows``: see :func:`read_table`)."""
+    return read_csv(path, strict_rows=strict_rows)[0]
+
+
+def read_csv(path: Path, *, strict_rows: bool = False) -> tuple[JointSeries, np.ndarray]:
+    """(the series of :func:`load_csv`, the file line of each of its samples)."""
     joints: dict[str, dict[str, int]] = {}
 
     def used(names: list[str], ncols: int) -> list[int]:
@@ -66,7 +71,7 @@ def load_csv(path: Path, *, strict_rows: bool = False) -> JointSeries:
 
     velocity = stack("velocity") if all("velocity" in joints[j] for j in names) else None
     return JointSeries(t=table.data[:, 0], joints=names, position=stack("position"), effort=stack("effort"),
-                       velocity=velocity, source=str(path), notes=list(table.notes))
+                       velocity=velocity, source=str(path), notes=list(table.notes)), table.lines
 
 
 def save_csv(series: JointSeries, path: Path) -> None:
@@ -98,6 +103,7 @@ class Table:
         rows: data rows in the file, broken ones included (blank and ``#`` comment lines are not rows).
         skipped: (B,) the 0-based data-row numbers of the broken rows skipped, increasing.
         notes: what was skipped (one note, or none).
+        lines: (good rows,) the file line (1-based) of each row of ``data``.
     """
 
     names: list[str] | None
@@ -106,6 +112,7 @@ class Table:
     rows: int
     skipped: np.ndarray
     notes: list[str]
+    lines: np.ndarray | None = None
 
     def row_numbers(self) -> np.ndarray:
         """(len(data),) the 0-based data-row number of each row of ``data``."""
@@ -191,7 +198,8 @@ def read_table(path: Path, *, header: bool, delimiter: str | None = None,
     notes = [rows.note()] if rows.broken else []
     for note in notes:
         warnings.warn(note, UserWarning, stacklevel=2)
-    return Table(names, keep, out, rows.rows, np.asarray(rows.skipped, dtype=np.int64), notes)
+    lines = np.concatenate(rows.lines) if rows.lines else np.empty(0, dtype=np.int64)
+    return Table(names, keep, out, rows.rows, np.asarray(rows.skipped, dtype=np.int64), notes, lines)
 
 
 class _Rows:
@@ -205,6 +213,7 @@ class _Rows:
         self.rows = 0  # data rows read, broken ones included
         self.broken = 0
         self.skipped: list[int] = []
+        self.lines: list[np.ndarray] = []  # the file line of each good row, block by block
         self.first: tuple[int, str] | None = None  # (line, what is wrong) of the first broken row
 
     def check_size(self, rows: int, estimated: bool = False) -> None:
@@ -231,6 +240,7 @@ class _Rows:
             elif count != expected and lines[i].strip():
                 bad.append(i)
         values, rejected = _numbers([lines[i] for i in good], self.split, self.keep)
+        self.lines.append(start + np.delete(np.asarray(good, dtype=np.int64), rejected))
         if bad or rejected:
             data_lines = np.array(sorted(good + bad))  # blank lines are no rows
             bad = sorted(bad + [good[k] for k in rejected])

@@ -145,6 +145,12 @@ def read_with_layout(source: str | Path, layout: Layout, *, strict_rows: bool = 
     Broken rows are skipped (see :func:`~frictionid_core.io.csv.read_table`; ``strict_rows``
     refuses them); with an effort file, a row broken in either file is left out of both, and
     with ``rate_hz`` the rows keep their times (row number / rate)."""
+    return read_layout_log(source, layout, strict_rows=strict_rows)[0]
+
+
+def read_layout_log(source: str | Path, layout: Layout, *, strict_rows: bool = False
+                    ) -> tuple[JointSeries, np.ndarray]:
+    """(the series of :func:`read_with_layout`, the line of each of its samples in ``source``)."""
     path = Path(source)
     where = layout.source or "layout"
     own = {"time": [layout.time_column]} if layout.time_column is not None else {}
@@ -155,7 +161,7 @@ def read_with_layout(source: str | Path, layout: Layout, *, strict_rows: bool = 
         own["effort"] = list(layout.effort)
     table, at = _read(path, layout, own, where, strict_rows)
     notes = [f"read with layout {where}", *table.notes]
-    data, rows = table.data, None
+    data, rows, lines = table.data, None, table.lines
     if layout.effort_file:
         epath = path.parent / layout.effort_file
         if not epath.is_file():
@@ -169,7 +175,7 @@ def read_with_layout(source: str | Path, layout: Layout, *, strict_rows: bool = 
         if table.skipped.size or etable.skipped.size:  # the rows good in both files
             rows, in_own, in_effort = np.intersect1d(table.row_numbers(), etable.row_numbers(), assume_unique=True,
                                                      return_indices=True)
-            data, edata = data[in_own], edata[in_effort]
+            data, edata, lines = data[in_own], edata[in_effort], lines[in_own]
             lost = table.rows - table.skipped.size - rows.size + etable.rows - etable.skipped.size - rows.size
             if lost:
                 notes.append(f"{lost} row(s) broken in only one of {path} and {epath} left out of both")
@@ -182,7 +188,7 @@ def read_with_layout(source: str | Path, layout: Layout, *, strict_rows: bool = 
         t = data[:, at["time"][0]] * layout.time_scale
     velocity = None if layout.velocity is None else data[:, at["velocity"]]
     return JointSeries(t, list(layout.joints), data[:, at["position"]], effort, velocity, source=str(path),
-                       notes=notes)
+                       notes=notes), lines
 
 
 def _read(path: Path, layout: Layout, refs: dict[str, list], where: str, strict_rows: bool):

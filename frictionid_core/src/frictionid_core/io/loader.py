@@ -39,8 +39,9 @@ def load(
         extras: bags only: {name: (topic, field)} side JointState signals kept in ``series.extras``.
         layout: a CSV (or other delimited text file) not in frictionid's own format: a
             :class:`~frictionid_core.io.layout.Layout` or its YAML file (see that module).
-        strict_rows: CSV and other text files: refuse a broken row (malformed, not numeric or
-            truncated) instead of skipping broken rows with a warning.
+        strict_rows: refuse a broken row (of a text file: malformed, not numeric or truncated; of
+            any source: a value NaN, inf or beyond any measurement, a stamp off the log's time
+            line) instead of skipping broken rows with a warning.
 
     Raises:
         InputError: naming the file, topic, joint or field at fault.
@@ -49,22 +50,23 @@ def load(
     if not path.exists():
         raise InputError(f"{path}: no such file or directory")
     suffix = path.suffix.lower()
+    lines = None  # the file line of each sample (a text file), for messages
     if layout is not None:
-        from frictionid_core.io.layout import Layout, load_layout, read_with_layout
+        from frictionid_core.io.layout import Layout, load_layout, read_layout_log
 
         if path.is_dir() or suffix == ".mat" or suffix in BAG_SUFFIXES:
             raise InputError(f"{path}: a layout applies to CSV and other delimited text files, not to "
                              f"{'a directory' if path.is_dir() else repr(suffix)}")
-        series = read_with_layout(path, layout if isinstance(layout, Layout) else load_layout(layout),
-                                  strict_rows=strict_rows)
+        series, lines = read_layout_log(path, layout if isinstance(layout, Layout) else load_layout(layout),
+                                        strict_rows=strict_rows)
     elif suffix == ".mat":
         from frictionid_core.io.mat import load_emps_mat
 
         series = load_emps_mat(path)
     elif suffix == ".csv":
-        from frictionid_core.io.csv import load_csv
+        from frictionid_core.io.csv import read_csv
 
-        series = load_csv(path, strict_rows=strict_rows)
+        series, lines = read_csv(path, strict_rows=strict_rows)
     elif path.is_dir() or suffix in BAG_SUFFIXES:
         from frictionid_core.io.bag import load_bag
 
@@ -74,4 +76,4 @@ def load(
                          "directory")
     if joints:
         series = series.select(joints)
-    return check_series(series, strict_time=strict_time)
+    return check_series(series, strict_time=strict_time, strict_rows=strict_rows, lines=lines)

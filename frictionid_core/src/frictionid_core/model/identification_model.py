@@ -133,6 +133,11 @@ class IdentificationModel:
         self._quadratic = self._quadratic_terms()
         self._constraints()
 
+    @property
+    def normal_equations(self) -> tuple[np.ndarray, np.ndarray]:
+        """(FᵀF, Fᵀy): the normal equations of the linear terms' fixed design F (R, L) and the effort."""
+        return self._quadratic[0], self._quadratic[1]
+
     def _quadratic_terms(self) -> tuple:
         """Constant pieces of the cost and of :meth:`solve_linear`: FᵀF, Fᵀy, yᵀy and, per dip
         compacted to the rows where its branch is active, its nonlinear-parameter indices, speeds
@@ -391,6 +396,12 @@ class IdentificationModel:
         p[:, self.linear_index] = coef
         cost = yty - 2.0 * np.einsum("pl,pl->p", coef, b) + np.einsum("pl,plm,pm->p", coef, G, coef)
         return p, np.maximum(cost, 0.0)
+
+    def solve_normal(self, G: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """The linear parameters c (L,) (``linear_index`` order) minimising ½cᵀGc − bᵀc within the
+        linear box, as every closed form here solves them: ``G`` (L, L) and ``b`` (L,) the normal
+        equations FᵀF, Fᵀy of any rows of the linear columns (:meth:`design`)."""
+        return self._solve_normal(np.asarray(G, dtype=float)[None], np.asarray(b, dtype=float)[None])[0][0]
 
     def _solve_normal(self, G: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """argmin ½cᵀGc − bᵀc per candidate (G (P, L, L), b (P, L)) within the linear box (fixed

@@ -16,22 +16,23 @@ _LAZY = {
     **dict.fromkeys((
         "central_difference", "decimate", "decimation_indices", "lowpass_position", "near_reversals",
     ), "frictionid_core.preprocess.filters"),
+    **dict.fromkeys(("lag_record", "remove_channel_lag"), "frictionid_core.preprocess.lag"),
     **dict.fromkeys((
         "column_stride", "dip_needs", "prepare", "preprocess", "resample_uniform", "subsample", "thinned_rows",
     ), "frictionid_core.preprocess.preparation"),
     **dict.fromkeys((
-        "choose_preprocessing", "cutoff_interval", "noise_density", "rule_decimation",
+        "choose_preprocessing", "noise_density", "rule_decimation",
     ), "frictionid_core.preprocess.rule"),
     **dict.fromkeys((
-        "cutoff_range", "DIP_WINDOW", "MOVING_FACTOR", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT",
-        "REVERSAL_PERIODS", "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
+        "cutoff_range", "DIP_WINDOW", "MIN_SPEED_SHARE", "MOVING_FACTOR", "Prepared", "Preprocessing",
+        "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS", "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
     ), "frictionid_core.preprocess.settings"),
 }
 
-__all__ = ["DIP_WINDOW", "MOVING_FACTOR", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS",
-           "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES", "central_difference", "choose_preprocessing",
-           "column_stride", "cutoff_interval", "cutoff_range", "decimate", "decimation_indices", "dip_needs",
-           "lowpass_position", "near_reversals", "noise_density", "prepare", "preprocess", "resample_uniform",
-           "rule_decimation", "subsample", "thinned_rows"]
+__all__ = ["DIP_WINDOW", "MIN_SPEED_SHARE", "MOVING_FACTOR", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT",
+           "REVERSAL_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES", "central_difference",
+           "choose_preprocessing", "column_stride", "cutoff_range", "decimate", "decimation_indices", "dip_needs",
+           "lag_record", "lowpass_position", "near_reversals", "noise_density", "prepare", "preprocess",
+           "remove_channel_lag", "resample_uniform", "rule_decimation", "subsample", "thinned_rows"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

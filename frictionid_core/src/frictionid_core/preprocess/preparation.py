@@ -12,6 +12,7 @@ from frictionid_core.preprocess.filters import (
     decimation_indices,
     lowpass_position,
 )
+from frictionid_core.preprocess.lag import lag_record
 from frictionid_core.preprocess.rule import (
     _per_joint,
     choose_preprocessing,
@@ -189,8 +190,9 @@ def preprocess(series: JointSeries, requested: Preprocessing | None = None
 
     Returns the prepared signals, the resolved settings, the report of
     :func:`choose_preprocessing` with the q̈ noise share per joint (``qdd_noise_share``: the
-    share of the filtered q̈ variance that is differentiated position noise), and the notes of
-    what was done to the stamps.
+    share of the filtered q̈ variance that is differentiated position noise) and the channel lags
+    the loader removed (``lag_s``: :func:`~frictionid_core.preprocess.lag.lag_record`), and the
+    notes of what was done to the stamps.
     """
     order = (requested or Preprocessing()).order
     if len(series) <= 3 * order:  # before any estimate from the data (a periodogram, a gradient)
@@ -217,4 +219,5 @@ def preprocess(series: JointSeries, requested: Preprocessing | None = None
     report["qdd_clean_cutoff_hz"] = {joints[j]: (float(clean[j]) if np.isfinite(clean[j]) else None) for j in noisy}
     report["reversal_acceleration"] = _per_joint(list(series.joints), reversal_acceleration(prepared))
     report["resampled_samples"] = len(series) if notes else 0
+    report["lag_s"] = lag_record(series)  # the channel lag the loader's checks removed
     return prepared, settings, report, notes

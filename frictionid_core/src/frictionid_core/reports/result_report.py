@@ -245,7 +245,7 @@ def build_fit_report(result: dict, sources: list[tuple[str, JointSeries]], out_d
                       "reversal_figures": reversals, "notes": list(series.notes)})
     report = {"result_file": result_file, "units": {"effort": units[0], "velocity": units[1]},
               **{k: result.get(k) for k in ("system", "friction", "asymmetric", "solver", "source", "joints",
-                                            "params", "std", "metrics")},
+                                            "params", "std", "std_robust", "at_bound", "metrics")},
               "warnings": list(result.get("warnings") or []),
               "settings": {k: result[k] for k in SETTING_KEYS if k in result},
               "sources": shown}
@@ -263,9 +263,11 @@ def _html(rep: dict) -> str:
     source = ", ".join(rep["source"]) if isinstance(rep["source"], list) else rep["source"]
     head = (f"{rep['system']} · {rep['friction']}{' (asymmetric)' if rep['asymmetric'] else ''} · solver "
             f"{rep['solver']}")
-    params = [[n, v, rep["std"].get(n, float("nan")) if rep["std"] else float("nan"),
-               100.0 * rep["std"][n] / abs(v) if rep["std"] and n in rep["std"] and v else float("nan")]
-              for n, v in rep["params"].items()]
+    nan = float("nan")
+    calibrated, white, at_bound = rep.get("std_robust") or {}, rep["std"] or {}, rep.get("at_bound") or {}
+    params = [[n, f"at bound {at_bound[n]:.6g}", "—", "—", "—"] if n in at_bound else
+              [n, v, calibrated.get(n, nan), 100.0 * calibrated[n] / abs(v) if n in calibrated and v else nan,
+               white.get(n, nan)] for n, v in rep["params"].items()]
     metric_rows = [[k, v] for k, v in (rep["metrics"] or {}).items() if not isinstance(v, dict)]
     parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>frictionid report: {esc(head)}</title>"
              f"<style>{PAGE_STYLE}</style></head><body>",
@@ -274,7 +276,8 @@ def _html(rep: dict) -> str:
              f"<code>{esc(source)}</code>; joints: {esc(', '.join(rep['joints'] or []))}</p>"]
     if rep["warnings"]:
         parts.append("<h2>Warnings</h2><ul>" + "".join(f"<li>{esc(w)}</li>" for w in rep["warnings"]) + "</ul>")
-    parts += ["<h2>Parameters</h2>", html_table(["parameter", "value", "σ", "σ % of |value|"], params),
+    columns = ["parameter", "value", "σ (calibrated)", "σ % of |value|", "σ (white)"]
+    parts += ["<h2>Parameters</h2>", html_table(columns, params),
               "<h2>Metrics of the identification (as stored in the result)</h2>",
               html_table(["metric", "value"], metric_rows)]
     per_joint = (rep["metrics"] or {}).get("per_joint")

@@ -75,6 +75,12 @@ class RobotModel:
         return self.model.nv
 
     @property
+    def prismatic(self) -> list[str]:
+        """The prismatic joints (positions in m; the others turn, in rad)."""
+        return [self.model.names[i] for i in range(1, self.model.njoints)
+                if self.model.joints[i].shortname().startswith("JointModelP")]
+
+    @property
     def armature(self) -> np.ndarray:
         return np.array(self.model.armature, dtype=float)
 

@@ -1,0 +1,205 @@
+"""Pre-processing chosen by what it predicts: blocked cross-validation of the torque.
+
+Each source is cut into :data:`FOLDS` contiguous pieces in time, each pre-processed alone (no
+filter runs across a seam: a fold never sees another's samples), with the settings of a
+candidate resolved once on the whole source. The linear model (the system's rigid body, viscous
+and Coulomb friction, offsets: the closed form, its sign constraints kept) is fitted on all folds
+but one and predicts the recorded effort of the one left out, at its analysis instants; the
+candidate's score is the relative error of those predictions over every fold, per row joint and
+overall (:func:`cross_validated_error`).
+
+Candidates (:func:`cutoff_candidates`): the rule's per-joint cut-offs
+(:func:`frictionid_core.preprocess.choose_preprocessing`) and the same capped at each value of a
+fixed logarithmic grid below its highest one (the decimation, trims and min speed follow each
+candidate's cut-offs as the rule sets them). Every joint takes the candidate that predicts its own
+effort best (:func:`choose_by_cross_validation`); the cut-offs of a joint do not change another's
+filtered signals, only the columns of the rows that see its motion.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.friction import get_model
+from frictionid_core.identification.model_building import observe_plan, on_source, rule_series
+from frictionid_core.identification.plan import FitPlan
+from frictionid_core.model import IdentificationModel, Observation
+from frictionid_core.preprocess import MIN_SPEED_SHARE, Preprocessing, TooFewSamples, choose_preprocessing
+
+FOLDS = 2  # contiguous pieces of each source: each predicted from the other, as a later log is
+# Cut-offs tried below the rule's: this many per decade (a ratio of 2.15), down to MIN_GRID_CUTOFF_HZ.
+GRID_PER_DECADE = 3
+MIN_GRID_CUTOFF_HZ = 0.5
+# The candidates stop at the second in a row whose overall error exceeds the best so far by this
+# factor (the error only rises further down the grid).
+STOP_FACTOR = 1.25
+# A fold's fit leaves out the directions of its design (unit-scaled columns) whose singular value is
+# below this share of the largest (what the identification holds as unresolved, roughly).
+RESOLVED_SHARE = 1e-5
+# A candidate replaces the rule's choice of a joint only when it predicts that joint's effort with
+# less than this share of the rule's cross-validated error (nearby cut-offs differ by less).
+BETTER_SHARE = 0.98
+
+
+@dataclass(frozen=True)
+class CvScore:
+    """The cross-validated relative error (%) of a candidate: overall and per row joint."""
+
+    relerr_pct: float
+    per_joint: dict[str, float]
+
+
+def folds_of(plan: FitPlan, folds: int = FOLDS) -> list[FitPlan]:
+    """``plan`` with each source cut into ``folds`` contiguous pieces of equal duration: one plan per
+    piece index (its sources the k-th piece of each source)."""
+    out = []
+    for k in range(folds):
+        sources = []
+        for sp in plan.sources:
+            t = sp.series.t
+            span = t[-1] - t[0]
+            start, end = k * span / folds, (k + 1) * span / folds
+            sources.append(replace(sp, series=sp.series.window(start, end if k < folds - 1 else None)))
+        out.append(replace(plan, sources=sources))
+    return out
+
+
+def fold_observations(plan: FitPlan, settings: Preprocessing, folds: int = FOLDS) -> list[Observation]:
+    """The observation of each fold of ``plan`` (:func:`folds_of`; its sources stacked as an
+    identification stacks them) under the resolved ``settings``, its trims at most a tenth of the
+    shortest piece; TooFewSamples when a piece is too short."""
+    pieces = folds_of(plan, folds)
+    span = min(sp.series.t[-1] - sp.series.t[0] for piece in pieces for sp in piece.sources)
+    trims = {n: min(getattr(settings, n), 0.1 * span) for n in ("trim_start_s", "trim_end_s")}
+    return [observe_plan(piece, replace(settings, **trims)) for piece in pieces]
+
+
+def resolved_settings(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str, float]) -> Preprocessing:
+    """``requested`` with ``cutoffs`` and the settings that follow them resolved on the whole of
+    each source (the first's decimation and trims), as an identification with those cut-offs
+    resolves them — but for the min speed: every candidate keeps the same rows, those faster than
+    MIN_SPEED_SHARE of each joint's top speed (the user's min speed where given). The rule's min
+    speed rises with a cut-off's velocity noise: scored on the rows each keeps, a noisy cut-off
+    would win by leaving out the rows it gets wrong."""
+    settings, speeds = None, {}
+    for sp in plan.sources:
+        series = rule_series(sp.series, plan.system)
+        own, report = choose_preprocessing(series, on_source(replace(requested, cutoff_hz=cutoffs), series))
+        settings = settings or own
+        floor = {j: MIN_SPEED_SHARE * v for j, v in report["top_speed"].items() if v is not None}
+        for j, v in (own.min_speed if requested.min_speed is not None else floor).items():
+            speeds.setdefault(j, v)
+    return replace(settings, cutoff_hz=dict(cutoffs), min_speed=speeds)
+
+
+def cross_validated_error(observations: list[Observation], asymmetric: bool = False,
+                          fixed: dict[str, float] | None = None) -> CvScore:
+    """Each observation predicted by the Coulomb model fitted on the others (least squares of least
+    norm on their summed normal equations, ``fixed`` parameters held at their values): the relative
+    error (%) of the predictions of the recorded effort at the analysis instants, over all of
+    them, per row joint and overall."""
+    law = get_model("coulomb", asymmetric)
+    joints = observations[0].joints
+    parts, held = [], None
+    for obs in observations:
+        model = IdentificationModel(obs, law, fixed=dict(fixed or {}))
+        metric = obs.metric
+        on = model if metric is obs else IdentificationModel(metric, law, fixed=dict(fixed or {}))
+        parts.append((*model.normal_equations, on.design(), metric.y, metric.used))
+        if held is None:
+            held = np.array([i in model.fixed_values for i in model.linear_index])
+            values = np.array([model.fixed_values.get(i, 0.0) for i in model.linear_index])
+    free = ~held
+    G, b = sum(p[0] for p in parts), sum(p[1] for p in parts)
+    err, ref = np.zeros(len(joints)), np.zeros(len(joints))
+    for Gk, bk, Xm, ym, used in parts:
+        Gt, bt = G - Gk, b - bk
+        x = values.copy()
+        x[free] = _least_norm(Gt[np.ix_(free, free)], bt[free] - Gt[np.ix_(free, held)] @ values[held])
+        residual = np.where(used, ym - Xm @ x, 0.0).reshape(len(joints), -1)
+        err += (residual ** 2).sum(axis=1)
+        ref += (np.where(used, ym, 0.0).reshape(len(joints), -1) ** 2).sum(axis=1)
+    per_joint = {j: float(100 * np.sqrt(e / r)) if r > 0 else float("nan") for j, e, r in zip(joints, err, ref)}
+    total = float(100 * np.sqrt(err.sum() / ref.sum())) if ref.sum() > 0 else float("nan")
+    return CvScore(total, per_joint)
+
+
+def _least_norm(G: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The solution of the normal equations G·x = b of least norm in unit-scaled columns, the
+    directions a fold does not resolve (normalised singular values of the design below
+    RESOLVED_SHARE) left at 0: a half's fit of a poorly excited rigid body must not extrapolate."""
+    scale = np.sqrt(np.diag(G))
+    scale[scale == 0] = 1.0
+    return np.linalg.lstsq(G / np.outer(scale, scale), b / scale, rcond=RESOLVED_SHARE**2)[0] / scale
+
+
+def cutoff_candidates(rule_cutoffs: dict[str, float]) -> list[dict[str, float]]:
+    """The rule's cut-offs, then the same capped at each value of the grid below their highest."""
+    high = max(rule_cutoffs.values())
+    grid = 10.0 ** (np.arange(np.floor(np.log10(MIN_GRID_CUTOFF_HZ) * GRID_PER_DECADE),
+                              np.ceil(np.log10(high) * GRID_PER_DECADE)) / GRID_PER_DECADE)
+    caps = [float(g) for g in grid if MIN_GRID_CUTOFF_HZ <= g < high]
+    out = [dict(rule_cutoffs)]
+    for cap in sorted(caps, reverse=True):
+        capped = {j: min(c, cap) for j, c in rule_cutoffs.items()}
+        if capped not in out:
+            out.append(capped)
+    return out
+
+
+def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetric: bool = False,
+                               fixed: dict[str, float] | None = None) -> tuple[dict[str, float] | None, dict]:
+    """({data joint: cut-off} chosen by cross-validation, the record of the choice), or (None,
+    record) when the data are too short for the folds. ``requested``: the pre-processing asked for
+    (its cut-off None: chosen here).
+
+    The candidate that predicts every row best is taken where it beats the rule's by BETTER_SHARE;
+    then each joint whose own effort is a row takes the candidate that predicts that effort best
+    (rows that are motors of a coupled drive take the overall choice)."""
+    rule_cutoffs: dict[str, float] = {}
+    try:  # each joint the highest cut-off the rule chooses on any source
+        for sp in plan.sources:
+            rule = choose_preprocessing(rule_series(sp.series, plan.system), requested)[0]
+            for j, c in rule.cutoff_hz.items():
+                rule_cutoffs[j] = max(c, rule_cutoffs.get(j, 0.0))
+    except FrictionIdError as exc:  # the identification says why, in its own words
+        return None, {"folds": FOLDS, "skipped": str(exc)}
+    record = {"folds": FOLDS, "rule_cutoff_hz": rule_cutoffs, "candidates": []}
+    scores: list[tuple[dict[str, float], CvScore]] = []
+    for cutoffs in cutoff_candidates(rule_cutoffs):
+        try:
+            settings = resolved_settings(plan, requested, cutoffs)
+            score = cross_validated_error(fold_observations(plan, settings), asymmetric, fixed)
+        except (TooFewSamples, FrictionIdError) as exc:
+            if not scores:
+                record["skipped"] = str(exc)
+                return None, record
+            break
+        scores.append((cutoffs, score))
+        record["candidates"].append({"cutoff_hz": cutoffs, "cv_relerr_pct": score.relerr_pct,
+                                     "per_joint": score.per_joint})
+        best = min(s.relerr_pct for _, s in scores)
+        if len(scores) > 1 and min(s.relerr_pct for _, s in scores[-2:]) > STOP_FACTOR * best:
+            break
+    rule_score = scores[0][1]
+    best_cutoffs, best = min(scores, key=lambda s: s[1].relerr_pct)
+    chosen = dict(best_cutoffs if best.relerr_pct < BETTER_SHARE * rule_score.relerr_pct else rule_cutoffs)
+    for j in (j for j in rule_score.per_joint if j in chosen):  # a joint's own effort: its own choice
+        own_cutoffs, own = min(scores, key=lambda s: s[1].per_joint[j])
+        if own.per_joint[j] < BETTER_SHARE * rule_score.per_joint[j]:
+            chosen[j] = own_cutoffs[j]
+    record["cutoff_hz"] = chosen
+    return chosen, record
+
+
+def record_choice(report: dict, choice: dict) -> None:
+    """Note in an observation's ``report`` that its cut-offs came from the data by cross-validation
+    (``choice``: the record of :func:`choose_by_cross_validation`)."""
+    report["cross_validation"] = choice
+    if choice.get("cutoff_hz") is not None:
+        report["from_data"] = ["cutoff_hz", *[k for k in report.get("from_data", []) if k != "cutoff_hz"]]
+        report["cutoff_from_data"] = list(choice["cutoff_hz"])
+        report["chosen_from_data"] = True

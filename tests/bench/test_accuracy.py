@@ -1,0 +1,104 @@
+"""A fast fixed-seed subset of the randomized accuracy corpus (bench/accuracy.py) through the real CLI.
+
+Four short cases (12 s + 8 s logs at ≤ 200 Hz), each with its labels fixed: a UR5 with Coulomb friction and
+white noise, a one-joint system with gravity and Stribeck friction under coloured noise (a CSV + layout),
+a Panda in MuJoCo (damping, frictionloss, armature) with quantised encoders written as an MCAP bag, and a
+one-joint LuGre system in micro-motions. The bounds are loose against what the product scores today on
+these cases (in brackets); the JSON's structure, internal errors and tracebacks are checked exactly.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.slow
+
+ROOT = Path(__file__).resolve().parents[2]
+BENCH = ROOT / "bench" / "accuracy.py"
+CASES = {
+    201: "arm=ur5,law=coulomb,noise=white,excitation=fourier,format=csv",
+    202: "arm=joint_gravity,law=stribeck,noise=coloured,excitation=plateaus,format=layout",
+    203: "arm=panda,law=mujoco,noise=quantised,excitation=fourier,format=mcap",
+    204: "arm=joint,law=lugre,noise=white,excitation=micro,format=csv",
+}
+SUMMARY_KEYS = {"val_within_1.2_floor", "friction_err_median_pct", "friction_err_p90_pct", "coverage_1.96",
+                "internal_errors", "tracebacks", "per_class", "val_vs_ls_within_1.05"}
+CASE_KEYS = {"sub_seed", "labels", "truth", "commands", "runs", "warnings", "status", "val_relerr_pct", "floor_pct",
+             "product_noise_floor_pct", "floor_ratio", "baseline_relerr_pct", "ls_ratio", "params", "coverage",
+             "internal_error", "traceback", "reproduce"}
+
+
+@pytest.fixture(scope="module")
+def corpus(tmp_path_factory):
+    out = tmp_path_factory.mktemp("accuracy") / "accuracy.json"
+    cmd = [sys.executable, str(BENCH), "--quick", "--no-diagnostic", "--workers", "2", "--json", str(out)]
+    for seed, labels in CASES.items():
+        cmd += ["--case-seed", f"{seed}:{labels}"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    data = json.loads(out.read_text())
+    return data, {c["sub_seed"]: c for c in data["cases"]}, proc.stdout
+
+
+def test_structure(corpus):
+    data, cases, stdout = corpus
+    assert data["seed"] is None and data["sub_seeds"] == list(CASES)
+    summary = data["summary"]
+    assert SUMMARY_KEYS <= set(summary)
+    dims = {row["dimension"] for row in summary["per_class"]}
+    assert {"arm", "law", "noise", "excitation"} <= dims
+    for row in summary["per_class"]:
+        assert SUMMARY_KEYS - {"per_class"} <= set(row)
+    assert summary["bench_errors"] == 0
+    for seed, c in cases.items():
+        assert CASE_KEYS <= set(c), seed
+        assert c["status"] == "ok", (seed, c.get("runs"))
+        assert c["reproduce"].startswith(f"python bench/accuracy.py --case-seed {seed}:")
+        assert c["runs"]["identify"]["exit_code"] == 0 and c["runs"]["validate"]["exit_code"] == 0
+        assert any(cmd.split()[1:2] == ["identify"] for cmd in c["commands"])
+    assert "dimension" in stdout and "bench errors" in stdout  # the table
+
+
+def test_no_internal_errors_or_tracebacks(corpus):
+    data, cases, _ = corpus
+    assert data["summary"]["internal_errors"] == 0
+    assert data["summary"]["tracebacks"] == 0
+    assert not any(c["internal_error"] or c["traceback"] for c in cases.values())
+
+
+def test_cli_given_only_what_a_user_must_give(corpus):
+    _, cases, _ = corpus
+    ur5, joint_g, panda, lugre = (cases[k]["runs"]["identify"]["command"] for k in CASES)
+    assert "--system urdf:" in ur5 and "--friction" not in ur5 and "--hold-missing" not in ur5
+    assert "--system joint --gravity" in joint_g and "--friction stribeck" in joint_g and "--layout" in joint_g
+    assert "--hold-missing" in panda and "--friction" not in panda  # the fingers are not in the log
+    assert "--system joint" in lugre and "--gravity" not in lugre and "--friction lugre" in lugre
+
+
+def test_accuracy_bounds(corpus):
+    """Validation within a factor of the noise floor, friction and the one-joint rigid body near the truth."""
+    data, cases, _ = corpus
+    ur5, joint_g, panda, lugre = (cases[k] for k in CASES)
+    # UR5, Coulomb, white noise [ratio to the floor 1.05, to the LS baseline 1.04, friction within 15 %]
+    assert ur5["floor_ratio"] < 1.3 and ur5["ls_ratio"] < 1.25
+    assert max(ur5["friction_err_pct"]) < 30.0
+    assert ur5["coverage"][0] >= 0.6 * ur5["coverage"][1]
+    # one joint + gravity at 81 Hz, Stribeck, coloured noise [ratio 1.95; J, g, Fs within 4.3 %]
+    assert joint_g["floor_ratio"] < 4.0
+    for name in ("J", "g_sin", "g_cos", "Fs"):
+        assert abs(joint_g["params"][name]["err_pct"]) < 10.0, name
+    # Panda in MuJoCo, quantised encoders [ratio 1.23, to the LS baseline 0.94; Fc of joints 1–6 within 17 %]
+    assert panda["floor_ratio"] < 1.6 and panda["ls_ratio"] < 1.2
+    for k in range(1, 7):
+        assert abs(panda["params"][f"panda_joint{k}/Fc"]["err_pct"]) < 30.0, k
+    # one joint, LuGre in micro-motions [ratio 2.03; Fv, Fc, Fs, σ0, J within 1.2 %]
+    assert lugre["floor_ratio"] < 3.5
+    for name in ("Fv", "Fc", "Fs", "sigma0", "J"):
+        assert abs(lugre["params"][name]["err_pct"]) < 6.0, name
+    # the pooled Coulomb/Stribeck/MuJoCo friction errors [median 3.0 %]
+    assert data["summary"]["friction_err_median_pct"] < 8.0

@@ -1,0 +1,87 @@
+"""Pre-processing chosen by what it predicts (identification/cross_validation.py): blocked folds in
+time, each filtered alone; the cut-off whose fit predicts the held-out effort best."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy import signal
+
+import frictionid_core as fid
+from frictionid_core.cli import main
+from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides
+from frictionid_core.identification.cross_validation import FOLDS, folds_of
+from frictionid_core.identification.orchestration import request_system
+from frictionid_core.identification.plan import plan_fit
+from frictionid_core.io import save_csv
+from frictionid_core.timeseries import JointSeries
+
+J, FV, FC = 0.4, 1.2, 0.8
+
+
+def vibrating_joint(seed: int, seconds: float = 20.0, fs: float = 1000.0, source: str = "est") -> JointSeries:
+    """One joint, J·q̈ + Fv·q̇ + Fc·sign(q̇) + 0.01 N·m noise, its position read with a 0.2 mrad
+    vibration band-limited to 40 Hz: coloured noise the rule's white-noise model takes for motion."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * fs)) / fs
+    w1, w2 = 2 * np.pi * 0.25, 2 * np.pi * 0.7
+    q = 0.6 * np.sin(w1 * t) + 0.2 * np.sin(w2 * t + 1.0)
+    qd = 0.6 * w1 * np.cos(w1 * t) + 0.2 * w2 * np.cos(w2 * t + 1.0)
+    qdd = -0.6 * w1**2 * np.sin(w1 * t) - 0.2 * w2**2 * np.sin(w2 * t + 1.0)
+    tau = J * qdd + FV * qd + FC * np.sign(qd) + rng.normal(0.0, 0.01, t.size)
+    vibration = signal.sosfiltfilt(signal.butter(2, 40.0 / (fs / 2), output="sos"), rng.normal(0.0, 1.0, t.size))
+    vibration *= 2e-4 / vibration.std()
+    return JointSeries(t, ["j"], (q + vibration)[:, None], tau[:, None], source=source)
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    est = vibrating_joint(0)
+    return est, fid.identify(est, IdentifyRequest(system="joint"))
+
+
+def test_the_cutoff_that_predicts_best_beats_the_rule_on_another_log(fitted):
+    """The rule takes the vibration for motion (7.5 Hz); the folds' predictions choose 2.2 Hz, and
+    the validation error on a second log of the same truth falls from 1.5 % to 0.44 % (measured)."""
+    est, r = fitted
+    p = r.preprocessing
+    choice = p["cross_validation"]
+    rule = choice["rule_cutoff_hz"]["j"]
+    assert p["cutoff_hz"]["j"] < 0.5 * rule and "cutoff_hz" in p["from_data"]
+    scores = [c["cv_relerr_pct"] for c in choice["candidates"]]
+    assert min(scores) < 0.5 * scores[0]  # the rule's own candidate comes first
+    val = vibrating_joint(1, source="val")
+    by_rule = fid.identify(est, IdentifyRequest(system="joint", preprocessing=PreprocessingOverrides(cutoff_hz=rule)))
+    assert fid.validate(val, r)["relerr_pct"] < 0.5 * fid.validate(val, by_rule)["relerr_pct"]
+    for name, truth in (("J", J), ("Fv", FV), ("Fc", FC)):
+        assert r.params[name] == pytest.approx(truth, rel=0.01), name
+
+
+def test_a_given_cutoff_is_not_cross_validated(fitted):
+    est, _ = fitted
+    r = fid.identify(est, IdentifyRequest(system="joint", preprocessing=PreprocessingOverrides(cutoff_hz=5.0)))
+    assert "cross_validation" not in r.preprocessing and r.preprocessing["cutoff_hz"] == {"j": 5.0}
+
+
+def test_folds_are_contiguous_and_cover_the_source_once(fitted):
+    est, _ = fitted
+    plan = plan_fit([est], request_system(IdentifyRequest(system="joint")))
+    pieces = [p.sources[0].series for p in folds_of(plan)]
+    assert len(pieces) == FOLDS
+    assert sum(len(p) for p in pieces) == len(est)
+    for a, b in zip(pieces[:-1], pieces[1:]):
+        assert a.t[-1] < b.t[0]
+
+
+def test_the_command_line_prints_the_choice_and_keeps_it(fitted, tmp_path, capsys):
+    est, r = fitted
+    save_csv(est, tmp_path / "est.csv")
+    assert main(["identify", str(tmp_path / "est.csv"), "--system", "joint", "--json", str(tmp_path / "r.json")]) == 0
+    out = capsys.readouterr().out
+    line = next(x for x in out.splitlines() if x.startswith("cut-off chosen by"))
+    assert f"{FOLDS}-fold blocked cross-validation" in line and "rule 7.5 Hz" in line
+    saved = json.loads((tmp_path / "r.json").read_text())
+    assert saved["preprocessing"]["cutoff_hz"] == pytest.approx(r.preprocessing["cutoff_hz"])
+    assert saved["preprocessing"]["cross_validation"]["candidates"]
