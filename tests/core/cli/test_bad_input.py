@@ -365,14 +365,15 @@ def test_duplicated_stamps_in_bag_strict(tmp_path, capsys):
 # ------------------------------------------------------------------------- solver
 def test_ls_solver_on_a_law_the_data_do_not_show_says_so(tmp_path, capsys, synthetic):
     """Tustin fitted by ls (variable projection) to Coulomb data: it succeeds, and its Stribeck
-    velocity, which these data cannot fix, is reported at its bound and undetermined."""
+    velocity, which these data cannot fix, is reported at its bound and undetermined (no σ: a parameter at
+    a bound is no identified value, identification/at_bound.py)."""
     save_csv(synthetic(), tmp_path / "s.csv")
     capsys.readouterr()
     code = main([str(a) for a in ["identify", tmp_path / "s.csv", "--system", "emps", "--friction", "tustin",
                                   "--solver", "ls", "--json", tmp_path / "r.json"]])
     err = capsys.readouterr().err
     assert code == 0, err
-    assert "at a search bound: vs" in err and "not determined by these data" in err
+    assert "at a search bound: vs" in err and "no σ: not an identified value" in err
     assert json.loads((tmp_path / "r.json").read_text())["params"]["vs"] > 0
 
 
