@@ -26,6 +26,7 @@ setup(
                             "frictionid_loop_controller = frictionid_ros.loop.controller_node:main",
                             "frictionid_loop = frictionid_ros.loop.loop_command:main"],
         "frictionid.commands": ["replay = frictionid_ros.replay:register",
-                                "loop = frictionid_ros.loop.loop_command:register"],
+                                "loop = frictionid_ros.loop.loop_command:register",
+                                "experiment = frictionid_ros.loop.experiment_command:register"],
     },
 )

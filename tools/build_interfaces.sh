@@ -67,6 +67,6 @@ cmake --install "$BUILD" > "$BUILD/install.log" 2>&1 \
 
 # Smoke test in a fresh interpreter (the wheels' bootstrapper sets LD_LIBRARY_PATH).
 env -u _ROS_WHEELS_BOOTSTRAP_COMPLETE -u PYTHONPATH "$PY" -c \
-  'from frictionid_interfaces.msg import IdentifiedParameters, JointFriction; from frictionid_interfaces.srv import Identify, ParametersFile; from frictionid_interfaces.action import Identify as IdentifyAction; Identify.Request(); IdentifyAction.Feedback(); IdentifiedParameters()' \
+  'from frictionid_interfaces.msg import IdentifiedParameters, JointFriction; from frictionid_interfaces.srv import Identify, ParametersFile; from frictionid_interfaces.action import Identify as IdentifyAction, RunExperiment; RunExperiment.Goal(); Identify.Request(); IdentifyAction.Feedback(); IdentifiedParameters()' \
   || die "installed, but 'import frictionid_interfaces' fails in $PY"
 echo "build_interfaces.sh: OK, frictionid_interfaces installed into $VENV"

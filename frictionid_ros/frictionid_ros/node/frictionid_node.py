@@ -16,7 +16,9 @@ Services: ``~/identify`` (Identify), ``~/identify_payload`` (IdentifyPayload: a 
 active robot parameters as the base, :mod:`frictionid_ros.identification.payload_service`),
 ``~/reset`` (std_srvs/Trigger: clear the buffer, cancel a running identification), ``~/save`` and
 ``~/load`` (ParametersFile: files of the results folder only). Actions: ``~/identify``
-(frictionid_interfaces/action/Identify: feedback, cancel) and ``~/identify_payload``.
+(frictionid_interfaces/action/Identify: feedback, cancel), ``~/identify_payload`` and
+``~/run_experiment`` (an identification experiment run on the robot through its controller, judged
+before anything is applied: :mod:`frictionid_ros.experiment`, :mod:`.experiment_action`).
 
 Lifecycle: a managed node (rclpy LifecycleNode): ``configure`` creates the subscriptions,
 publishers, services, action, worker and restores the parameters; ``activate``/``deactivate``
@@ -68,6 +70,7 @@ from frictionid_core import FrictionIdError
 from frictionid_ros.identification import IdentifyService, Online, PayloadService
 from frictionid_ros.inputs import NS, Inputs
 from frictionid_ros.node.action import identify_action, payload_action
+from frictionid_ros.node.experiment_action import Publishers, experiment_action, experiment_service
 from frictionid_ros.node.messages import diagnostic_array, fill_payload, inertia_msg, parameters_msg
 from frictionid_ros.parameters import NODE_NAME, changed_config, declare_parameters
 from frictionid_ros.runtime import schedule_this_thread
@@ -211,9 +214,15 @@ class FrictionIdNode(LifecycleNode):
                                                                  callback_group=group))
         self._keep(self.destroy_timer, self.create_timer(cfg.diagnostics_period_s, self._on_diagnostics,
                                                          callback_group=MutuallyExclusiveCallbackGroup()))
+        # ~/run_experiment: moves the robot through its controller (node.experiment_action, docs/experiment.md)
+        publishers = self._keep(lambda p: p.destroy(), Publishers(self))
+        self.experiment = experiment_service(self, lambda: self.cfg, self.identify_service, self.active, self._worker,
+                                             self.inputs, self.topics, publishers, self._log)
         for action in (identify_action(self, self.identify_service, lambda: self.inputs.joints, self._log_identify,
                                        identify),
-                       payload_action(self, self.payload_service, self._log_identify, identify)):
+                       payload_action(self, self.payload_service, self._log_identify, identify),
+                       experiment_action(self, self.experiment, lambda: self.inputs.joints, self._log_experiment,
+                                         ReentrantCallbackGroup())):
             self._keep(lambda a: a.destroy(), action)
 
         if cfg.joints:
@@ -275,6 +284,7 @@ class FrictionIdNode(LifecycleNode):
     def _on_joint_state(self, msg: JointState, t_rx: int) -> None:
         if self.inputs.joint_state(msg, t_rx) and self.cfg.feedforward_rate_hz == 0.0:
             self._publish_ff(t_rx)
+        self.experiment.on_joint_state(msg)  # into an experiment's bag while one records
 
     @_guarded
     def _on_effort(self, msg, t_rx: int) -> None:
@@ -322,6 +332,12 @@ class FrictionIdNode(LifecycleNode):
             self._log.info(f"identify: {message}")
         else:  # rclpy forbids one call site logging at two severities
             self._log.warning(f"identify: {message}")
+
+    def _log_experiment(self, ok: bool, message: str) -> None:
+        if ok:
+            self._log.info(f"run_experiment: {message}")
+        else:  # rclpy forbids one call site logging at two severities
+            self._log.warning(f"run_experiment: {message}")
 
     def _on_parameters(self, results: Results) -> None:
         """New active parameters (under ``active.lock``): feed them forward and publish them."""
@@ -380,7 +396,7 @@ class FrictionIdNode(LifecycleNode):
                                              feedforward_on=self._ff_on, **self.inputs.feedforward_values())
         self._pub_diag.publish(diagnostic_array(self.get_fully_qualified_name(), [
             ("joint buffer", ok, message, values), ("identification", *ident), ("safety gate", *self.online.status()),
-            ("payload", *self.payload_service.status()),
+            ("payload", *self.payload_service.status()), ("experiment", *self.experiment.diagnostics()),
         ], self.get_clock().now().to_msg()))
 
 

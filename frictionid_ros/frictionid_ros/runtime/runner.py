@@ -18,7 +18,8 @@ with warnings.catch_warnings():
 from frictionid_core import FrictionIdError
 
 GIL_SWITCH_INTERVAL = 0.0005  # [s]
-SERVICE_THREADS = 8  # identify (service and action), cancel, reset, save, load, online, lifecycle, diagnostics
+SERVICE_THREADS = 9  # identify (service and action), cancel, reset, save, load, online, lifecycle, diagnostics,
+# run_experiment (its goal waits for the whole experiment)
 NAME_CHECK_S = 4.0  # how long a starting node looks for another node of its name on the graph [s]: longer
 # than one discovery announcement period (3 s in Fast DDS), as a first exchange can be missed
 

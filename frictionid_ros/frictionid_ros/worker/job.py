@@ -77,7 +77,12 @@ def checked_result(reply: tuple, log_crash) -> tuple[IdentifyResult, Decision | 
     from frictionid_core import IdentifyResult
 
     result = payload[0]
-    values = result.params if isinstance(result, IdentifyResult) else result.payload.parameters()
+    if isinstance(result, IdentifyResult):
+        values = result.params
+    elif hasattr(result, "payload"):  # a PayloadResult
+        values = result.payload.parameters()
+    else:  # another task's outcome (frictionid_ros.experiment.tasks): its parameters()
+        values = result.parameters()
     bad = [k for k, v in values.items() if not math.isfinite(v)]
     if bad:
         raise FrictionIdError(f"identification failed: non-finite parameter(s) {bad}")

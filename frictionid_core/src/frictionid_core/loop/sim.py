@@ -17,6 +17,12 @@ for the joint's inertia m at the start. It is integrated alike: the friction at 
 for v₁ = v₀ and its slope in v₁ (the bristles' stiffness over the step included) go to
 ``qfrc_applied`` and ``dof_damping``, then the states advance with the v₁ MuJoCo found.
 
+Under a stiff position servo (``guard_reversals``, the arm of ``frictionid experiment``) a joint slowed
+near rest would chatter: away from v = 0 the tangent slope of a Stribeck hump is ≤ 0 (no implicit
+damping), yet one step of the friction alone, |f(v₀)|·dt/M, can be more than |v₀|, so the velocity
+flips sign every step (±0.05 rad/s on the TX40's joint 5, for ever). There the slope used is at least
+the secant f(v₀)/v₀ — the friction then never carries a joint through rest within one step.
+
 MuJoCo's own joint friction can be the hidden truth instead of (or beside) the core's law:
 ``damping`` (viscous, implicit) and ``frictionloss`` (dry friction as a soft constraint of
 MuJoCo's solver: below its level at low speed, where the arm sticks or creeps — up to a speed that
@@ -126,7 +132,7 @@ def mjcf(robot) -> str:
 class SimArm:
     """The arm of ``robot`` in MuJoCo at :data:`DT` with hidden friction ``friction`` (J, 5)
     Stribeck parameters of the core's law (None: none; ``law`` lugre: the LuGre law built from
-    them, module docstring); ``q0`` start position (J,) [rad | m].
+    them, module docstring); ``q0`` start position (J,) [rad | m]; ``guard_reversals``: module docstring.
     MuJoCo's own joint friction (module docstring), each (J,) or None (none): ``damping``
     [N·m·s/rad | N·s/m], ``frictionloss`` [N·m | N]. The rotor inertias are the robot model's armature.
 
@@ -136,7 +142,8 @@ class SimArm:
     """
 
     def __init__(self, robot, friction: np.ndarray | None, q0: np.ndarray | None = None, eps: float = SIM_EPS, *,
-                 damping: np.ndarray | None = None, frictionloss: np.ndarray | None = None, law: str = "stribeck"):
+                 damping: np.ndarray | None = None, frictionloss: np.ndarray | None = None, law: str = "stribeck",
+                 guard_reversals: bool = False):
         import mujoco
 
         self._mj = mujoco
@@ -167,6 +174,8 @@ class SimArm:
         self.drift, self.drift_s, self._drift_t0 = 0.0, 60.0, None
         self.tau = np.zeros(nv)
         self.tau_friction = np.zeros(nv)
+        self.guard_reversals = bool(guard_reversals)
+        self._full_m = np.zeros((nv, nv))
 
     def _lugre_params(self, stribeck: np.ndarray) -> np.ndarray:
         """LuGre parameters (J, 6) from Stribeck ones (J, 5) (module docstring)."""
@@ -248,6 +257,12 @@ class SimArm:
             f = self.law.torque_each(p, guesses, self.eps)
         f0, c = f[:n], (f[n:2 * n] - f[2 * n:]) / (2.0 * _SLOPE_H)
         np.maximum(c, 0.0, out=c)
+        if self.guard_reversals and not self.law.is_dynamic:  # module docstring
+            self._mj.mj_fullM(self.model, d, self._full_m)  # of the last step's state: near enough
+            with np.errstate(divide="ignore", invalid="ignore"):
+                secant = np.abs(f0 / v0)
+                flips = np.abs(f0) * self.model.opt.timestep / np.diag(self._full_m) > np.abs(v0)
+            np.maximum(c, np.where(flips & np.isfinite(secant), secant, 0.0), out=c)
         self.model.dof_damping[:] = self.damping + c if self.own_friction else c
         d.qfrc_applied[:] = self.tau - f0 + c * v0
         self._mj.mj_step(self.model, d)
