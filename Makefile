@@ -6,7 +6,7 @@ PIP    := $(PY) -m pip
 STAMP  := $(VENV)/.frictionid-setup
 IFACE_STAMP := $(VENV)/.frictionid-interfaces
 
-.PHONY: setup demo demo-loop demo-fleet test test-core bags bench-optim clean
+.PHONY: setup demo demo-loop demo-fleet test test-long test-core bags bench-optim clean
 
 setup: $(STAMP) $(IFACE_STAMP)
 
@@ -42,7 +42,12 @@ demo-loop: setup
 # The lint (ruff, configured in pyproject.toml) is part of the suite: a finding fails it.
 test: setup
 	$(VENV)/bin/ruff check .
-	$(VENV)/bin/pytest -q tests
+	$(VENV)/bin/pytest -q tests -m "not long"
+
+# The end-to-end runs of over ~15 s each (the payload loop, a whole TX40 replayed into the node, a stopped
+# worker, the EMPS report, streamed experiment positions: ~3.5 min), apart so make test stays well under 10 min.
+test-long: setup
+	$(VENV)/bin/pytest -q tests -m long
 
 # The quick tier: no ROS node or process, no test over ~3 s (markers in pytest.ini).
 test-core: setup

@@ -25,6 +25,7 @@ def test_black_box_learns_the_grey_box_residual():
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_report_writes_html_figures_and_json(tmp_path):
     study = tmp_path / "study"
     run_study(plan(["de", "pso"], ["coulomb"], 1, EMPS_ESTIMATION, EMPS_VALIDATION, pop=10, generations=5),

@@ -200,6 +200,7 @@ def test_an_effort_beyond_the_limit_aborts_and_applies_nothing(arm, ros):
     assert arm.active() == before
 
 
+@pytest.mark.long
 def test_streamed_positions_and_a_dry_run(arm, ros):
     """The position interface: the node streams the motion at 250 Hz (each command 40 ms ahead, the arm
     playing them back from a 40 ms buffer); a dry run judges, applies nothing. The arm's clock is its

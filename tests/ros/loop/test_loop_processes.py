@@ -47,6 +47,7 @@ def test_short_loop_feedforward_cuts_tracking_error(tmp_path):
                                                                    "loop_feedforward_on.png"]
 
 
+@pytest.mark.long
 def test_loop_with_a_payload_identified_by_the_node(tmp_path):
     """``--payload-kg 3``: the payload attached after the on phase is identified by the node within
     5 %, and with the controller's rigid-body feed-forward taking it the tracking error comes back

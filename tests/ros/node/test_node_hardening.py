@@ -271,6 +271,7 @@ def test_reset_cancels_a_running_identification(window, ros, node):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_wall_time_limit_stops_a_job(own_ros, workdir):
     ros = own_ros
     # 10 s: an ordinary fit of the window (the first one starting the worker) stays well inside it

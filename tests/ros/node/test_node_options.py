@@ -125,6 +125,7 @@ def test_effort_topic_reference_velocity_and_thread_worker(ros, workdir):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_full_tx40_robot_from_a_replayed_bag(ros, workdir):
     """The six-joint TX40 (Pinocchio base parameters + per-joint Coulomb friction): the node fed
     the bundled excitation bag agrees with the offline identification of the same samples, the

@@ -153,6 +153,7 @@ def _identified(ros: Ros, window: dict) -> bool:
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_a_stopped_worker_blocks_no_service(own_ros, workdir):
     """SIGSTOP the worker: ~/save answers at once while ~/identify waits; ~/identify is answered
     at max_wall_s with the worker killed and restarted; ~/reset answers at once and cancels the
