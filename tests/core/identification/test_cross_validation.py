@@ -85,33 +85,3 @@ def test_the_command_line_prints_the_choice_and_keeps_it(fitted, tmp_path, capsy
     saved = json.loads((tmp_path / "r.json").read_text())
     assert saved["preprocessing"]["cutoff_hz"] == pytest.approx(r.preprocessing["cutoff_hz"])
     assert saved["preprocessing"]["cross_validation"]["candidates"]
-
-
-def test_a_law_with_a_dip_is_scored_with_its_dip():
-    """A Stribeck joint (Fs 1.6 × Fc, vs 0.05 rad/s) crossing its dip at every reversal: scored with
-    its dip held at the truth's shape, the folds predict each other within the effort noise; the
-    Coulomb model, which has no dip, misses the dip's torque (measured 0.61 % against 3.9 %)."""
-    from frictionid_core.identification.cross_validation import (
-        Shape,
-        cross_validated_error,
-        fold_observations,
-        resolved_settings,
-    )
-
-    rng = np.random.default_rng(3)
-    fs, fc, vs, delta = 1000.0, 0.8, 0.05, 2.0
-    t = np.arange(int(20 * fs)) / fs
-    w = 2 * np.pi * 0.3
-    q, qd, qdd = 0.5 * np.sin(w * t), 0.5 * w * np.cos(w * t), -0.5 * w**2 * np.sin(w * t)
-    dip = (1.6 * fc - fc) * np.exp(-np.abs(qd / vs) ** delta)
-    tau = J * qdd + FV * qd + (fc + dip) * np.sign(qd) + rng.normal(0.0, 0.01, t.size)
-    series = JointSeries(t, ["j"], q[:, None], tau[:, None], source="dip")
-    request = IdentifyRequest(system="joint", friction="stribeck")
-    plan = plan_fit([series], request_system(request))
-    settings = resolved_settings(plan, request.preprocessing.apply(request_system(request).preprocessing),
-                                 {"j": 20.0})
-    folds = fold_observations(plan, settings)
-    coulomb = cross_validated_error(folds)
-    stribeck = cross_validated_error(folds, shape=Shape("stribeck", {"vs": vs, "delta": delta}))
-    assert stribeck.relerr_pct < 0.3 * coulomb.relerr_pct
-    assert stribeck.relerr_pct < 2.0  # the noise is 0.01 N·m of a ~1 N·m torque
