@@ -45,15 +45,6 @@ BETTER_SHARE = 0.98
 
 
 @dataclass(frozen=True)
-class Shape:
-    """A law with a dip (``friction``) and its shape parameters' values ({name: value}, as a fit
-    found them): what the candidates are scored with once a first fit has found the dip."""
-
-    friction: str
-    values: dict[str, float]
-
-
-@dataclass(frozen=True)
 class CvScore:
     """The cross-validated relative error (%) of a candidate: overall and per row joint."""
 
@@ -105,25 +96,19 @@ def resolved_settings(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str
 
 
 def cross_validated_error(observations: list[Observation], asymmetric: bool = False,
-                          fixed: dict[str, float] | None = None, shape: Shape | None = None) -> CvScore:
+                          fixed: dict[str, float] | None = None) -> CvScore:
     """Each observation predicted by the Coulomb model fitted on the others (least squares of least
     norm on their summed normal equations, ``fixed`` parameters held at their values): the relative
     error (%) of the predictions of the recorded effort at the analysis instants, over all of
-    them, per row joint and overall. ``shape``: a law with a dip instead, its shape parameters
-    held at the values given (its dip then a column of the closed form, as Coulomb's sign is)."""
-    law = get_model(shape.friction if shape else "coulomb", asymmetric)
-    held_values = {**(fixed or {}), **(shape.values if shape else {})}
+    them, per row joint and overall."""
+    law = get_model("coulomb", asymmetric)
     joints = observations[0].joints
     parts, held = [], None
     for obs in observations:
-        model = IdentificationModel(obs, law, fixed=dict(held_values))
+        model = IdentificationModel(obs, law, fixed=dict(fixed or {}))
         metric = obs.metric
-        on = model if metric is obs else IdentificationModel(metric, law, fixed=dict(held_values))
-        if model.is_linear:
-            parts.append((*model.normal_equations, on.design(), metric.y, metric.used))
-        else:
-            X = model.design(_shape_vector(model))[0]
-            parts.append((X.T @ X, X.T @ obs.y, on.design(_shape_vector(on))[0], metric.y, metric.used))
+        on = model if metric is obs else IdentificationModel(metric, law, fixed=dict(fixed or {}))
+        parts.append((*model.normal_equations, on.design(), metric.y, metric.used))
         if held is None:
             held = np.array([i in model.fixed_values for i in model.linear_index])
             values = np.array([model.fixed_values.get(i, 0.0) for i in model.linear_index])
@@ -140,14 +125,6 @@ def cross_validated_error(observations: list[Observation], asymmetric: bool = Fa
     per_joint = {j: float(100 * np.sqrt(e / r)) if r > 0 else float("nan") for j, e, r in zip(joints, err, ref)}
     total = float(100 * np.sqrt(err.sum() / ref.sum())) if ref.sum() > 0 else float("nan")
     return CvScore(total, per_joint)
-
-
-def _shape_vector(model: IdentificationModel) -> np.ndarray:
-    """(1, k) the parameters of ``model`` with its fixed values (the shape parameters) in place."""
-    x = np.zeros((1, model.k))
-    for i, v in model.fixed_values.items():
-        x[0, i] = v
-    return x
 
 
 def _least_norm(G: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -174,13 +151,10 @@ def cutoff_candidates(rule_cutoffs: dict[str, float]) -> list[dict[str, float]]:
 
 
 def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetric: bool = False,
-                               fixed: dict[str, float] | None = None, shape: Shape | None = None
-                               ) -> tuple[dict[str, float] | None, dict]:
+                               fixed: dict[str, float] | None = None) -> tuple[dict[str, float] | None, dict]:
     """({data joint: cut-off} chosen by cross-validation, the record of the choice), or (None,
     record) when the data are too short for the folds. ``requested``: the pre-processing asked for
-    (its cut-off None: chosen here). ``shape``: score with that law's dip (see
-    :func:`cross_validated_error`; the Coulomb model, which has none, prefers the cut-offs that
-    smooth a dip away).
+    (its cut-off None: chosen here).
 
     The candidate that predicts every row best is taken where it beats the rule's by BETTER_SHARE;
     then each joint whose own effort is a row takes the candidate that predicts that effort best
@@ -193,13 +167,12 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
                 rule_cutoffs[j] = max(c, rule_cutoffs.get(j, 0.0))
     except FrictionIdError as exc:  # the identification says why, in its own words
         return None, {"folds": FOLDS, "skipped": str(exc)}
-    record = {"folds": FOLDS, "rule_cutoff_hz": rule_cutoffs, "candidates": [],
-              "model": shape.friction if shape else "coulomb"}
+    record = {"folds": FOLDS, "rule_cutoff_hz": rule_cutoffs, "candidates": []}
     scores: list[tuple[dict[str, float], CvScore]] = []
     for cutoffs in cutoff_candidates(rule_cutoffs):
         try:
             settings = resolved_settings(plan, requested, cutoffs)
-            score = cross_validated_error(fold_observations(plan, settings), asymmetric, fixed, shape)
+            score = cross_validated_error(fold_observations(plan, settings), asymmetric, fixed)
         except (TooFewSamples, FrictionIdError) as exc:
             if not scores:
                 record["skipped"] = str(exc)

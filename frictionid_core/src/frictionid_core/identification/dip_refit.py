@@ -23,28 +23,18 @@ ADVICE_MARGIN = 0.02  # a cut-off advised for a dip: this much above its need
 
 def fit_at_dip_rates(model: IdentificationModel, settings: Preprocessing,
                      rebuild: Callable[[Preprocessing], IdentificationModel],
-                     fit: Callable[..., Fit],
-                     rescore: Callable[[IdentificationModel, np.ndarray], tuple[dict, str]] | None = None
-                     ) -> tuple[IdentificationModel, Fit]:
+                     fit: Callable[..., Fit]) -> tuple[IdentificationModel, Fit]:
     """``fit(model)``, then while the dip of the estimate needs finer rates than those chosen from
     the data, ``fit(rebuild(settings with those rates), previous)`` (too coarse a rate
     overestimates vs, so this may take a few rounds); a dynamic law's, while it predicts the effort
-    better at higher cut-offs (:func:`~.dynamic_rates.presliding_changes`). Cut-offs chosen by
-    cross-validation are chosen again with the estimate's dip by ``rescore(model, x)`` (the
-    changes and why) instead of raised to its need. Returns the last model and its fit.
+    better at higher cut-offs (:func:`~.dynamic_rates.presliding_changes`). Returns the last model
+    and its fit.
     ``fit(model, previous=None)``: see :func:`frictionid_core.identification.solve.fit_static`."""
     result = fit(model)
     dynamic = model.friction.is_dynamic
     for _ in range(DIP_ROUNDS):
-        if dynamic:
-            changes, why = presliding_changes(model, result.x, settings, rebuild)
-        elif rescore is not None and not model.is_linear:
-            changes, why = rescore(model, result.x)
-            if not changes:  # the dip's need of an analysis rate at the cut-offs kept
-                changes = decimation_changes(model, result.x, model.obs.preprocessing.cutoff_hz)
-                why = model_dip_needs(model, result.x)[2] if changes else ""
-        else:
-            changes, why = dip_changes(model, result.x)
+        changes, why = (presliding_changes(model, result.x, settings, rebuild) if dynamic
+                        else dip_changes(model, result.x))
         if not changes:
             break
         from_data = model.obs.report["from_data"]
@@ -100,21 +90,6 @@ def cutoff_shortfall(cutoff_hz: float | dict[str, float], needs: dict[str, float
         return any(fc > cutoff_hz * (1 + 1e-9) for fc in needs.values())
     raised = raised_cutoffs(cutoff_hz, needs)
     return any(raised[j] > cutoff_hz[j] * (1 + 1e-9) for j in raised)
-
-
-def decimation_changes(model: IdentificationModel, x: np.ndarray, cutoff_hz: dict[str, float]) -> dict:
-    """The decimation (and row thinning) that go with new cut-offs ``cutoff_hz`` of ``model``
-    when the data chose its decimation: the rule's for them, at most what the dip of ``x`` needs
-    (see :func:`dip_changes`); {} otherwise."""
-    pre, chosen = model.obs.preprocessing, model.obs.report["from_data"]
-    if "decimate" not in chosen:
-        return {}
-    n, _, _, scales = model_dip_needs(model, x)
-    rule = rule_decimation(model.obs.report["sample_rate_hz"], cutoff_hz)
-    n = min(n, rule)
-    thin = max(1, rule // n)
-    return {"decimate": n, "thin": thin, "dip_scale": scales if thin > 1 else None} if n != pre.decimate or \
-        thin != pre.thin else {}
 
 
 def dip_changes(model: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:

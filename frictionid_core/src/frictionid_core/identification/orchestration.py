@@ -15,13 +15,8 @@ from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import get_model
 from frictionid_core.identification import diagnostics
 from frictionid_core.identification.at_bound import fit_at_bound
-from frictionid_core.identification.cross_validation import Shape, choose_by_cross_validation, record_choice
-from frictionid_core.identification.dip_refit import (
-    decimation_changes,
-    dip_advice,
-    fit_at_dip_rates,
-    settled_dip_advice,
-)
+from frictionid_core.identification.cross_validation import choose_by_cross_validation, record_choice
+from frictionid_core.identification.dip_refit import dip_advice, fit_at_dip_rates, settled_dip_advice
 from frictionid_core.identification.dynamic_fit import fit_dynamic
 from frictionid_core.identification.effort_sign import checked_effort_sign
 from frictionid_core.identification.identifiability import identifiability
@@ -169,21 +164,7 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
     def fit(m: IdentificationModel, previous: Fit | None = None) -> Fit:
         return (fit_dynamic if m.friction.is_dynamic else fit_static)(m, solver, progress, previous)
 
-    def rescore(m: IdentificationModel, x: np.ndarray) -> tuple[dict, str]:
-        """The cut-offs cross-validation chooses with the dip of ``x`` (module doc)."""
-        nonlocal choice
-        shape = Shape(request.friction, {m.names[i]: float(x[i]) for i in m.nonlinear_index})
-        cutoffs, record = choose_by_cross_validation(fit_plan, settings, request.asymmetric, fixed_request, shape)
-        current = m.obs.preprocessing.cutoff_hz
-        if cutoffs is None or all(abs(cutoffs[j] - current[j]) <= 1e-9 * current[j] for j in cutoffs):
-            return {}, ""
-        choice = record
-        moved = ", ".join(f"{j} {current[j]:.4g} → {cutoffs[j]:.4g} Hz" for j in cutoffs
-                          if abs(cutoffs[j] - current[j]) > 1e-9 * current[j])
-        return ({"cutoff_hz": cutoffs, **decimation_changes(m, x, cutoffs)},
-                f"cut-offs chosen again by cross-validation with the fit's {m.friction.label} dip ({moved})")
-
-    model, first = fit_at_dip_rates(model, fit_settings, rebuild, fit, rescore if choice is not None else None)
+    model, first = fit_at_dip_rates(model, fit_settings, rebuild, fit)
     if request.load_dependent:  # Fc_load: the closed form alternated with the rigid-body torque
         model, first = fit_with_load(model, first, warnings, fit)
     x, std, cond, res = first.x, first.std, first.cond, first.optim
