@@ -88,8 +88,11 @@ def test_accuracy_bounds(corpus):
     assert ur5["floor_ratio"] < 1.3 and ur5["ls_ratio"] < 1.25
     assert max(ur5["friction_err_pct"]) < 30.0
     assert ur5["coverage"][0] >= 0.6 * ur5["coverage"][1]
-    # one joint + gravity at 81 Hz, Stribeck, coloured noise [ratio 1.95; J, g, Fs within 4.3 %]
-    assert joint_g["floor_ratio"] < 4.0
+    # one joint + gravity at 81 Hz, Stribeck, coloured noise [ratio 4.25; J, g, Fs within 9 %]: validate keeps
+    # the identification's cut-off, 11.5 Hz raised by the dip rule (1.95 when validate chose it again; even the
+    # truth validates at 11 % there). Cross-validating that cut-off with the fit's dip gave 1.95 here but made
+    # ten fresh Stribeck cases worse (seed 4711: within the floor 4 → 2, friction median 1.7 → 4.8 %): not taken.
+    assert joint_g["floor_ratio"] < 5.0
     for name in ("J", "g_sin", "g_cos", "Fs"):
         assert abs(joint_g["params"][name]["err_pct"]) < 10.0, name
     # Panda in MuJoCo, quantised encoders [ratio 1.23, to the LS baseline 0.94; Fc of joints 1–6 within 17 %]
