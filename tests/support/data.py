@@ -34,6 +34,17 @@ def emps_like(n: int = 3000, dt: float = 1e-3, M: float = 95.0, Fv: float = 200.
     return JointSeries(t, [joint], q, tau, source="synthetic")
 
 
+def one_way_series() -> JointSeries:
+    """A one-direction move (q̇ ≥ 0.05 m/s throughout): sign(q̇) is the constant column, so Fc and the
+    offset are collinear. τ = 95·q̈ + 200·q̇ + 20 (offset 0), 10 s at 1 kHz."""
+    t = np.arange(10001) * 1e-3
+    w = 2 * np.pi * 2 / 3
+    q = 0.1 * t + 0.05 / w * np.sin(w * t)
+    qd = 0.1 + 0.05 * np.cos(w * t)
+    qdd = -0.05 * w * np.sin(w * t)
+    return JointSeries(t, ["emps"], q, 95.0 * qdd + 200.0 * qd + 20.0, source="one-way")
+
+
 def reversal_motion(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(q, q̇, q̈) of 5 s segments: 4 s of whole sine cycles at one of six amplitudes (0.02 to 0.8
     rad/s) and rates, smoothly windowed, then 1 s at rest: fast and slow reversals and dwells."""

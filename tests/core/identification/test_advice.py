@@ -14,7 +14,7 @@ import pytest
 from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides, identify
 from frictionid_core.io import load
 from frictionid_core.timeseries import JointSeries
-from support.data import BAGS, emps_like
+from support.data import BAGS, emps_like, one_way_series
 
 
 def warned(result, head: str) -> list[str]:
@@ -35,16 +35,6 @@ def two_sines(seconds: float = 20.0, seed: int = 0, friction=None) -> JointSerie
 
 def stribeck(fs: float, fc: float, vs: float):
     return lambda v: (fc + (fs - fc) * np.exp(-(v / vs) ** 2)) * np.sign(v)
-
-
-def one_way() -> JointSeries:
-    """q̇ ≥ 0.05 m/s throughout (tests/core/identification/test_selection.py)."""
-    t = np.arange(10001) * 1e-3
-    w = 2 * np.pi * 2 / 3
-    q = 0.1 * t + 0.05 / w * np.sin(w * t)
-    qd = 0.1 + 0.05 * np.cos(w * t)
-    qdd = -0.05 * w * np.sin(w * t)
-    return JointSeries(t, ["emps"], q, 95.0 * qdd + 200.0 * qd + 20.0, source="one-way")
 
 
 def test_a_parameter_at_a_bound_is_gone_once_the_bounds_are_widened():
@@ -75,7 +65,7 @@ def test_static_friction_below_coulomb_is_gone_with_the_coulomb_law():
 
 
 def test_a_one_way_move_is_quiet_once_the_offset_is_fixed_as_named():
-    s = one_way()
+    s = one_way_series()
     free = identify(s, IdentifyRequest(system="emps"))
     (direction,) = warned(free, "moves in one direction only")
     (unresolved,) = warned(free, "the data do not resolve")
@@ -87,7 +77,7 @@ def test_a_one_way_move_is_quiet_once_the_offset_is_fixed_as_named():
 
 
 def test_an_asymmetric_law_on_a_one_way_move_follows_its_advice_to_quiet():
-    s = one_way()
+    s = one_way_series()
     asym = identify(s, IdentifyRequest(system="emps", asymmetric=True))
     (w,) = warned(asym, "moves in one direction only")
     assert w.endswith("Fv_neg, Fc_neg are not identifiable; use a symmetric friction law (no --asymmetric)")

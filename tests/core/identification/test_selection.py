@@ -30,7 +30,7 @@ from frictionid_core.model.least_squares import box_quadratic
 from frictionid_core.preprocess import Preprocessing
 from frictionid_core.systems import get_system, observe
 from frictionid_core.timeseries import JointSeries
-from support.data import BAGS
+from support.data import BAGS, one_way_series
 
 STRIBECK = {"Fv": 2.0, "Fc": 1.0, "Fs": 1.6, "vs": 0.05, "delta": 1.0}
 # A 100 Hz analysis rate (cut-off 100 Hz, decimation 10), at which the dip pipeline's own bias on
@@ -55,17 +55,6 @@ def friction_series(seconds: float = 20.0, *, params: dict = STRIBECK, offset: f
         qd = 0.5 * np.cos(w * t + phase)
         eff.append(law.torque([params[n] for n in law.names], qd) + offset + noise * rng.standard_normal(t.size))
     return JointSeries(t, list(joints), np.column_stack(q), np.column_stack(eff), source=source)
-
-
-def one_way_series() -> JointSeries:
-    """A one-direction move (q̇ ≥ 0.05 m/s throughout): sign(q̇) is the constant column, so Fc and the
-    offset are collinear. τ = 95·q̈ + 200·q̇ + 20 (offset 0), 10 s at 1 kHz."""
-    t = np.arange(10001) * 1e-3
-    w = 2 * np.pi * 2 / 3
-    q = 0.1 * t + 0.05 / w * np.sin(w * t)
-    qd = 0.1 + 0.05 * np.cos(w * t)
-    qdd = -0.05 * w * np.sin(w * t)
-    return JointSeries(t, ["emps"], q, 95.0 * qdd + 200.0 * qd + 20.0, source="one-way")
 
 
 def run_json(argv, path):
