@@ -23,13 +23,14 @@ system, layout, ``--hold-missing``, ``--gravity`` and — for the Stribeck and L
 ``frictionid validate`` on a separate validation log of the same truth), then:
 
 * ``val_relerr_pct`` (validate's ``relerr_pct``), ``floor_pct`` (the log's effort channel without its
-  additive noise against the recorded one, 100·‖y − y_clean‖/‖y‖, on the baseline's validation rows;
+  additive noise against the recorded one, 100·‖y − y_clean‖/‖y‖, on the baseline's validation rows of
+  the excited joints — a trembling joint is not fitted, and its effort would set another floor;
   validate's own ``noise_floor_pct`` beside it) and their ratio;
 * ``baseline_relerr_pct``: an independent least-squares fit (Pinocchio's joint torque regressor of every
   body + per joint rotor inertia, viscous, Coulomb and offset columns; positions resampled at the mean
   rate, Butterworth order 4 at 10 Hz (≤ 0.2 × rate) forward-backward, central differences, ≈ 200 Hz rows,
   1 s trimmed, rows slower than 2 % of the joint's 99th-percentile speed left out) validated on the same
-  rows, and the ratio product / baseline;
+  rows (excited joints), and the ratio product / baseline;
 * parameter errors against the truth under the result's names (``<joint>/Fv``, ``<joint>/Fc``, … and
   ``<joint>.Ia`` where the result has it; ``Fv``, ``Fc``, ``J``, ``g_sin``, ``g_cos`` for one joint) and
   whether 1.96 σ (``std``; ``std_robust`` too) holds the truth;
@@ -37,7 +38,10 @@ system, layout, ``--hold-missing``, ``--gravity`` and — for the Stribeck and L
   the reversed effort (and negated the right joint).
 
 Summary: ``val_within_1.2_floor``, ``friction_err_median_pct`` and ``friction_err_p90_pct`` (|error| of Fc
-and Fv of every excited joint whose truth is a static law: Coulomb, Stribeck, MuJoCo), ``coverage_1.96``,
+and Fv of every excited joint whose truth is a static law: Coulomb, Stribeck, MuJoCo), ``coverage_1.96``
+(the share of the parameters the result gives a calibrated σ, ``std_robust``, whose truth lies within
+1.96 σ; ``identified_params`` of them — a parameter held at a bound or not determined has no σ, claims
+nothing and is counted in ``unidentified_params``; ``coverage_1.96_white`` the same with ``std``),
 ``internal_errors``, ``tracebacks``, ``val_vs_ls_within_1.05`` and ``per_class`` rows (arm, law, noise,
 excitation, format, rate band). A case the bench itself fails on is ``bench_error``, not counted against
 the product. Writes OUT.json and prints a table.
@@ -50,6 +54,7 @@ import json
 import math
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -181,7 +186,7 @@ def _reversal(case: sim.Case, result: dict | None, said: bool) -> dict | None:
 
 
 def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, timeout: float,
-             diagnostic: bool = True) -> dict:
+             diagnostic: bool = True, identify_args: tuple[str, ...] = ()) -> dict:
     """Draw, simulate, write, run the CLI, compare: one case's record (``status`` says how far it got)."""
     t_start = time.perf_counter()
     tmp = Path(tempfile.mkdtemp(prefix=f"acc_{sub_seed}_"))
@@ -216,7 +221,7 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
     val_src, val_layout = paths["validation"]
     rjson, vjson = tmp / "result.json", tmp / "validation.json"
     ident = [*FRICTIONID, "identify", str(est_src), *(["--layout", str(est_layout)] if est_layout else []),
-             *system, *hold, *law, "--json", str(rjson)]
+             *system, *hold, *law, *identify_args, "--json", str(rjson)]
     runs = {}
     first = _run(ident, timeout)
     if first["exit_code"] == 2 and "needs a model linear in its parameters" in (first["error"] or ""):
@@ -316,12 +321,25 @@ def _cleanup(tmp: Path, keep: str | None, sub_seed: int) -> None:
 
 
 # --------------------------------------------------------------------------------------------- summary
+def _sigma_given(sigma) -> bool:
+    return isinstance(sigma, (int, float)) and math.isfinite(sigma) and sigma > 0
+
+
+def _coverage(counted: list[dict], key: str) -> tuple[float | None, int, int]:
+    """(share of the parameters given a σ under ``key`` (``std_robust``: the calibrated σ, or
+    ``std``) whose truth lies within 1.96 σ, how many were given one, how many were not: held at a
+    bound or not determined — no claim, so not counted in the share)."""
+    rows = [r for c in counted for r in (c.get("params") or {}).values()]
+    given = [r for r in rows if _sigma_given(r.get(key))]
+    hits = sum(r["abs_err"] <= Z * r[key] for r in given)
+    return (hits / len(given) if given else None), len(given), len(rows) - len(given)
+
+
 def _figures(cases: list[dict]) -> dict:
     counted = [c for c in cases if c.get("status") != "bench_error"]
     n = len(counted)
     errs = [e for c in counted for e in c.get("friction_err_pct", [])]
-    cov = [c.get("coverage", [0, 0]) for c in counted]
-    covr = [c.get("coverage_robust", [0, 0]) for c in counted]
+    calibrated, identified, unidentified = _coverage(counted, "std_robust")
     frac = lambda key: (sum(bool(c.get(key)) for c in counted) / n) if n else None
     med = lambda xs: float(np.median(xs)) if xs else None
     return {
@@ -329,12 +347,13 @@ def _figures(cases: list[dict]) -> dict:
         "val_within_1.2_floor": frac("within_floor"),
         "friction_err_median_pct": med(errs),
         "friction_err_p90_pct": float(np.percentile(errs, 90)) if errs else None,
-        "coverage_1.96": (sum(c[0] for c in cov) / sum(c[1] for c in cov)) if sum(c[1] for c in cov) else None,
+        "coverage_1.96": calibrated,
         "internal_errors": sum(bool(c.get("internal_error")) for c in counted),
         "tracebacks": sum(bool(c.get("traceback")) for c in counted),
         "val_vs_ls_within_1.05": frac("within_ls"),
-        "coverage_1.96_robust": (sum(c[0] for c in covr) / sum(c[1] for c in covr)) if sum(c[1] for c in covr)
-        else None,
+        "coverage_1.96_white": _coverage(counted, "std")[0],
+        "identified_params": identified,
+        "unidentified_params": unidentified,
         "floor_ratio_median": med([c["floor_ratio"] for c in counted if c.get("floor_ratio") is not None]),
         "ls_ratio_median": med([c["ls_ratio"] for c in counted if c.get("ls_ratio") is not None]),
         "product_failures": sum(c.get("status") not in ("ok",) for c in counted),
@@ -394,8 +413,8 @@ def table(summary: dict) -> str:
         row(r["dimension"], str(r["class"]), r)
     lines.append("≤1.2fl: validation within 1.2 × the noise floor; ≤1.2fk: the same with the identification's cut-offs "
                  "and decimation given to validate (a diagnostic); ≤1.05ls: within 1.05 × the LS baseline; fl.rat, "
-                 "ls.rat: median ratios; err50/90%: |error| of Fc, Fv (static laws); cov: 1.96 σ coverage; fail: "
-                 "product failures; int, tb: internal errors, tracebacks")
+                 "ls.rat: median ratios; err50/90%: |error| of Fc, Fv (static laws); cov: 1.96 σ (calibrated) "
+                 "coverage of the parameters given a σ; fail: product failures; int, tb: internal errors, tracebacks")
     lines.append(f"bench errors (not the product's): {summary['bench_errors']}")
     return "\n".join(lines)
 
@@ -429,6 +448,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--keep", default=None, metavar="DIR", help="keep each case's logs and results in DIR/case_K")
     ap.add_argument("--no-diagnostic", action="store_true",
                     help="skip the diagnostic cross-test under the identification's own cut-offs (faster)")
+    ap.add_argument("--identify-args", default="", metavar="'ARGS'",
+                    help="extra arguments of every identify command (an A/B of a setting on the same cases), "
+                         "e.g. '--decimate 1'")
     ap.add_argument("--timeout", type=float, default=1200.0, help="per CLI command, s (default 1200)")
     ap.add_argument("--json", default=None, metavar="OUT", help="write the cases and the summary here")
     ap.add_argument("--pool", nargs="+", default=None, metavar="RUN.json",
@@ -476,7 +498,7 @@ def main(argv: list[str] | None = None) -> int:
     cases: list[dict] = [None] * len(sub_seeds)
     with ProcessPoolExecutor(max_workers=max(1, args.workers)) as pool:
         futures = {pool.submit(run_case, s, per_case[i], args.quick, args.keep, args.timeout,
-                               not args.no_diagnostic): i
+                               not args.no_diagnostic, tuple(shlex.split(args.identify_args))): i
                    for i, s in enumerate(sub_seeds)}
         for fut in as_completed(futures):
             i = futures[fut]
@@ -497,7 +519,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _write(path: str, seed, sub_seeds, args, overrides, summary, cases, partial: bool) -> None:
-    out = {"seed": seed, "sub_seeds": sub_seeds, "quick": args.quick, "overrides": overrides, "partial": partial,
+    out = {"seed": seed, "sub_seeds": sub_seeds, "quick": args.quick, "overrides": overrides,
+           "identify_args": args.identify_args, "partial": partial,
            "summary": summary, "cases": cases}
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(path).with_suffix(".part")

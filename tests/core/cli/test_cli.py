@@ -67,14 +67,15 @@ def test_identify_without_json_writes_nothing(csv_file, tmp_path):
 def test_print_table_contains_parameters_and_metrics():
     result = {"system": "emps", "friction": "coulomb", "asymmetric": True, "solver": "ls", "source": "x.csv",
               "params": {"M": 95.1, "Fv_pos": 166.7, "Fc_neg": 20.6}, "std": {"M": 0.1085},
-              "metrics": {"relerr_pct": 3.11, "r2": float("nan")}}
+              "std_robust": {"M": 0.31, "Fv_pos": float("nan")}, "metrics": {"relerr_pct": 3.11, "r2": float("nan")}}
     buf = io.StringIO()
     print_table(result, out=buf)
     text = buf.getvalue()
     assert "(asymmetric)" in text and "solver ls" in text and "source: x.csv" in text
     lines = text.splitlines()
     row = {ln.split()[0]: ln.split()[1:] for ln in lines if ln.split() and ln.split()[0] in result["params"]}
-    assert row == {"M": ["95.1", "0.1085"], "Fv_pos": ["166.7", "—"], "Fc_neg": ["20.6", "—"]}
+    assert row == {"M": ["95.1", "0.1085", "0.31"], "Fv_pos": ["166.7", "—", "—"], "Fc_neg": ["20.6", "—", "—"]}
+    assert "σ calibrated" in text
     assert "relerr_pct 3.11" in text and "r2 —" in text
 
 

@@ -299,7 +299,8 @@ def test_emps_table_keeps_every_printed_digit(capsys):
                  "--solver", "ls"]) == 0
     text = capsys.readouterr().out
     rows = {ln.split()[0]: ln.split()[1:] for ln in text.splitlines() if ln.split()}
-    assert rows["M"] == ["95.1089", "0.10848"] and rows["Fv"][0] == "203.503" and rows["Fc"][0] == "20.3935"
+    assert rows["M"][:2] == ["95.1089", "0.10848"] and rows["Fv"][0] == "203.503" and rows["Fc"][0] == "20.3935"
+    assert float(rows["M"][2]) > float(rows["M"][1])  # the calibrated σ: the residuals are coloured
     assert rows["offset"][0] == "-3.16481"
     assert "relerr_pct 4.08336," in text and "cond 25.9883" in text
     assert "preprocessing: Butterworth order 4 at 100 Hz, motion bandwidth 3.66 Hz, decimation 10 → 100 Hz, " \

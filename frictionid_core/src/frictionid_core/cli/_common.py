@@ -296,13 +296,17 @@ def print_table(result: dict, out=None) -> None:
               file=out)
     if result.get("fixed"):
         print("fixed: " + ", ".join(f"{k} = {fmt(v)}" for k, v in result["fixed"].items()), file=out)
-    print(f"{'parameter':<16}{'value':>14}{'σ':>12}", file=out)
+    # σ: of white residuals (std); σ calibrated: for coloured residuals and model error (std_robust,
+    # "—" where the data do not determine the parameter): 1.96 of it is the error bar to quote
+    calibrated = result.get("std_robust") or {}
+    print(f"{'parameter':<16}{'value':>14}{'σ':>12}{'σ calibrated':>15}", file=out)
     at_bound = result.get("at_bound") or {}
     for name, value in result["params"].items():
         if name in at_bound:  # not an identified value: the bound it ends at, no σ
-            print(f"{name:<16}{'at bound ' + fmt(at_bound[name]):>14}{'—':>12}", file=out)
+            print(f"{name:<16}{'at bound ' + fmt(at_bound[name]):>14}{'—':>12}{'—':>15}", file=out)
             continue
-        print(f"{name:<16}{fmt(value):>14}{fmt(result['std'].get(name)):>12}", file=out)
+        print(f"{name:<16}{fmt(value):>14}{fmt(result['std'].get(name)):>12}{fmt(calibrated.get(name)):>15}",
+              file=out)
     print_metrics(result["metrics"], out)
 
 
