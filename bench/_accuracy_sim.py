@@ -214,6 +214,8 @@ def draw_case(sub_seed: int, overrides: dict | None = None, quick: bool = False)
     if arm in ONE_JOINT and excitation == "trembling":  # a one-joint system has no other joint to excite
         excitation = str(rl.choice([e for e in EXCITATIONS if e != "trembling"]))
     excitation = o.get("excitation") or excitation
+    if arm in ONE_JOINT and excitation == "trembling" and "arm" not in o:  # asked for: an arm that has others
+        arm = str(rl.choice([a for a in ARMS if a not in ONE_JOINT]))
     if arm in ONE_JOINT and excitation == "trembling":
         raise ValueError("a one-joint system has no other joint to excite: no 'trembling' case")
     fmt = o.get("format") or str(rl.choice(FORMATS))

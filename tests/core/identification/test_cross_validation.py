@@ -12,7 +12,7 @@ from scipy import signal
 import frictionid_core as fid
 from frictionid_core.cli import main
 from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides
-from frictionid_core.identification.cross_validation import FOLDS, folds_of
+from frictionid_core.identification.cross_validation import FOLDS, MAX_PIECES_PER_FOLD, MIN_PIECE_S, folds_of
 from frictionid_core.identification.orchestration import request_system
 from frictionid_core.identification.plan import plan_fit
 from frictionid_core.io import save_csv
@@ -65,14 +65,20 @@ def test_a_given_cutoff_is_not_cross_validated(fitted):
     assert "cross_validation" not in r.preprocessing and r.preprocessing["cutoff_hz"] == {"j": 5.0}
 
 
-def test_folds_are_contiguous_and_cover_the_source_once(fitted):
-    est, _ = fitted
+@pytest.mark.parametrize(("seconds", "per_fold"), [(20.0, 1), (25.0, 2), (200.0, MAX_PIECES_PER_FOLD)])
+def test_folds_interleave_pieces_that_cover_the_source_once(seconds, per_fold):
+    """Pieces of at least MIN_PIECE_S, dealt to the folds in turn: each fold spans the log."""
+    est = vibrating_joint(0, seconds=seconds, fs=200.0)
     plan = plan_fit([est], request_system(IdentifyRequest(system="joint")))
-    pieces = [p.sources[0].series for p in folds_of(plan)]
-    assert len(pieces) == FOLDS
+    folds = folds_of(plan)
+    assert len(folds) == FOLDS and all(len(f.sources) == per_fold for f in folds)
+    pieces = sorted((sp.series for f in folds for sp in f.sources), key=lambda s: s.t[0])
     assert sum(len(p) for p in pieces) == len(est)
     for a, b in zip(pieces[:-1], pieces[1:]):
         assert a.t[-1] < b.t[0]
+    assert all(p.t[-1] - p.t[0] >= MIN_PIECE_S - 0.01 for p in pieces)
+    for k, fold in enumerate(folds):  # piece i goes to fold i mod FOLDS
+        assert [sp.series.t[0] for sp in fold.sources] == [p.t[0] for p in pieces[k::FOLDS]]
 
 
 def test_the_command_line_prints_the_choice_and_keeps_it(fitted, tmp_path, capsys):
