@@ -71,7 +71,7 @@ def test_a_nonlinear_parameter_at_its_search_bound_has_no_sigma(series):
     table = io.StringIO()
     print_table(r.to_dict(), table)
     line = next(s for s in table.getvalue().splitlines() if s.startswith("vs "))
-    assert line.split() == ["vs", "at", "bound", "0.1", "—"]
+    assert line.split() == ["vs", "at", "bound", "0.1", "—", "—"]
 
 
 def test_an_interior_optimum_is_no_bound(series):
@@ -100,7 +100,7 @@ def test_the_command_line_marks_it(series, tmp_path, capsys):
     assert main(["identify", str(csv), "--system", "friction-only", "--friction", "stribeck", "--solver", "hybrid",
                  "--cutoff", "100", "--decimate", "10", "--bounds", "vs=0.1:0.5", "--json", str(out)]) == 0
     printed = capsys.readouterr().out
-    assert any(line.split() == ["vs", "at", "bound", "0.1", "—"] for line in printed.splitlines())
+    assert any(line.split() == ["vs", "at", "bound", "0.1", "—", "—"] for line in printed.splitlines())
     data = json.loads(out.read_text())
     assert data["at_bound"] == {"vs": 0.1} and math.isnan(data["std"]["vs"])
     assert nonlinear_at_bound(data) == ["vs"]

@@ -237,7 +237,8 @@ def preprocessing_line(p: dict) -> str:
 
 def choice_line(p: dict) -> str | None:
     """One line saying how the cut-offs were chosen by cross-validation (the candidates, by their
-    highest cut-off, with their errors), or None when they were not."""
+    highest cut-off, with their errors) — and a second for the min speed when it was chosen so —
+    or None when they were not."""
     cv = p.get("cross_validation")
     if not cv:
         return None
@@ -245,8 +246,15 @@ def choice_line(p: dict) -> str | None:
         return f"cut-off: the rule's, not cross-validated ({cv.get('skipped', 'too little data')})"
     scores = ", ".join(f"{'rule ' if k == 0 else '≤ '}{fmt(max(c['cutoff_hz'].values()), 3)} Hz "
                        f"{fmt(c['cv_relerr_pct'], 3)} %" for k, c in enumerate(cv["candidates"]))
-    return (f"cut-off chosen by {cv['folds']}-fold blocked cross-validation (each part's torque predicted from "
+    line = (f"cut-off chosen by {cv['folds']}-fold blocked cross-validation (each part's torque predicted from "
             f"the others): {cutoff_text(cv['cutoff_hz'])} Hz; candidates by highest cut-off, error: {scores}")
+    speed = cv.get("min_speed") or {}
+    if speed.get("min_speed"):
+        names = ["rule"] + [f"{fmt(100 * share, 3)} % of top speed" for share in speed["shares_of_top_speed"]]
+        tried = ", ".join(f"{name} {fmt(c['cv_relerr_pct'], 3)} %" for name, c in zip(names, speed["candidates"]))
+        line += (f"\nmin speed chosen the same way (every candidate predicting the rows faster than the highest): "
+                 f"{cutoff_text(speed['min_speed'])}; candidates, error: {tried}")
+    return line
 
 
 def law_line(choice: dict) -> str:

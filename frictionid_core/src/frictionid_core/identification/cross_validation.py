@@ -31,6 +31,7 @@ from frictionid_core.errors import FrictionIdError
 from frictionid_core.friction import get_model
 from frictionid_core.identification.model_building import observe_plan, on_source, rule_series
 from frictionid_core.identification.plan import FitPlan
+from frictionid_core.identification.stick import without_rows
 from frictionid_core.model import IdentificationModel, Observation
 from frictionid_core.preprocess import MIN_SPEED_SHARE, Preprocessing, TooFewSamples, choose_preprocessing
 
@@ -46,6 +47,12 @@ RESOLVED_SHARE = 1e-5
 # A candidate replaces the rule's choice of a joint only when it predicts that joint's effort with
 # less than this share of the rule's cross-validated error (nearby cut-offs differ by less).
 BETTER_SHARE = 0.98
+# Min speeds tried beside the rule's (MIN_SPEED_SIGMAS σ of the velocity noise): these shares of each
+# joint's top speed (99th percentile of its filtered |q̇|).
+MIN_SPEED_SHARES = (0.01, 0.02, 0.05)
+# A joint's min speed changes only where the folds' fits predict its effort at all (error below this,
+# %): a fold whose rigid body extrapolates (a 7-DOF arm's, condition 2e7: 1000 %) tells nothing of it.
+INFORMATIVE_PCT = 100.0
 
 
 @dataclass(frozen=True)
@@ -57,7 +64,7 @@ class CvScore:
 
 
 def folds_of(plan: FitPlan, folds: int = FOLDS) -> list[FitPlan]:
-    """``plan`` with each source cut into contiguous pieces of equal duration, dealt to ``folds``
+    """``plan`` with each source cut into contiguous pieces of equal length, dealt to ``folds``
     folds in turn (piece i to fold i mod folds; :func:`pieces_per_fold` of them each): one plan per
     fold, its sources the pieces it holds. Interleaved, every fold spans the log's excitations (a
     Fourier part before micro-motions, one joint's sweep after another's), so no fold's fit must
@@ -65,11 +72,10 @@ def folds_of(plan: FitPlan, folds: int = FOLDS) -> list[FitPlan]:
     out = []
     for k in range(folds):
         sources = []
-        for sp in plan.sources:
-            t = sp.series.t - sp.series.t[0]
-            n = folds * pieces_per_fold(t[-1])
-            edges = np.searchsorted(t, np.arange(n + 1) * t[-1] / n)  # a sample on an edge: the later piece
-            edges[-1] = t.size
+        for sp in plan.sources:  # pieces of equal sample counts: a clock jump splits no piece into nothing
+            size = len(sp.series)
+            n = folds * pieces_per_fold(size * float(np.median(np.diff(sp.series.t))) if size > 1 else 0.0)
+            edges = np.round(np.arange(n + 1) * size / n).astype(int)
             sources += [replace(sp, series=sp.series.slice(edges[i], edges[i + 1])) for i in range(k, n, folds)]
         out.append(replace(plan, sources=sources))
     return out
@@ -110,17 +116,19 @@ def resolved_settings(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str
 
 
 def cross_validated_error(observations: list[Observation], asymmetric: bool = False,
-                          fixed: dict[str, float] | None = None) -> CvScore:
+                          fixed: dict[str, float] | None = None,
+                          scored: list[Observation] | None = None) -> CvScore:
     """Each observation predicted by the Coulomb model fitted on the others (least squares of least
     norm on their summed normal equations, ``fixed`` parameters held at their values): the relative
     error (%) of the predictions of the recorded effort at the analysis instants, over all of
-    them, per row joint and overall."""
+    them, per row joint and overall. ``scored``: the same folds with the rows to predict (default:
+    those each fits)."""
     law = get_model("coulomb", asymmetric)
     joints = observations[0].joints
     parts, held = [], None
-    for obs in observations:
+    for obs, target in zip(observations, scored or observations):
         model = IdentificationModel(obs, law, fixed=dict(fixed or {}))
-        metric = obs.metric
+        metric = target.metric
         on = model if metric is obs else IdentificationModel(metric, law, fixed=dict(fixed or {}))
         parts.append((*model.normal_equations, on.design(), metric.y, metric.used))
         if held is None:
@@ -229,6 +237,68 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
     return chosen, record
 
 
+def choose_min_speed(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str, float],
+                     asymmetric: bool = False, fixed: dict[str, float] | None = None
+                     ) -> tuple[dict[str, float] | None, dict]:
+    """({data joint: min speed} chosen by cross-validation at the chosen ``cutoffs``, the record of
+    the choice), or (None, record) when it cannot be made.
+
+    Below a joint's min speed its rows are left out of the fit: near standstill friction leaves its
+    law (a joint sticking through micro-motions, the sign of a noisy velocity). Candidates: the
+    rule's (from the velocity noise) and MIN_SPEED_SHARES of the joint's top speed. Each fold's fit
+    keeps the rows of its candidate; every candidate predicts the same rows (those faster than the
+    highest candidate), so a candidate cannot win by leaving out the rows it gets wrong. A joint
+    takes the candidate that predicts its effort best where it beats the rule's by BETTER_SHARE and
+    the rule's error is below INFORMATIVE_PCT; the joints that are not rows keep the rule's."""
+    record: dict = {"shares_of_top_speed": list(MIN_SPEED_SHARES)}
+    try:
+        observations = fold_observations(plan, resolved_settings(plan, requested, cutoffs))
+        rule: dict[str, float] = {}
+        for sp in plan.sources:
+            series = rule_series(sp.series, plan.system)
+            own = choose_preprocessing(series, on_source(replace(requested, cutoff_hz=cutoffs), series))[0]
+            for j, v in own.min_speed.items():
+                rule[j] = max(v, rule.get(j, 0.0))
+    except (TooFewSamples, FrictionIdError) as exc:
+        record["skipped"] = str(exc)
+        return None, record
+    joints = observations[0].joints
+    if not set(joints) <= set(rule):  # rows named otherwise than the rule's joints (a drive's motors)
+        record["skipped"] = "rows named otherwise than the log's joints"
+        return None, record
+    speeds = np.concatenate([np.abs(o.velocity) * o.used.reshape(len(joints), -1).T for o in observations])
+    top = {j: float(np.percentile(speeds[speeds[:, k] > 0, k], 99)) if (speeds[:, k] > 0).any() else 0.0
+           for k, j in enumerate(joints)}
+    candidates = [{j: rule[j] for j in joints}] + [{j: share * top[j] for j in joints} for share in MIN_SPEED_SHARES]
+    highest = {j: max(c[j] for c in candidates) for j in joints}
+    scored = [_faster(o, highest) for o in observations]
+    scores = []
+    for speeds_j in candidates:
+        try:
+            scores.append(cross_validated_error([_faster(o, speeds_j) for o in observations], asymmetric, fixed,
+                                                scored))
+        except FrictionIdError as exc:
+            record["skipped"] = str(exc)
+            return None, record
+    chosen = dict(rule)  # the joints that are not rows keep the rule's
+    for j in joints:
+        k = min(range(len(scores)), key=lambda i: scores[i].per_joint[j])
+        informative = scores[0].per_joint[j] < INFORMATIVE_PCT
+        better = informative and scores[k].per_joint[j] < BETTER_SHARE * scores[0].per_joint[j]
+        chosen[j] = candidates[k if better else 0][j]
+    record.update(candidates=[{"min_speed": c, "cv_relerr_pct": sc.relerr_pct, "per_joint": sc.per_joint}
+                              for c, sc in zip(candidates, scores)], min_speed=chosen)
+    return chosen, record
+
+
+def _faster(obs: Observation, speeds: dict[str, float]) -> Observation:
+    """A copy of ``obs`` (and of its sampled observation) with the rows slower than ``speeds`` left out."""
+    copy = without_rows(obs, speeds)
+    if obs.sampled is not None:
+        copy.sampled = without_rows(obs.sampled, speeds)
+    return copy
+
+
 def record_choice(report: dict, choice: dict) -> None:
     """Note in an observation's ``report`` that its cut-offs came from the data by cross-validation
     (``choice``: the record of :func:`choose_by_cross_validation`)."""
@@ -237,3 +307,5 @@ def record_choice(report: dict, choice: dict) -> None:
         report["from_data"] = ["cutoff_hz", *[k for k in report.get("from_data", []) if k != "cutoff_hz"]]
         report["cutoff_from_data"] = list(choice["cutoff_hz"])
         report["chosen_from_data"] = True
+    if (choice.get("min_speed") or {}).get("min_speed") is not None:
+        report["from_data"] = [*[k for k in report.get("from_data", []) if k != "min_speed"], "min_speed"]

@@ -15,7 +15,7 @@ from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import get_model
 from frictionid_core.identification import diagnostics
 from frictionid_core.identification.at_bound import fit_at_bound
-from frictionid_core.identification.cross_validation import choose_by_cross_validation, record_choice
+from frictionid_core.identification.cross_validation import choose_by_cross_validation, choose_min_speed, record_choice
 from frictionid_core.identification.dip_refit import dip_advice, fit_at_dip_rates, settled_dip_advice
 from frictionid_core.identification.dynamic_fit import fit_dynamic
 from frictionid_core.identification.effort_sign import checked_effort_sign
@@ -139,6 +139,12 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
         cutoffs, choice = choose_by_cross_validation(fit_plan, settings, request.asymmetric, fixed_request)
         if cutoffs is not None:
             chosen = replace(settings, cutoff_hz=cutoffs)
+            if settings.min_speed is None and not get_model(request.friction).law.nonlinear:
+                # the rows left out as too slow, at those cut-offs (a law with a dip models them)
+                speeds, choice["min_speed"] = choose_min_speed(fit_plan, settings, cutoffs, request.asymmetric,
+                                                               fixed_request)
+                if speeds is not None:
+                    chosen = replace(chosen, min_speed=speeds)
 
     def rebuild(pre) -> IdentificationModel:
         model = with_data_bounds(build_model(fit_plan, fit_plan.system, request.friction, request.asymmetric, pre,

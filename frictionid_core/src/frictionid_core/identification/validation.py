@@ -43,8 +43,8 @@ def validation_settings(record: Mapping, series: JointSeries, overrides: Preproc
                         *, dynamic: bool = False) -> tuple[Preprocessing, dict]:
     """The pre-processing to cross-test a result with, from its ``preprocessing`` block ``record``
     and the data ``series`` (the first source as the rule sees it: :func:`rule_series`): its
-    settings, its cut-offs kept (fixed, or chosen by what they predict: the identification's
-    choice is the one the data validated), the others it chose from its data (``from_data``:
+    settings, its cut-offs and min speed kept (fixed, or chosen by what they predict: the
+    identification's choice is the one the data validated), the others it chose from its data (``from_data``:
     decimation, trims, min speed, which follow the record's rate, length and noise) chosen again
     from ``series``, and ``overrides`` (the user's) over all (a min speed given replaces the stick
     phases, as on ``identify``). A ``dynamic`` law's cut-offs chosen from the data are chosen again
@@ -74,6 +74,10 @@ def validation_settings(record: Mapping, series: JointSeries, overrides: Preproc
         chosen.remove("cutoff_hz")
         values.pop("cutoff_hz")
         why["cutoff_hz"] = CHOSEN_WHY
+    if "min_speed" in chosen and ((record.get("cross_validation") or {}).get("min_speed") or {}).get("min_speed"):
+        chosen.remove("min_speed")  # below it the data showed friction leaving its law: a property of the robot
+        values.pop("min_speed")
+        why["min_speed"] = CHOSEN_WHY
     if "decimate" in chosen:
         values.update(thin=1, dip_scale=None)
     settings = replace(settings, **values, **given)
