@@ -117,9 +117,10 @@ def test_short_data_unconstrained_infeasible_consistent_near_the_prior(short_fit
     assert np.allclose(masses, MASS, rtol=0.30)
     assert sum(masses) == pytest.approx(sum(MASS), rel=0.10)
     assert cons["consistency"]["prior"] == "urdf" and cons["consistency"]["prior_weight"] == 100.0
-    # what that buys on other data: the 2 s fit validates at 65 % unconstrained, 1.75 % with the prior
+    # what that buys on other data: the 2 s fit validates at 25 % unconstrained (65 % on the rule's
+    # rows, before the folds chose the min speed), 1.75 % with the prior
     val = load(BAGS / "tx40_validation")
-    assert validate(val, free)["relerr_pct"] > 30.0
+    assert validate(val, free)["relerr_pct"] > 15.0
     assert validate(val, cons)["relerr_pct"] < 3.0
 
 

@@ -34,10 +34,32 @@ def friction_log(stick: float, rate: float = 500.0, seconds: float = 40.0, f1: f
                        source=f"stick{stick:g}")
 
 
+CUTOFF = 7.75  # Hz: the folds' choice on friction_log(STICK), given here so that the rule's min speed applies
+
+
 @pytest.fixture(scope="module")
 def sticking():
+    """The creeping joint with its cut-off given: the min speed is the rule's (the folds choose it
+    with the cut-off), and the stick phases are the detection's to find."""
     series = friction_log(STICK)
-    return series, identify(series, IdentifyRequest(system="friction-only", friction="coulomb")).to_dict()
+    return series, identify(series, IdentifyRequest(system="friction-only", friction="coulomb",
+                                                    preprocessing=PreprocessingOverrides(cutoff_hz=CUTOFF))).to_dict()
+
+
+def test_the_folds_min_speed_leaves_the_creep_band_out():
+    """With the defaults the folds choose the min speed (5 % of the top speed, 0.049 rad/s, above
+    the 0.03 rad/s creep band: every candidate predicts the rows faster than the highest, where the
+    rule's 0.0005 rad/s keeps the band and predicts them 13 × worse): Fv, Fc within 0.1 %, and no
+    stick phase left above it; a joint that does not creep keeps the rule's min speed."""
+    r = identify(friction_log(STICK), IdentifyRequest(system="friction-only", friction="coulomb")).to_dict()
+    pre = r["preprocessing"]
+    assert pre["min_speed"]["a"] > STICK and "min_speed" in pre["from_data"]
+    assert pre["cross_validation"]["min_speed"]["min_speed"] == pre["min_speed"]
+    assert not pre.get("stick_speed") and pre["slow_rows_excluded"]["a"] > 0
+    assert r["params"]["Fc"] == pytest.approx(FC, rel=1e-3) and r["params"]["Fv"] == pytest.approx(FV, rel=1e-3)
+    still = identify(friction_log(0.0), IdentifyRequest(system="friction-only", friction="coulomb")).to_dict()
+    speed = still["preprocessing"]["cross_validation"]["min_speed"]
+    assert still["preprocessing"]["min_speed"]["a"] == speed["candidates"][0]["min_speed"]["a"] < 1e-3
 
 
 def test_stick_phase_is_left_out_and_counted(sticking):
@@ -64,8 +86,8 @@ def test_a_joint_that_does_not_stick_keeps_its_rows():
 
 def test_validate_keeps_the_stick_speeds_and_the_cutoffs_and_rechooses_the_rest(sticking):
     """On another log (another motion) the result's stick speed is kept (a property of the robot)
-    and so are its cut-offs (chosen by what they predict), the settings that follow the record
-    (decimation, trims, min speed) are chosen again and said so; a cut-off the user gives is set."""
+    and so are its cut-offs (fixed here), the settings that follow the record (decimation, trims,
+    the rule's min speed) are chosen again and said so; a cut-off the user gives is set."""
     _, r = sticking
     other = friction_log(STICK, f1=0.5, seed=1)
     model, _ = model_from_result(other, r)

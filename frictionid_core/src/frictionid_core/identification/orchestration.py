@@ -136,13 +136,14 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
 
     chosen, choice = settings, None
     if settings.cutoff_hz is None and not get_model(request.friction).is_dynamic:  # those that predict best
-        cutoffs, choice = choose_by_cross_validation(fit_plan, settings, request.asymmetric, fixed_request)
+        folds: dict = {}
+        cutoffs, choice = choose_by_cross_validation(fit_plan, settings, request.asymmetric, fixed_request, folds)
         if cutoffs is not None:
             chosen = replace(settings, cutoff_hz=cutoffs)
             if settings.min_speed is None and not get_model(request.friction).law.nonlinear:
                 # the rows left out as too slow, at those cut-offs (a law with a dip models them)
                 speeds, choice["min_speed"] = choose_min_speed(fit_plan, settings, cutoffs, request.asymmetric,
-                                                               fixed_request)
+                                                               fixed_request, folds.get("folds"))
                 if speeds is not None:
                     chosen = replace(chosen, min_speed=speeds)
 

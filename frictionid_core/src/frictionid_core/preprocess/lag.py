@@ -27,8 +27,13 @@ result's ``preprocessing.lag_s``).
   EFFORT_LAG_RATIO. Synthetic logs lagged 20–60 ms give 0.004–0.3; the real WidowX, whose velocity
   lags by 50 ms, 1.2 (0.87 on its waist alone), its effort as logged validating better (18.6 %
   against 21.5 % shifted); the real UR10e logs ~1 at 50 ms, and still 0.84 once lagged 60 ms on
-  purpose: on noisy real logs an effort lag can go unseen, never the other way round. Without a
-  logged velocity no lag is judged.
+  purpose: on noisy real logs an effort lag can go unseen, never the other way round. An effort
+  that does not share the velocity's lag, or a log without a logged velocity, may lag by its own:
+  the same regression at every shift of the effort within ±MAX_LAG_S (one FFT correlation per
+  column), the shift that minimises the geometric mean of the residual ratios taken when it leaves
+  at most EFFORT_SCAN_RATIO of the logged residual and each half of the log finds it (synthetic arms
+  lagged 10–60 ms: 0.02–0.56, within a tenth of a sample period at 1 kHz; no real log of
+  ``bench/field.py`` moved).
 * The lagging channels are moved back onto the position's stamps (linear interpolation at t + lag,
   within each segment of the stamps); the samples the move leaves without a value (the last lag
   seconds of each segment) are dropped. One note says what was found and done.
@@ -60,6 +65,7 @@ MIN_LAG_PERIODS = 1.0  # a lag within this many sample periods …
 MIN_LAG_S = 2e-3  # … and this is none
 EFFORT_LAG_RATIO = 0.5  # the effort shares the velocity's lag when its residual shifted is at most this × as logged
 EFFORT_FIT_SHARE = 0.5  # a joint's effort is judged when the regression leaves at most this share unexplained
+EFFORT_SCAN_RATIO = 0.8  # the effort's own lag: the best shift leaves at most this × the residual as logged
 META_PREFIX = "lag_s/"  # series.meta["lag_s/<velocity|effort>/<joint>"]: the lag removed, s
 CHANNELS = ("velocity", "effort")
 
@@ -70,7 +76,7 @@ def lag_record(series: JointSeries) -> dict[str, dict[str, float]] | None:
     moving enough)."""
     out = {c: {j: float(series.meta[f"{META_PREFIX}{c}/{j}"]) for j in series.joints
                if f"{META_PREFIX}{c}/{j}" in series.meta} for c in CHANNELS}
-    return out if out["velocity"] else None
+    return out if out["velocity"] or out["effort"] else None
 
 
 @dataclass(frozen=True)
@@ -98,7 +104,7 @@ def remove_channel_lag(series: JointSeries) -> tuple[JointSeries, str | None]:
     """``series`` with a lag of its velocity (and effort) behind its position removed (see the
     module doc), and the note saying what was found and done (None when no lag was judged or found)."""
     if series.velocity is None:
-        return series, None
+        return _effort_only(series)
     grid = _Grid(series)
     estimates = _velocity_estimates(series, grid)
     if not estimates:
@@ -124,16 +130,21 @@ def remove_channel_lag(series: JointSeries) -> tuple[JointSeries, str | None]:
         return _with_meta(series, meta), _filtered_note(series, filtered) if filtered else None
     ratio = _effort_ratio(series, grid, velocity)
     effort = velocity if ratio is not None and ratio <= EFFORT_LAG_RATIO else dict.fromkeys(series.joints, 0.0)
+    own = None
+    if not any(effort.values()):  # not the velocity's lag: the effort's own, if it has one
+        own = _effort_scan(grid, threshold)
+        if own is not None:
+            effort = dict.fromkeys(series.joints, own[0])
     meta.update({f"{META_PREFIX}velocity/{j}": velocity[j] for j in judged})
     meta.update({f"{META_PREFIX}effort/{j}": effort[j] for j in judged})
     out, dropped = _shifted(series, velocity, effort)
     out.meta = meta
-    note = _note(series, velocity, common, counted, estimates, ratio, effort, dropped)
+    note = _note(series, velocity, common, counted, estimates, ratio, effort, dropped, own)
     return out, note + (f"; {_filtered_note(series, filtered, head=False)}" if filtered else "")
 
 
 def _note(series: JointSeries, velocity: dict, common: float | None, counted: list[str], estimates: dict,
-          ratio: float | None, effort: dict, dropped: int) -> str:
+          ratio: float | None, effort: dict, dropped: int, own: tuple[float, float] | None = None) -> str:
     def by(lag: float) -> str:
         return f"{'lags' if lag > 0 else 'runs ahead of'} the position by {abs(lag) * 1e3:.3g} ms"
 
@@ -147,7 +158,10 @@ def _note(series: JointSeries, velocity: dict, common: float | None, counted: li
     lowest = min(estimates[j].r for j in counted)
     head = (f"{series.source}: channel lag: the logged velocity {lag}: its cross-correlation with the position's "
             f"derivative peaks there (r ≥ {lowest:.4f}), in each half of the log and for their derivatives alike")
-    if ratio is None:
+    if own is not None:
+        tail = (f"the effort does not share it{'' if ratio is None else f' ({ratio:.2g} × the residual once shifted)'} "
+                f"but {_effort_lag_text(*own)}")
+    elif ratio is None:
         tail = "the effort cannot be judged (no joint's effort follows its motion well enough): left as logged"
     elif any(effort.values()):
         tail = (f"the effort shares the lag (a fit of it to the motion leaves {ratio:.2g} × the residual once "
@@ -157,6 +171,88 @@ def _note(series: JointSeries, velocity: dict, common: float | None, counted: li
                 "shifted): left as logged")
     return (f"{head}; the velocity moved back onto the position's stamps; {tail}; the {dropped} sample(s) this leaves "
             "without a value at the end of the log (of each segment) dropped")
+
+
+def _effort_only(series: JointSeries) -> tuple[JointSeries, str | None]:
+    """A log without a logged velocity: its effort's own lag behind the position found
+    (:func:`_effort_scan`) and removed, with its note; the series as it is when none is found."""
+    grid = _Grid(series)
+    threshold = max(MIN_LAG_PERIODS * _period(series.t), MIN_LAG_S)
+    own = _effort_scan(grid, threshold) if grid.ok else None
+    if own is None:
+        return series, None
+    effort = dict.fromkeys(series.joints, own[0])
+    out, dropped = _shifted(series, dict.fromkeys(series.joints, 0.0), effort)
+    out.meta = {**series.meta, **{f"{META_PREFIX}effort/{j}": own[0] for j in series.joints}}
+    return out, (f"{series.source}: channel lag: {_effort_lag_text(*own)}; the {dropped} sample(s) this leaves "
+                 "without a value at the end of the log (of each segment) dropped")
+
+
+def _effort_lag_text(lag: float, ratio: float) -> str:
+    return (f"the effort {'lags' if lag > 0 else 'runs ahead of'} the position by {abs(lag) * 1e3:.3g} ms (every "
+            f"joint): a fit of it to the motion leaves "
+            f"{ratio:.2g} × the residual once shifted by that lag, the least of every shift within "
+            f"±{MAX_LAG_S * 1e3:.0f} ms: moved back onto the position's stamps")
+
+
+def _effort_scan(grid: _Grid, threshold: float) -> tuple[float, float] | None:
+    """(the lag of the effort behind the position (s), the residual ratio there) when a shift of it
+    explains it better by the motion than as logged: each moving joint's effort (whose motion
+    explains it: EFFORT_FIT_SHARE) regressed on the motion as :func:`_effort_ratio` does, at every
+    shift of the analysis grid within ±MAX_LAG_S (and MAX_LAG_SHARE of the segment); the shift that
+    minimises the geometric mean over the joints of residual(shift) / residual(0) is taken when that
+    mean is at most EFFORT_SCAN_RATIO, each half of the log finds the same shift (within
+    LAG_TOLERANCE_PERIODS analysis periods or LAG_TOLERANCE_SHARE) and the shift is at least
+    ``threshold``; None otherwise. A lag of the effort shows in the Coulomb step at every reversal."""
+    n = grid.q.shape[0]
+    search = int(min(MAX_LAG_S, MAX_LAG_SHARE * grid.n * grid.dt) / grid.step)
+    if not grid.moving.any() or search < 2 or n < 16 * search:
+        return None
+    whole = _scan(grid, 0, n, search)
+    if whole is None:
+        return None
+    lag, ratio = whole
+    tolerance = max(LAG_TOLERANCE_PERIODS * grid.step, LAG_TOLERANCE_SHARE * abs(lag))
+    halves = [_scan(grid, a, b, search) for a, b in ((0, n // 2), (n // 2, n))]
+    if any(h is None or abs(h[0] - lag) > tolerance for h in halves):
+        return None
+    return (lag, ratio) if ratio <= EFFORT_SCAN_RATIO and abs(lag) >= threshold else None
+
+
+def _scan(grid: _Grid, a: int, b: int, search: int) -> tuple[float, float] | None:
+    """(the shift (s) of the effort rows a..b of ``grid`` that its motion explains best, the
+    geometric mean over the judged joints of residual(shift) / residual(0) there), or None (no
+    joint judged, or the least at the edge of the search)."""
+    moving = np.flatnonzero(grid.moving)
+    n = b - a
+    inner = slice(a + search, b - search)
+    size = n - 2 * search
+    logs = []
+    for j in moving:
+        columns = np.column_stack([grid.qdd[inner][:, moving], grid.qd[inner, j], np.sign(grid.qd[inner, j]),
+                                   np.ones(size), np.sin(grid.q[inner][:, moving]), np.cos(grid.q[inner][:, moving])])
+        basis, _ = np.linalg.qr(columns)
+        y = grid.effort[a:b, j] - grid.effort[a:b, j].mean()
+        sums = np.concatenate(([0.0], np.cumsum(y * y)))
+        energy = sums[size:] - sums[:-size]  # ‖y_s‖² of each window (2·search + 1 shifts)
+        projected = sum(signal.correlate(y, basis[:, c], mode="valid", method="fft") ** 2
+                        for c in range(basis.shape[1]))
+        residual = np.maximum(energy - projected, 1e-300)
+        total = np.concatenate(([0.0], np.cumsum(y)))
+        spread = energy - (total[size:] - total[:-size]) ** 2 / size
+        best = int(np.argmin(residual))
+        if not (spread > 0).all() or residual[best] / spread[best] > EFFORT_FIT_SHARE:
+            continue  # the motion does not explain this effort: not judged
+        logs.append(np.log(residual / residual[search]))
+    if not logs:
+        return None
+    mean = np.mean(logs, axis=0)
+    k = int(np.argmin(mean))
+    if k in (0, mean.size - 1):
+        return None
+    curve = mean[k - 1] - 2 * mean[k] + mean[k + 1]
+    shift = 0.5 * (mean[k - 1] - mean[k + 1]) / curve if curve > 0 else 0.0
+    return (k - search + shift) * grid.step, float(np.exp(mean[k]))
 
 
 def _filtered_note(series: JointSeries, filtered: dict, head: bool = True) -> str:
@@ -212,7 +308,7 @@ class _Grid:
         qd = np.gradient(qf, self.dt, axis=0)
         self.q, self.qd = qf[::keep], qd[::keep]
         self.qdd = np.gradient(qd, self.dt, axis=0)[::keep]
-        self.velocity = smooth(uniform(series.velocity))
+        self.velocity = None if series.velocity is None else smooth(uniform(series.velocity))
         self.effort = smooth(uniform(series.effort))
 
 
@@ -313,13 +409,14 @@ def _effort_ratio(series: JointSeries, grid: _Grid, velocity: dict[str, float]) 
 def _shifted(series: JointSeries, velocity: dict[str, float], effort: dict[str, float]) -> tuple[JointSeries, int]:
     """(``series`` with each joint's velocity and effort read at t + its lag within each segment,
     without the samples left without a value, how many were dropped)."""
-    v, e = series.velocity.copy(), series.effort.copy()
+    v = None if series.velocity is None else series.velocity.copy()
+    e = series.effort.copy()
     valid = np.ones(len(series), dtype=bool)
     for a, b in series.segment_bounds():
         t = series.t[a:b]
         for j, joint in enumerate(series.joints):
             for out, source, lag in ((v, series.velocity, velocity[joint]), (e, series.effort, effort[joint])):
-                if lag:
+                if lag and out is not None:
                     out[a:b, j] = np.interp(t + lag, t, source[a:b, j])
                     valid[a:b] &= (t + lag >= t[0]) & (t + lag <= t[-1])
     shifted = JointSeries(series.t, list(series.joints), series.position, e, v, series.source, dict(series.extras),
