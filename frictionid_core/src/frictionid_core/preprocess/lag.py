@@ -215,11 +215,11 @@ def _effort_scan(grid: _Grid, threshold: float) -> tuple[float, float] | None:
     if whole is None:
         return None
     lag, ratio = whole
+    if ratio > EFFORT_SCAN_RATIO or abs(lag) < threshold:
+        return None
     tolerance = max(LAG_TOLERANCE_PERIODS * grid.step, LAG_TOLERANCE_SHARE * abs(lag))
     halves = [_scan(grid, a, b, search) for a, b in ((0, n // 2), (n // 2, n))]
-    if any(h is None or abs(h[0] - lag) > tolerance for h in halves):
-        return None
-    return (lag, ratio) if ratio <= EFFORT_SCAN_RATIO and abs(lag) >= threshold else None
+    return None if any(h is None or abs(h[0] - lag) > tolerance for h in halves) else (lag, ratio)
 
 
 def _scan(grid: _Grid, a: int, b: int, search: int) -> tuple[float, float] | None:
