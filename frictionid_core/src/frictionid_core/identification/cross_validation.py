@@ -36,6 +36,7 @@ from frictionid_core.identification.plan import FitPlan
 from frictionid_core.identification.stick import without_rows
 from frictionid_core.model import IdentificationModel, Observation
 from frictionid_core.preprocess import MIN_SPEED_SHARE, Preprocessing, TooFewSamples, choose_preprocessing
+from frictionid_core.timeseries import JointSeries, sample_period
 
 FOLDS = 2  # folds of each source: each predicted from the others, as a later log is
 MIN_PIECE_S = 5.0  # a fold's pieces last at least this long (filters settle, motions repeat) …
@@ -75,7 +76,7 @@ def folds_of(plan: FitPlan, folds: int = FOLDS) -> list[FitPlan]:
     for k in range(folds):
         sources = []
         for sp in plan.sources:
-            elapsed = _elapsed(sp.series.t)
+            elapsed = _elapsed(sp.series)
             n = folds * pieces_per_fold(elapsed[-1])
             edges = np.searchsorted(elapsed, np.arange(n + 1) * elapsed[-1] / n)  # on an edge: the later piece
             edges[-1] = elapsed.size
@@ -84,14 +85,14 @@ def folds_of(plan: FitPlan, folds: int = FOLDS) -> list[FitPlan]:
     return out
 
 
-def _elapsed(t: np.ndarray) -> np.ndarray:
-    """Seconds from the first stamp with every gap longer than 10 median periods counted as one
-    period (a clock jump or a pause splits no piece into nothing)."""
-    if t.size < 2:
-        return np.zeros(t.size)
-    step = np.diff(t)
-    period = float(np.median(step))
-    return np.concatenate(([0.0], np.cumsum(np.where(step > 10 * period, period, step))))
+def _elapsed(series: JointSeries) -> np.ndarray:
+    """Seconds from the first stamp with each gap between the series' segments
+    (:meth:`~frictionid_core.timeseries.JointSeries.segment_bounds`) counted as one sample period
+    (a clock jump or a pause splits no piece into nothing)."""
+    elapsed = series.t - series.t[0]
+    for a, _ in series.segment_bounds()[1:]:
+        elapsed[a:] -= series.t[a] - series.t[a - 1] - sample_period(series.t)
+    return elapsed
 
 
 def pieces_per_fold(span_s: float) -> int:

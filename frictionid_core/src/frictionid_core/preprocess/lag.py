@@ -236,8 +236,7 @@ def _scan(grid: _Grid, a: int, b: int, search: int) -> tuple[float, float] | Non
     m = q.shape[1]
     angles = np.column_stack([q] + [sum(q[:, i : m - k + i] for i in range(k + 1)) for k in (1, 2) if m > k])
     for j in moving:
-        columns = np.column_stack([grid.qdd[inner][:, moving], grid.qd[inner, j], np.sign(grid.qd[inner, j]),
-                                   np.ones(size), np.sin(angles), np.cos(angles)])
+        columns = _motion_columns(grid, inner, moving, j, angles)
         basis, _ = np.linalg.qr(columns)
         y = grid.effort[a:b, j] - grid.effort[a:b, j].mean()
         sums = np.concatenate(([0.0], np.cumsum(y * y)))
@@ -260,6 +259,14 @@ def _scan(grid: _Grid, a: int, b: int, search: int) -> tuple[float, float] | Non
     curve = mean[k - 1] - 2 * mean[k] + mean[k + 1]
     shift = 0.5 * (mean[k - 1] - mean[k + 1]) / curve if curve > 0 else 0.0
     return (k - search + shift) * grid.step, float(np.exp(mean[k]))
+
+
+def _motion_columns(grid: _Grid, rows: slice, moving: np.ndarray, j: int, angles: np.ndarray) -> np.ndarray:
+    """The motion an effort of joint ``j`` is regressed on, at ``rows`` of ``grid``: q̈ of the
+    ``moving`` joints, q̇ and sign q̇ of joint j, 1, and the sines and cosines of ``angles``."""
+    qd = grid.qd[rows, j]
+    return np.column_stack([grid.qdd[rows][:, moving], qd, np.sign(qd), np.ones(qd.size), np.sin(angles),
+                            np.cos(angles)])
 
 
 def _filtered_note(series: JointSeries, filtered: dict, head: bool = True) -> str:
@@ -398,8 +405,7 @@ def _effort_ratio(series: JointSeries, grid: _Grid, velocity: dict[str, float]) 
         if not lag:
             continue
         inside = (t + lag >= 0) & (t + lag <= t[-1])
-        columns = np.column_stack([grid.qdd[:, moving], grid.qd[:, j], np.sign(grid.qd[:, j]), np.ones(n),
-                                   np.sin(grid.q[:, moving]), np.cos(grid.q[:, moving])])[inside]
+        columns = _motion_columns(grid, slice(None), moving, j, grid.q[:, moving])[inside]
         residual = []
         for shift in (0.0, lag):
             y = np.interp(t[inside] + shift, t, grid.effort[:, j])
