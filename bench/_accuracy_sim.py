@@ -430,15 +430,20 @@ def design_motion(case: Case, seed: int, duration: float) -> Motion:
 
 
 # --------------------------------------------------------------------------------------------- friction laws
+STANDSTILL = 1e-9  # rad/s: the spline's wiggle in a dwell (~1e-13) is standstill, not motion
+
+
 def static_friction(case: Case, v: np.ndarray) -> np.ndarray:
-    """Coulomb + viscous, or Stribeck with exponent δ (sign(0) = 0), per joint on (N, J) velocities."""
+    """Coulomb + viscous, or Stribeck with exponent δ, per joint on (N, J) velocities; 0 at standstill
+    (|v| < ``STANDSTILL``: a dwell of the designed motion, whose spline derivative wiggles around 0 —
+    its sign would flip ±Fs at random where a static law holds the joint with no friction torque)."""
     f = case.friction
     Fv, Fc = np.array(f["Fv"]), np.array(f["Fc"])
     level = Fc
     if case.law == "stribeck":
         Fs, vs, d = np.array(f["Fs"]), np.array(f["vs"]), np.array(f["delta"])
         level = Fc + (Fs - Fc) * np.exp(-((np.abs(v) / vs) ** d))
-    return Fv * v + level * np.sign(v)
+    return Fv * v + level * np.where(np.abs(v) < STANDSTILL, 0.0, np.sign(v))
 
 
 def _lugre_kernel():

@@ -105,3 +105,19 @@ def test_accuracy_bounds(corpus):
         assert abs(lugre["params"][name]["err_pct"]) < 6.0, name
     # the pooled Coulomb/Stribeck/MuJoCo friction errors [median 3.0 %]
     assert data["summary"]["friction_err_median_pct"] < 8.0
+
+
+def test_a_stop_rings_no_stribeck_friction_into_the_validation(tmp_path):
+    """A full-length corpus case (one joint + gravity at 1259 Hz, Stribeck, trapezoid moves with dwells):
+    after each stop the 14.7 Hz filter rings, and a lobe of its velocity crosses the min speed for two
+    rows — a ±Fs the joint at rest does not have. Left out as brief motion, the cross-test reaches the
+    noise floor [1.00 × the floor; 8.4 × with those rows] and the Stribeck parameters the truth."""
+    out = tmp_path / "case.json"
+    proc = subprocess.run([sys.executable, str(BENCH), "--case-seed", "913802074", "--no-diagnostic", "--workers", "1",
+                           "--json", str(out)], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    case = json.loads(out.read_text())["cases"][0]
+    assert case["labels"]["law"] == "stribeck" and case["labels"]["excitation"] == "trapezoid"
+    assert case["floor_ratio"] < 1.2
+    for name in ("Fc", "Fs", "vs", "J"):
+        assert abs(case["params"][name]["err_pct"]) < 3.0, name

@@ -15,6 +15,7 @@ from frictionid_core.preprocess import (
     lowpass_position,
     prepare,
     resample_uniform,
+    short_runs,
 )
 from frictionid_core.timeseries import JointSeries
 
@@ -199,3 +200,17 @@ def test_prepare_trims_and_differentiates():
     np.testing.assert_allclose(p.qd[:, 0], t[10:-5], atol=1e-9)
     np.testing.assert_allclose(p.qdd[:, 0], 1.0, atol=1e-6)
     assert p.dt == pytest.approx(dt)
+
+
+# ------------------------------------------------------------------ brief runs of one sign of motion
+def test_short_runs_marks_the_runs_briefer_than_the_periods_of_the_cutoff():
+    """At 100 Hz with a 10 Hz cut-off, half a period is 5 rows: a 2-row lobe after a stop and a
+    4-row run are brief, a 5-row run and the long move are not; rows at rest (0) never are; each
+    column has its own cut-off."""
+    v = np.array([1.0] * 20 + [0.0] * 3 + [-0.01] * 2 + [0.0] * 4 + [0.3] * 4 + [0.0] + [-0.2] * 5 + [0.0] * 2)
+    brief = short_runs(np.column_stack([v, v]), 100.0, np.array([10.0, 100.0]), 0.5)
+    expected = np.zeros(v.size, dtype=bool)
+    expected[23:25] = expected[29:33] = True
+    np.testing.assert_array_equal(brief[:, 0], expected)
+    assert not brief[:, 1].any()  # 100 Hz: half a period is half a row
+    assert not short_runs(v[:, None], 100.0, np.array([10.0]), 0.0).any()

@@ -115,7 +115,8 @@ def resolved_settings(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str
     """``requested`` with ``cutoffs`` and the settings that follow them resolved on the whole of
     each source (the first's decimation and trims), as an identification with those cut-offs
     resolves them — but for the min speed: every candidate keeps the same rows, those faster than
-    MIN_SPEED_SHARE of each joint's top speed (the user's min speed where given). The rule's min
+    MIN_SPEED_SHARE of each joint's top speed (the user's min speed where given), and its brief
+    motions (the ringing of a low cut-off after a stop) scored, not left out. The rule's min
     speed rises with a cut-off's velocity noise: scored on the rows each keeps, a noisy cut-off
     would win by leaving out the rows it gets wrong."""
     settings, speeds = None, {}
@@ -126,7 +127,9 @@ def resolved_settings(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str
         floor = {j: MIN_SPEED_SHARE * v for j, v in report["top_speed"].items() if v is not None}
         for j, v in (own.min_speed if requested.min_speed is not None else floor).items():
             speeds.setdefault(j, v)
-    return replace(settings, cutoff_hz=dict(cutoffs), min_speed=speeds)
+    # a cut-off's ringing after a stop is scored with it, not left out as brief motion
+    brief = 0.0 if requested.brief_periods is None else requested.brief_periods
+    return replace(settings, cutoff_hz=dict(cutoffs), min_speed=speeds, brief_periods=brief)
 
 
 def cross_validated_error(observations: list[Observation], asymmetric: bool = False,

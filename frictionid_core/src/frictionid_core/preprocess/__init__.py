@@ -17,7 +17,7 @@ from frictionid_core import lazy
 _LAZY = {
     **dict.fromkeys((
         "central_difference", "decimate", "decimation_indices", "lowpass_position", "near_reversals",
-        "window_means",
+        "short_runs", "window_means",
     ), "frictionid_core.preprocess.filters"),
     **dict.fromkeys(("lag_record", "remove_channel_lag"), "frictionid_core.preprocess.lag"),
     **dict.fromkeys((
@@ -31,16 +31,17 @@ _LAZY = {
     **dict.fromkeys((
         "cutoff_range", "CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SHARE", "MIN_SPEED_SIGMAS",
         "MOVING_FACTOR", "PREDICTION_TOLERANCE", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT",
-        "REVERSAL_PERIODS", "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
+        "REVERSAL_PERIODS", "SHORT_RUN_PERIODS", "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
     ), "frictionid_core.preprocess.settings"),
 }
 
 __all__ = ["CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SHARE", "MIN_SPEED_SIGMAS",
            "MOVING_FACTOR", "PLAY_SIGMAS", "PREDICTION_TOLERANCE", "Prepared", "Preprocessing",
-           "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES",
+           "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS", "SHORT_RUN_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES",
            "central_difference", "choose_preprocessing", "column_stride", "cutoff_range", "decimate",
            "decimation_indices", "dip_needs", "lag_record", "lowpass_position", "near_reversals", "noise_density",
-           "play", "prepare", "preprocess", "remove_channel_lag", "resample_uniform", "rule_decimation", "subsample",
+           "play", "prepare", "preprocess", "remove_channel_lag", "resample_uniform", "rule_decimation", "short_runs",
+           "subsample",
            "thinned_rows", "travel_noise", "travel_rows", "window_means"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

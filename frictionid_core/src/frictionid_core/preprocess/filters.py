@@ -99,6 +99,22 @@ def window_means(x: np.ndarray, n: int, stride: int = 1, rows: np.ndarray | None
     return out.reshape((kept.size,) + x.shape[1:])
 
 
+def short_runs(velocity: np.ndarray, fs: float, cutoff_hz: np.ndarray, periods: float) -> np.ndarray:
+    """(N, J) True where a row of ``velocity`` (N, J), sampled at ``fs``, belongs to a run of one sign
+    of motion (0 for a row left out or at rest) shorter than ``periods`` / ``cutoff_hz`` (J,) seconds:
+    no motion within the filter's band crosses the min speed that briefly (the filter's ringing after
+    a stop, or noise), so its sign of motion says nothing."""
+    n, joints = velocity.shape
+    out = np.zeros((n, joints), dtype=bool)
+    if periods <= 0.0 or n == 0:
+        return out
+    for j in range(joints):
+        sign = np.sign(velocity[:, j])
+        run = np.concatenate([[0], np.cumsum(sign[1:] != sign[:-1])])  # each row's run
+        out[:, j] = (sign != 0) & (np.bincount(run)[run] < periods * fs / cutoff_hz[j])
+    return out
+
+
 def decimation_indices(length: int, n: int) -> np.ndarray:
     """Indices kept by decimating ``length`` samples by n: every n-th, aligned to the last."""
     start = n - (n * int(np.ceil(length / n)) - length)  # 1-based, as MATLAB's decimate

@@ -61,6 +61,8 @@ by 6 % at decimation by 60); on the EMPS benchmark they give its figures to ever
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from scipy import signal
 
@@ -340,9 +342,7 @@ def choose_preprocessing(series: JointSeries, requested: Preprocessing | None = 
         min_speed = {j: float(min_speed[j]) for j in joints}
     else:
         min_speed = {j: float(min_speed) for j in joints}
-    settings = Preprocessing(cutoff, req.order, dec, trims["trim_start_s"], trims["trim_end_s"], min_speed,
-                             req.velocity, req.filter, req.metric, req.thin, req.dip_scale, req.stick_speed,
-                             req.reversal_periods)
+    settings = replace(req, cutoff_hz=cutoff, decimate=dec, min_speed=min_speed, **trims)
     finite = bandwidth[np.isfinite(bandwidth)]
     report = {
         "sample_rate_hz": fs,

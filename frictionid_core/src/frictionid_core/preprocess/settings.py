@@ -48,6 +48,11 @@ THIN_MARGIN = 2.0  # thinned rows near a dip: this × finer than the dip rule al
 # ±0.29/fc (2 % to 98 % of its step response), so the filtered q̈ and sign(q̇) misstate the rows
 # there; a ground-truth UR5 (MuJoCo friction) gave rotor inertias 3–8 % high with them, ≤ 1.4 % without.
 REVERSAL_PERIODS = 0.3
+# Rows of a run of one sign of motion shorter than this many periods of the joint's cut-off are left out
+# by every fit: a motion the filter passes (below its cut-off) stays on one side of the min speed for
+# longer; the filter's ringing after a stop (order 4, zero phase: lobes of ~1 % of the decelerating
+# speed) or noise does not — on a Stribeck joint those rows carried ±Fs of the wrong sign.
+SHORT_RUN_PERIODS = 0.5
 SMOOTH_RATE_PER_CUTOFF = 100.0  # smooth columns (robot regressor) computed at ≥ this × the cut-off
 _GRID = 20001  # frequency points of the noise integrals
 _FILTER_COLUMNS = 16  # columns per block of the anti-alias filter
@@ -93,6 +98,10 @@ class Preprocessing:
             apart: the filter spreads a stick or slip at a reversal over that time; 0 keeps them;
             None: chosen by the identification (:data:`REVERSAL_PERIODS` for a law without a dip
             whose min speed comes from the data, else 0).
+        brief_periods: rows of a run of one sign of motion shorter than this many periods of the
+            joint's cut-off are left out, counted apart (``brief_motion_rows``): no motion below the
+            cut-off is that brief; 0 keeps them; None: :data:`SHORT_RUN_PERIODS` for a static law
+            with a min speed above 0, else 0 (a dynamic law models small motions).
     """
 
     cutoff_hz: float | dict[str, float] | None = None
@@ -108,6 +117,7 @@ class Preprocessing:
     dip_scale: dict[str, float] | None = None
     stick_speed: dict[str, float] | None = None
     reversal_periods: float | None = None
+    brief_periods: float | None = None
 
     def __post_init__(self) -> None:
         for name, value, choices in (("velocity", self.velocity, VELOCITY_SOURCES),
@@ -119,12 +129,13 @@ class Preprocessing:
         limits = [*(("cutoff_hz", v, 0, False) for v in cutoffs), ("order", self.order, 1, True),
                   ("decimate", self.decimate, 1, True), ("thin", self.thin, 1, True),
                   ("trim_start_s", self.trim_start_s, 0, True), ("trim_end_s", self.trim_end_s, 0, True),
-                  *(("min_speed", v, 0, True) for v in speeds), ("reversal_periods", self.reversal_periods, 0, True)]
+                  *(("min_speed", v, 0, True) for v in speeds), ("reversal_periods", self.reversal_periods, 0, True),
+                  ("brief_periods", self.brief_periods, 0, True)]
         bad = [f"{name} {value}" for name, value, low, inclusive in limits
                if value is not None and (value < low or (value == low and not inclusive))]
         if bad:
             raise FrictionIdError(f"pre-processing: invalid {', '.join(bad)} (cut-off > 0, order, decimate and thin "
-                                  "≥ 1, trims, min speed and reversal periods ≥ 0)")
+                                  "≥ 1, trims, min speed, reversal and brief periods ≥ 0)")
 
     @property
     def resolved(self) -> bool:

@@ -17,6 +17,7 @@ from frictionid_core.errors import InputError
 from frictionid_core.model import Observation, build_observation, concat_observations, keep_all_rows
 from frictionid_core.preprocess import (
     MIN_SPEED_SIGMAS,
+    SHORT_RUN_PERIODS,
     TRIM_PERIODS,
     Prepared,
     Preprocessing,
@@ -27,6 +28,7 @@ from frictionid_core.preprocess import (
     near_reversals,
     preprocess,
     resample_uniform,
+    short_runs,
     subsample,
     travel_noise,
 )
@@ -337,6 +339,12 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
     slow |= stick
     if system.motor_rows:
         obs.coupling, obs.data_joints = drive.C, joints
+    slow |= stick
+    brief_periods = resolved.brief_periods
+    if brief_periods is None:  # a static law's (a dynamic law models small motions)
+        brief_periods = 0.0 if all_rows else SHORT_RUN_PERIODS
+    brief = ~slow & (min_speed > 0.0) & short_run_rows(obs, slow, resolved, brief_periods)  # min speed 0: every row
+    slow |= brief
     reversal = ~slow & reversal_rows(obs, slow, resolved)
     slow |= reversal
     smeared = ~slow & resampled_reversal_rows(obs, report["resampled_interval_s"])
@@ -356,6 +364,7 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
     report["slow_rows_excluded"] = dict(zip(row_names, map(int, slow.sum(axis=0))))  # stick rows included
     report["stick_rows"] = dict(zip(row_names, map(int, stick.sum(axis=0))))
     report["reversal_rows"] = dict(zip(row_names, map(int, reversal.sum(axis=0))))
+    report["brief_motion_rows"] = dict(zip(row_names, map(int, brief.sum(axis=0))))
     report["resampled_reversal_rows"] = dict(zip(row_names, map(int, smeared.sum(axis=0))))
     report["fit_rows"] = int(obs.y.size)  # every joint's rows (thinned: see Preprocessing.thin)
     return obs
@@ -364,10 +373,17 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
 def reversal_rows(obs: Observation, left_out: np.ndarray, settings: Preprocessing) -> np.ndarray:
     """(Nd, J) the rows of ``obs`` within ``settings.reversal_periods`` periods of their joint's
     cut-off of a change of its sign of motion (rows ``left_out`` count as at rest), in each stretch
-    of ``obs`` alone (a source or a segment: its stamps step back or jump); a motor's rows take the
-    lowest cut-off of the joints it turns with, a joint without a cut-off of its own the highest."""
+    of ``obs`` alone (:func:`_per_stretch`)."""
     if not settings.reversal_periods:
         return np.zeros_like(left_out)
+    return _per_stretch(obs, left_out, settings,
+                        lambda v, fs, fc: near_reversals(v, fs, fc, settings.reversal_periods))
+
+
+def _per_stretch(obs: Observation, left_out: np.ndarray, settings: Preprocessing, rows) -> np.ndarray:
+    """``rows(velocity, fs, cutoffs)`` (the rows ``left_out`` at rest) of each stretch of ``obs`` (a
+    source or a segment: its stamps step back or jump) stacked; a motor's rows take the lowest cut-off
+    of the joints it turns with, a joint without a cut-off of its own the highest."""
     given = settings.cutoff_hz
     joints = list(obs.data_joints or obs.joints)
     cutoffs = (np.array([given.get(j, max(given.values())) for j in joints]) if isinstance(given, dict)
@@ -378,8 +394,17 @@ def reversal_rows(obs: Observation, left_out: np.ndarray, settings: Preprocessin
     step = np.diff(obs.t)
     period = float(np.median(step)) if step.size else 1.0
     cuts = np.concatenate([[0], np.flatnonzero((step <= 0.0) | (step > 1.5 * period)) + 1, [len(obs.t)]])
-    return np.vstack([near_reversals(velocity[a:b], 1.0 / period, cutoffs, settings.reversal_periods)
-                      for a, b in zip(cuts[:-1], cuts[1:])])
+    return np.vstack([rows(velocity[a:b], 1.0 / period, cutoffs) for a, b in zip(cuts[:-1], cuts[1:])])
+
+
+def short_run_rows(obs: Observation, left_out: np.ndarray, settings: Preprocessing, periods: float) -> np.ndarray:
+    """(Nd, J) the rows of ``obs`` in a run of one sign of motion shorter than ``periods`` periods of
+    their joint's cut-off (rows
+    ``left_out`` count as at rest: :func:`~frictionid_core.preprocess.short_runs`), in each stretch of
+    ``obs`` alone (:func:`_per_stretch`)."""
+    if not periods:
+        return np.zeros_like(left_out)
+    return _per_stretch(obs, left_out, settings, lambda v, fs, fc: short_runs(v, fs, fc, periods))
 
 
 def resampled_reversal_rows(obs: Observation, interval_s: float) -> np.ndarray:
