@@ -37,7 +37,8 @@ _LAZY = {
 
 __all__ = ["CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SHARE", "MIN_SPEED_SIGMAS",
            "MOVING_FACTOR", "PLAY_SIGMAS", "PREDICTION_TOLERANCE", "Prepared", "Preprocessing",
-           "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS", "SHORT_RUN_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES",
+           "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS", "SHORT_RUN_PERIODS", "TRIM_PERIODS", "TooFewSamples",
+           "VELOCITY_SOURCES",
            "central_difference", "choose_preprocessing", "column_stride", "cutoff_range", "decimate",
            "decimation_indices", "dip_needs", "lag_record", "lowpass_position", "near_reversals", "noise_density",
            "play", "prepare", "preprocess", "remove_channel_lag", "resample_uniform", "rule_decimation", "short_runs",

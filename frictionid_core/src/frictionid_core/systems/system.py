@@ -259,6 +259,8 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
                                       for j in report["slow_rows_excluded"]},
                   stick_rows={j: sum(r["stick_rows"][j] for r in over) for j in report["stick_rows"]},
                   reversal_rows={j: sum(r["reversal_rows"][j] for r in over) for j in report["reversal_rows"]},
+                  brief_motion_rows={j: sum(r["brief_motion_rows"][j] for r in over)
+                                     for j in report["brief_motion_rows"]},
                   resampled_reversal_rows={j: sum(r["resampled_reversal_rows"][j] for r in over)
                                            for j in report["resampled_reversal_rows"]},
                   resampled_interval_s=max(r["resampled_interval_s"] for r in over),
@@ -339,7 +341,6 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
     slow |= stick
     if system.motor_rows:
         obs.coupling, obs.data_joints = drive.C, joints
-    slow |= stick
     brief_periods = resolved.brief_periods
     if brief_periods is None:  # a static law's (a dynamic law models small motions)
         brief_periods = 0.0 if all_rows else SHORT_RUN_PERIODS
