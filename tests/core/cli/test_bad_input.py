@@ -646,7 +646,7 @@ def test_validate_with_no_row_left(inputs, emps_result, capsys):
     inputs["result"].write_text(json.dumps(_set(emps_result, "preprocessing.min_speed", 50.0)))  # faster than any
     msg = fails(["validate", inputs["log"], "--params", inputs["result"]], capsys)
     assert msg.endswith("no sample left to cross-test on (every one slower than the min speed of the pre-processing, "
-                        "or trimmed away)")
+                        "or trimmed away); --cutoff and --min-speed set them")
 
 
 def test_synth_friction_parameters_must_be_finite(inputs, capsys):

@@ -11,6 +11,8 @@ metrics' rows: Fc −1.1 %, Fs −0.9 %, vs −1.9 %, σ1 +3.9 %).
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -42,6 +44,27 @@ def test_synthetic_lugre_joint_meets_the_acceptance():
     assert static.metrics["all_rows"]["relerr_pct"] > 5 * every["relerr_pct"]  # sign(0) at rest, no pre-sliding
 
 
+def test_a_quantised_encoder_does_not_set_the_lugre_cut_off():
+    """The same joint read by a 14-bit encoder (3.8e-4 rad steps): the rule reads the steps as motion up
+    to the 200 Hz cap, where the static part put Fs 17 × off and the law validated at 11 × its floor;
+    the folds' cut-off (then raised where the law predicts better, 4.6 Hz) gives every parameter
+    within the acceptance [Fc, Fs, vs within 0.4 %, σ0 2.7 %, σ1 19 %] and the other log's every row
+    at 1.7 × its floor (the quantisation's own error shows there)."""
+    step = 2 * np.pi / 2**14
+
+    def quantised(series):
+        return replace(series, position=np.round(series.position / step) * step)
+
+    result = fid.identify(quantised(dynamic_friction_log(LUGRE, seed=0)),
+                          fid.IdentifyRequest(system="joint", friction="lugre", solver="lm"))
+    err = error_pct(result.params, LUGRE)
+    limits = {"Fc": 3, "Fs": 3, "vs": 10, "sigma0": 15, "sigma1": 30}
+    assert all(abs(err[k]) < limits[k] for k in limits), err
+    assert result.to_dict()["preprocessing"]["cross_validation"]["cutoff_hz"]["j"] < 20.0
+    metrics = fid.validate(quantised(dynamic_friction_log(LUGRE, seed=1, seconds=15.0)), result)
+    assert metrics["all_rows"]["relerr_pct"] < 2.0 * metrics["noise_floor_pct"]
+
+
 def test_asymmetric_lugre_finds_both_branches():
     """The asymmetric variant on the same (symmetric) truth: each branch within the acceptance
     (measured: Fc, Fs within 1.2 %, vs 1.6 %, σ0 0.3 %, σ1 2.8 % on either branch)."""
@@ -66,6 +89,9 @@ def test_a_dynamic_result_validates_on_other_data_through_its_file(tmp_path):
     metrics = fid.validate(other, fid.read_result(path))
     assert metrics["all_rows"]["relerr_pct"] < 1.6 * metrics["noise_floor_pct"]
     assert metrics["all_rows"]["samples"] > metrics["samples"]
+    # no moving row left (a min speed above every speed): one line, not a division by zero
+    with pytest.raises(FrictionIdError, match="no sample left to cross-test on"):
+        fid.validate(other, fid.read_result(path), preprocessing=fid.PreprocessingOverrides(min_speed=50.0))
 
 
 def test_dahl_is_gms_with_one_element():

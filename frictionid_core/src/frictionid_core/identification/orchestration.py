@@ -135,7 +135,7 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
     fit_plan = replace(plan, system=rigid.fit_system) if rigid else plan
 
     chosen, choice = settings, None
-    if settings.cutoff_hz is None and not get_model(request.friction).is_dynamic:  # those that predict best
+    if settings.cutoff_hz is None:  # those that predict best (a dynamic law raises them where it predicts better)
         folds: dict = {}
         cutoffs, choice = choose_by_cross_validation(fit_plan, settings, request.asymmetric, fixed_request, folds)
         if cutoffs is not None:
