@@ -98,8 +98,8 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
     System, joint map, joints, friction, drive, pre-processing and held joints come from the
     result, the settings it chose from its data chosen again from ``series`` where they can
     (:func:`validation_settings`; which: the observation report's ``rechosen``, ``kept``,
-    ``kept_why``, ``set``; a dynamic law's cut-off chosen again, then raised where the result's law
-    predicts these data better: :func:`~.dynamic_rates.presliding_model`); each argument given
+    ``kept_why``, ``set``; a dynamic law's cut-off that the rule alone chose chosen again, then raised
+    where the result's law predicts these data better: :func:`~.dynamic_rates.presliding_model`); each argument given
     overrides its part (``preprocessing``: settings the user fixes; ``joint_map`` goes with
     ``system`` when both are given). ``window`` cuts ``series`` (s from the first sample); the
     result's own window is not reused. The joints the result held still are held again where it
