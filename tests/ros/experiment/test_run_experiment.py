@@ -109,7 +109,9 @@ def run_goal(ros, feedback: list, on_feedback=None, cancel_in: str = "", **field
             cancelled.set()
             holder["handle"].cancel_goal_async()
 
-    handle = ros.wait(client.send_goal_async(RunExperiment.Goal(**fields), feedback_callback=fb_cb), 30.0, "goal")
+    # the answer to a goal waits for the node's executor: on a machine loaded by two other processes it took
+    # over 30 s once (the run after the previous goal's hold); a dead node still fails within two minutes
+    handle = ros.wait(client.send_goal_async(RunExperiment.Goal(**fields), feedback_callback=fb_cb), 120.0, "goal")
     holder["handle"] = handle
     assert handle.accepted
     res = ros.wait(handle.get_result_async(), 300.0, "result")
