@@ -16,8 +16,8 @@ from frictionid_core import lazy
 # Public names -> the module that defines them (loaded on first use).
 _LAZY = {
     **dict.fromkeys((
-        "central_difference", "decimate", "decimation_indices", "lowpass_position", "near_reversals",
-        "short_runs", "window_means",
+        "brief_runs", "central_difference", "decimate", "decimation_indices", "lowpass_position",
+        "near_reversals", "window_means",
     ), "frictionid_core.preprocess.filters"),
     **dict.fromkeys(("lag_record", "remove_channel_lag"), "frictionid_core.preprocess.lag"),
     **dict.fromkeys((
@@ -29,20 +29,18 @@ _LAZY = {
     **dict.fromkeys(("PLAY_SIGMAS", "play", "travel_noise", "travel_rows"),
                     "frictionid_core.preprocess.travel"),
     **dict.fromkeys((
-        "cutoff_range", "CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SHARE", "MIN_SPEED_SIGMAS",
-        "MOVING_FACTOR", "PREDICTION_TOLERANCE", "Prepared", "Preprocessing", "QDD_NOISE_SHARE_LIMIT",
-        "REVERSAL_PERIODS", "SHORT_RUN_PERIODS", "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
+        "BRIEF_PERIODS", "cutoff_range", "CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SHARE",
+        "MIN_SPEED_SIGMAS", "MOVING_FACTOR", "PREDICTION_TOLERANCE", "Prepared", "Preprocessing",
+        "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS", "TooFewSamples", "TRIM_PERIODS", "VELOCITY_SOURCES",
     ), "frictionid_core.preprocess.settings"),
 }
 
-__all__ = ["CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SHARE", "MIN_SPEED_SIGMAS",
-           "MOVING_FACTOR", "PLAY_SIGMAS", "PREDICTION_TOLERANCE", "Prepared", "Preprocessing",
-           "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS", "SHORT_RUN_PERIODS", "TRIM_PERIODS", "TooFewSamples",
-           "VELOCITY_SOURCES",
-           "central_difference", "choose_preprocessing", "column_stride", "cutoff_range", "decimate",
+__all__ = ["BRIEF_PERIODS", "CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHARE", "MIN_SPEED_SHARE",
+           "MIN_SPEED_SIGMAS", "MOVING_FACTOR", "PLAY_SIGMAS", "PREDICTION_TOLERANCE", "Prepared", "Preprocessing",
+           "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES",
+           "brief_runs", "central_difference", "choose_preprocessing", "column_stride", "cutoff_range", "decimate",
            "decimation_indices", "dip_needs", "lag_record", "lowpass_position", "near_reversals", "noise_density",
-           "play", "prepare", "preprocess", "remove_channel_lag", "resample_uniform", "rule_decimation", "short_runs",
-           "subsample",
-           "thinned_rows", "travel_noise", "travel_rows", "window_means"]
+           "play", "prepare", "preprocess", "remove_channel_lag", "resample_uniform", "rule_decimation",
+           "subsample", "thinned_rows", "travel_noise", "travel_rows", "window_means"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

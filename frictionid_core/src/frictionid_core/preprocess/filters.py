@@ -99,7 +99,7 @@ def window_means(x: np.ndarray, n: int, stride: int = 1, rows: np.ndarray | None
     return out.reshape((kept.size,) + x.shape[1:])
 
 
-def short_runs(velocity: np.ndarray, fs: float, cutoff_hz: np.ndarray, periods: float) -> np.ndarray:
+def brief_runs(velocity: np.ndarray, fs: float, cutoff_hz: np.ndarray, periods: float) -> np.ndarray:
     """(N, J) True where a row of ``velocity`` (N, J), sampled at ``fs``, belongs to a run of one sign
     of motion (0 for a row left out or at rest) shorter than ``periods`` / ``cutoff_hz`` (J,) seconds:
     no motion within the filter's band crosses the min speed that briefly (the filter's ringing after

@@ -49,10 +49,11 @@ THIN_MARGIN = 2.0  # thinned rows near a dip: this × finer than the dip rule al
 # there; a ground-truth UR5 (MuJoCo friction) gave rotor inertias 3–8 % high with them, ≤ 1.4 % without.
 REVERSAL_PERIODS = 0.3
 # Rows of a run of one sign of motion shorter than this many periods of the joint's cut-off are left out
-# by every fit: a motion the filter passes (below its cut-off) stays on one side of the min speed for
-# longer; the filter's ringing after a stop (order 4, zero phase: lobes of ~1 % of the decelerating
-# speed) or noise does not — on a Stribeck joint those rows carried ±Fs of the wrong sign.
-SHORT_RUN_PERIODS = 0.5
+# by a static law's fit (Preprocessing.brief_periods): a motion the filter passes (below its cut-off)
+# stays on one side of the min speed for longer; the filter's ringing after a stop (order 4, zero
+# phase: lobes of ~1 % of the decelerating speed) or noise does not — on a Stribeck joint those rows
+# carried ±Fs of the wrong sign.
+BRIEF_PERIODS = 0.5
 SMOOTH_RATE_PER_CUTOFF = 100.0  # smooth columns (robot regressor) computed at ≥ this × the cut-off
 _GRID = 20001  # frequency points of the noise integrals
 _FILTER_COLUMNS = 16  # columns per block of the anti-alias filter
@@ -100,7 +101,7 @@ class Preprocessing:
             whose min speed comes from the data, else 0).
         brief_periods: rows of a run of one sign of motion shorter than this many periods of the
             joint's cut-off are left out, counted apart (``brief_motion_rows``): no motion below the
-            cut-off is that brief; 0 keeps them; None: :data:`SHORT_RUN_PERIODS` for a static law
+            cut-off is that brief; 0 keeps them; None: :data:`BRIEF_PERIODS` for a static law
             with a min speed above 0, else 0 (a dynamic law models small motions).
     """
 

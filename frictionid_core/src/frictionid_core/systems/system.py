@@ -16,19 +16,19 @@ import numpy as np
 from frictionid_core.errors import InputError
 from frictionid_core.model import Observation, build_observation, concat_observations, keep_all_rows
 from frictionid_core.preprocess import (
+    BRIEF_PERIODS,
     MIN_SPEED_SIGMAS,
-    SHORT_RUN_PERIODS,
     TRIM_PERIODS,
     Prepared,
     Preprocessing,
     TooFewSamples,
+    brief_runs,
     choose_preprocessing,
     column_stride,
     cutoff_range,
     near_reversals,
     preprocess,
     resample_uniform,
-    short_runs,
     subsample,
     travel_noise,
 )
@@ -343,8 +343,8 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
         obs.coupling, obs.data_joints = drive.C, joints
     brief_periods = resolved.brief_periods
     if brief_periods is None:  # a static law's (a dynamic law models small motions)
-        brief_periods = 0.0 if all_rows else SHORT_RUN_PERIODS
-    brief = ~slow & (min_speed > 0.0) & short_run_rows(obs, slow, resolved, brief_periods)  # min speed 0: every row
+        brief_periods = 0.0 if all_rows else BRIEF_PERIODS
+    brief = ~slow & (min_speed > 0.0) & brief_motion_rows(obs, slow, resolved, brief_periods)  # min speed 0: every row
     slow |= brief
     reversal = ~slow & reversal_rows(obs, slow, resolved)
     slow |= reversal
@@ -398,14 +398,14 @@ def _per_stretch(obs: Observation, left_out: np.ndarray, settings: Preprocessing
     return np.vstack([rows(velocity[a:b], 1.0 / period, cutoffs) for a, b in zip(cuts[:-1], cuts[1:])])
 
 
-def short_run_rows(obs: Observation, left_out: np.ndarray, settings: Preprocessing, periods: float) -> np.ndarray:
+def brief_motion_rows(obs: Observation, left_out: np.ndarray, settings: Preprocessing,
+                      periods: float) -> np.ndarray:
     """(Nd, J) the rows of ``obs`` in a run of one sign of motion shorter than ``periods`` periods of
-    their joint's cut-off (rows
-    ``left_out`` count as at rest: :func:`~frictionid_core.preprocess.short_runs`), in each stretch of
-    ``obs`` alone (:func:`_per_stretch`)."""
+    their joint's cut-off (rows ``left_out`` count as at rest: :func:`~frictionid_core.preprocess.brief_runs`),
+    in each stretch of ``obs`` alone (:func:`_per_stretch`)."""
     if not periods:
         return np.zeros_like(left_out)
-    return _per_stretch(obs, left_out, settings, lambda v, fs, fc: short_runs(v, fs, fc, periods))
+    return _per_stretch(obs, left_out, settings, lambda v, fs, fc: brief_runs(v, fs, fc, periods))
 
 
 def resampled_reversal_rows(obs: Observation, interval_s: float) -> np.ndarray:
