@@ -48,10 +48,11 @@ def validation_settings(record: Mapping, series: JointSeries, overrides: Preproc
     decimation, trims, min speed, which follow the record's rate, length and noise) chosen again
     from ``series``, and ``overrides`` (the user's) over all (a min speed given replaces the stick
     phases, as on ``identify``). A ``dynamic`` law's cut-offs chosen from the data by the rule alone
-    (a result without a ``cross_validation`` choice) are chosen again: the rule's, raised where the
-    law predicts better, a choice :func:`model_from_result` makes again on these data; chosen by the
-    folds, they are kept like a static law's (folds of a short validation log chose 10–100 Hz where the
-    identification's 3–5 Hz validated at 4 %, they at 61 %).
+    (a result without a ``cross_validation`` choice, or whose fit from the rule's cut-offs won:
+    ``dynamic_start``) are chosen again: the rule's, raised where the law predicts better, a choice
+    :func:`model_from_result` makes again on these data; chosen by the folds, they are kept like a
+    static law's (folds of a short validation log chose 10–100 Hz where the identification's 3–5 Hz
+    validated at 4 %, they at 61 %).
 
     Returns the settings and which were ``rechosen``, ``kept`` (with ``kept_why``: {setting:
     reason}) and ``set``. A decimation chosen again drops the result's row thinning (set for its
@@ -72,7 +73,9 @@ def validation_settings(record: Mapping, series: JointSeries, overrides: Preproc
             why["stick_speed"] = FOUND_WHY
         if settings.reversal_periods and "reversal_periods" not in given:
             why["reversal_periods"] = REVERSAL_WHY
-    if "cutoff_hz" in chosen and (not dynamic or (record.get("cross_validation") or {}).get("cutoff_hz")):
+    folds = record.get("cross_validation") or {}
+    if "cutoff_hz" in chosen and (not dynamic or (folds.get("cutoff_hz")
+                                                 and (folds.get("dynamic_start") or {}).get("taken") != "rule")):
         chosen.remove("cutoff_hz")
         values.pop("cutoff_hz")
         why["cutoff_hz"] = CHOSEN_WHY
