@@ -195,6 +195,26 @@ def _at_decade(cap_hz: float) -> bool:
     return bool(abs(exponent - round(exponent)) < 1e-9)
 
 
+def rule_cutoffs_of(plan: FitPlan, requested: Preprocessing) -> dict[str, float]:
+    """{data joint: the highest cut-off (Hz) the rule chooses for it on any source of ``plan``}."""
+    out: dict[str, float] = {}
+    for sp in plan.sources:
+        rule = choose_preprocessing(rule_series(sp.series, plan.system), requested)[0]
+        for j, c in rule.cutoff_hz.items():
+            out[j] = max(c, out.get(j, 0.0))
+    return out
+
+
+def score_at(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str, float], asymmetric: bool = False,
+             fixed: dict[str, float] | None = None) -> CvScore | None:
+    """The cross-validated error of ``plan`` at ``cutoffs``; None when the folds cannot be made."""
+    try:
+        return cross_validated_error(fold_observations(plan, resolved_settings(plan, requested, cutoffs)),
+                                     asymmetric, fixed)
+    except (TooFewSamples, FrictionIdError):
+        return None
+
+
 def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetric: bool = False,
                                fixed: dict[str, float] | None = None, keep: dict | None = None
                                ) -> tuple[dict[str, float] | None, dict]:
@@ -206,12 +226,8 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
     then each joint whose own effort is a row takes the candidate that predicts that effort best
     (rows that are motors of a coupled drive take the overall choice). ``keep["folds"]`` receives
     the fold observations of the chosen cut-offs where they are one candidate's."""
-    rule_cutoffs: dict[str, float] = {}
-    try:  # each joint the highest cut-off the rule chooses on any source
-        for sp in plan.sources:
-            rule = choose_preprocessing(rule_series(sp.series, plan.system), requested)[0]
-            for j, c in rule.cutoff_hz.items():
-                rule_cutoffs[j] = max(c, rule_cutoffs.get(j, 0.0))
+    try:
+        rule_cutoffs = rule_cutoffs_of(plan, requested)
     except FrictionIdError as exc:  # the identification says why, in its own words
         return None, {"folds": FOLDS, "skipped": str(exc)}
     record = {"folds": FOLDS, "rule_cutoff_hz": rule_cutoffs, "candidates": []}

@@ -18,6 +18,7 @@ from frictionid_core.identification.at_bound import fit_at_bound
 from frictionid_core.identification.cross_validation import choose_by_cross_validation, choose_min_speed, record_choice
 from frictionid_core.identification.dip_refit import dip_advice, fit_at_dip_rates, settled_dip_advice
 from frictionid_core.identification.dynamic_fit import fit_dynamic
+from frictionid_core.identification.effort_lag import confirmed_effort_lags
 from frictionid_core.identification.effort_sign import checked_effort_sign
 from frictionid_core.identification.identifiability import identifiability
 from frictionid_core.identification.law_choice import AUTO, identify_auto
@@ -127,10 +128,22 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
     solver = request.solver.resolved(sys_.robot is not None, request.friction)
     sources = request_sources(series, request)
     where = sources[0].source if len(sources) == 1 else ", ".join(s.source for s in sources)
-    plan = plan_fit(sources, sys_, request.joints, Holds(dict(request.hold), request.hold_missing))
-    sys_ = plan.system
-    rigid = known_rigid_body(sys_) if request.known_rigid_body else None
+    holds = Holds(dict(request.hold), request.hold_missing)
+    plan = plan_fit(sources, sys_, request.joints, holds)
+    rigid = known_rigid_body(plan.system) if request.known_rigid_body else None
     fixed_request = {**request.fixed, LINK_TORQUE: 1.0} if rigid else dict(request.fixed)
+
+    def fit_plan_of(srcs: list[JointSeries]):
+        on = plan_fit(srcs, sys_, request.joints, holds)
+        return replace(on, system=rigid.fit_system) if rigid else on
+
+    # an effort lag the loader could not confirm: the system's model judges it (at the rule's cut-offs: at those
+    # the folds choose from the lagged effort, a lower cut-off stands in for part of the lag)
+    confirmed = confirmed_effort_lags(sources, fit_plan_of, settings, request.asymmetric, fixed_request)
+    if confirmed is not sources:
+        sources = confirmed
+        plan = plan_fit(sources, sys_, request.joints, holds)
+    sys_ = plan.system
     held: dict[str, float] = {}  # the directions the data do not resolve, held (identifiability)
     fit_plan = replace(plan, system=rigid.fit_system) if rigid else plan
 
@@ -178,7 +191,7 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
 
     model, first, fit_settings, resolved, warnings, at_rule_rates = fit_from(chosen)
     folds_cutoffs = (choice or {}).get("cutoff_hz")
-    if model.friction.is_dynamic and folds_cutoffs not in (None, choice.get("rule_cutoff_hz")):
+    if model.friction.is_dynamic and folds_cutoffs is not None and folds_cutoffs != choice.get("rule_cutoff_hz"):
         model, first, fit_settings, resolved, warnings, at_rule_rates = dynamic_start(
             (model, first, fit_settings, resolved, warnings, at_rule_rates), lambda: fit_from(settings), held)
     if keep is not None:

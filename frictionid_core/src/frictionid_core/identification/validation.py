@@ -13,6 +13,7 @@ from frictionid_core.drive import result_drive
 from frictionid_core.errors import FrictionIdError, InputError
 from frictionid_core.friction import elements_of, get_model
 from frictionid_core.identification.dynamic_rates import presliding_model
+from frictionid_core.identification.effort_lag import with_result_effort_lag
 from frictionid_core.identification.model_building import (
     Sources,
     as_sources,
@@ -130,6 +131,7 @@ def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, syst
         raise FrictionIdError(f"parameter file lacks {exc}; expected the JSON written by "
                               "'frictionid identify'") from None
     sources = as_sources(series, window)  # on the recorded side: the system's drive converts them
+    sources = with_result_effort_lag(sources, result.get("preprocessing"))
     holds = Holds({**(asked.get("hold") or {}), **held}, bool(asked.get("hold_missing")))
     plan = plan_fit(sources, sys_, list(joints) if joints else None, holds, structure=held, judge_effort=False)
     if result.get("preprocessing"):

@@ -19,7 +19,8 @@ _LAZY = {
         "brief_runs", "central_difference", "decimate", "decimation_indices", "lowpass_position",
         "near_reversals", "window_means",
     ), "frictionid_core.preprocess.filters"),
-    **dict.fromkeys(("lag_record", "remove_channel_lag"), "frictionid_core.preprocess.lag"),
+    **dict.fromkeys(("effort_lag_candidate", "lag_record", "remove_channel_lag", "shift_effort"),
+                    "frictionid_core.preprocess.lag"),
     **dict.fromkeys((
         "column_stride", "dip_needs", "prepare", "preprocess", "resample_uniform", "subsample", "thinned_rows",
     ), "frictionid_core.preprocess.preparation"),
@@ -39,8 +40,9 @@ __all__ = ["BRIEF_PERIODS", "CUTOFFS_PER_DECADE", "DIP_WINDOW", "MAX_CUTOFF_SHAR
            "MIN_SPEED_SIGMAS", "MOVING_FACTOR", "PLAY_SIGMAS", "PREDICTION_TOLERANCE", "Prepared", "Preprocessing",
            "QDD_NOISE_SHARE_LIMIT", "REVERSAL_PERIODS", "TRIM_PERIODS", "TooFewSamples", "VELOCITY_SOURCES",
            "brief_runs", "central_difference", "choose_preprocessing", "column_stride", "cutoff_range", "decimate",
-           "decimation_indices", "dip_needs", "lag_record", "lowpass_position", "near_reversals", "noise_density",
-           "play", "prepare", "preprocess", "remove_channel_lag", "resample_uniform", "rule_decimation",
-           "subsample", "thinned_rows", "travel_noise", "travel_rows", "window_means"]
+           "decimation_indices", "dip_needs", "effort_lag_candidate", "lag_record", "lowpass_position",
+           "near_reversals", "noise_density", "play", "prepare", "preprocess", "remove_channel_lag", "resample_uniform",
+           "rule_decimation", "shift_effort", "subsample", "thinned_rows", "travel_noise", "travel_rows",
+           "window_means"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

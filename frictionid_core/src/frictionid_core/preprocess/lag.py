@@ -35,7 +35,10 @@ result's ``preprocessing.lag_s``).
   minimises the geometric mean of the residual ratios is taken when it leaves at most
   EFFORT_SCAN_RATIO of the logged residual and each half of the log finds it (synthetic arms lagged
   10–60 ms: 0.02–0.56, within a tenth of a sample period at 1 kHz; no real log of
-  ``bench/field.py`` moved).
+  ``bench/field.py`` moved). Found by each half but leaving more, it is a candidate
+  (``meta[CANDIDATE_KEY]``: :func:`effort_lag_candidate`) that the identification judges with the
+  system's own model (:mod:`frictionid_core.identification.effort_lag`); so is the effort of a log
+  whose logged velocity is on time.
 * The lagging channels are moved back onto the position's stamps (linear interpolation at t + lag,
   within each segment of the stamps); the samples the move leaves without a value (the last lag
   seconds of each segment) are dropped. One note says what was found and done.
@@ -69,6 +72,10 @@ EFFORT_LAG_RATIO = 0.5  # the effort shares the velocity's lag when its residual
 EFFORT_FIT_SHARE = 0.5  # a joint's effort is judged when the regression leaves at most this share unexplained
 EFFORT_SCAN_RATIO = 0.8  # the effort's own lag: the best shift leaves at most this × the residual as logged
 META_PREFIX = "lag_s/"  # series.meta["lag_s/<velocity|effort>/<joint>"]: the lag removed, s
+# series.meta[CANDIDATE_KEY] (s) and [CANDIDATE_RATIO_KEY]: an effort lag each half of the log finds but the
+# motion regression does not confirm (its residual ratio above EFFORT_SCAN_RATIO): the identification judges it
+CANDIDATE_KEY = "lag_candidate_s/effort"
+CANDIDATE_RATIO_KEY = "lag_candidate_ratio/effort"
 CHANNELS = ("velocity", "effort")
 
 
@@ -129,12 +136,17 @@ def remove_channel_lag(series: JointSeries) -> tuple[JointSeries, str | None]:
     filtered = {j: e for j, e in estimates.items() if j not in counted and e.filtered(threshold)}
     if not any(velocity.values()):
         meta.update({f"{META_PREFIX}{c}/{j}": 0.0 for c in CHANNELS for j in judged})
-        return _with_meta(series, meta), _filtered_note(series, filtered) if filtered else None
+        out, note = _effort_only(_with_meta(series, meta), grid)  # the velocity on time: the effort's own lag
+        notes = [n for n in (_filtered_note(series, filtered) if filtered else None, note) if n]
+        return out, "; ".join(notes) if notes else None
     ratio = _effort_ratio(series, grid, velocity)
     effort = velocity if ratio is not None and ratio <= EFFORT_LAG_RATIO else dict.fromkeys(series.joints, 0.0)
     own = None
     if not any(effort.values()):  # not the velocity's lag: the effort's own, if it has one
         own = _effort_scan(grid, threshold)
+        if own is not None and not own[2]:  # found, not confirmed: a candidate for the identification
+            meta.update({CANDIDATE_KEY: own[0], CANDIDATE_RATIO_KEY: own[1]})
+            own = None
         if own is not None:
             effort = dict.fromkeys(series.joints, own[0])
     meta.update({f"{META_PREFIX}velocity/{j}": velocity[j] for j in judged})
@@ -162,7 +174,7 @@ def _note(series: JointSeries, velocity: dict, common: float | None, counted: li
             f"derivative peaks there (r ≥ {lowest:.4f}), in each half of the log and for their derivatives alike")
     if own is not None:
         tail = (f"the effort does not share it{'' if ratio is None else f' ({ratio:.2g} × the residual once shifted)'} "
-                f"but {_effort_lag_text(*own)}")
+                f"but {_effort_lag_text(*own[:2])}")
     elif ratio is None:
         tail = "the effort cannot be judged (no joint's effort follows its motion well enough): left as logged"
     elif any(effort.values()):
@@ -175,38 +187,69 @@ def _note(series: JointSeries, velocity: dict, common: float | None, counted: li
             "without a value at the end of the log (of each segment) dropped")
 
 
-def _effort_only(series: JointSeries) -> tuple[JointSeries, str | None]:
-    """A log without a logged velocity: its effort's own lag behind the position found
-    (:func:`_effort_scan`) and removed, with its note; the series as it is when none is found."""
-    grid = _Grid(series)
+def _effort_only(series: JointSeries, grid: _Grid | None = None) -> tuple[JointSeries, str | None]:
+    """A log without a logged velocity (or whose velocity is on time): its effort's own lag behind the
+    position found (:func:`_effort_scan`) and removed, with its note; the series as it is when none is
+    found, with the lag in ``meta[CANDIDATE_KEY]`` when found but not confirmed."""
+    grid = _Grid(series) if grid is None else grid
     threshold = max(MIN_LAG_PERIODS * _period(series.t), MIN_LAG_S)
     own = _effort_scan(grid, threshold) if grid.ok else None
     if own is None:
         return series, None
-    effort = dict.fromkeys(series.joints, own[0])
-    out, dropped = _shifted(series, dict.fromkeys(series.joints, 0.0), effort)
-    out.meta = {**series.meta, **{f"{META_PREFIX}effort/{j}": own[0] for j in series.joints}}
-    return out, (f"{series.source}: channel lag: {_effort_lag_text(*own)}; the {dropped} sample(s) this leaves "
-                 "without a value at the end of the log (of each segment) dropped")
+    if not own[2]:
+        return _with_meta(series, {**series.meta, CANDIDATE_KEY: own[0], CANDIDATE_RATIO_KEY: own[1]}), None
+    return shift_effort(series, own[0], _effort_lag_text(*own[:2], head=False))
 
 
-def _effort_lag_text(lag: float, ratio: float) -> str:
+def effort_lag_candidate(series: JointSeries) -> tuple[float, float] | None:
+    """(lag s, residual ratio) of an effort lag the loader found in each half of ``series`` but could
+    not confirm by the motion alone, or None."""
+    if CANDIDATE_KEY not in series.meta:
+        return None
+    return float(series.meta[CANDIDATE_KEY]), float(series.meta.get(CANDIDATE_RATIO_KEY, float("nan")))
+
+
+def shift_effort(series: JointSeries, lag: float | dict[str, float], why: str) -> tuple[JointSeries, str]:
+    """(``series`` with its effort read ``lag`` s later (one for every joint, or {joint: s}; moved
+    back onto the position's stamps, the samples left without a value dropped), recorded in its
+    meta, the note saying so); ``why``: the evidence, after "the effort lags the position by …: "."""
+    lags = {j: float(lag.get(j, 0.0)) for j in series.joints} if isinstance(lag, dict) \
+        else dict.fromkeys(series.joints, float(lag))
+    out, dropped = _shifted(series, dict.fromkeys(series.joints, 0.0), lags)
+    out.meta = {**{k: v for k, v in series.meta.items() if k not in (CANDIDATE_KEY, CANDIDATE_RATIO_KEY)},
+                **{f"{META_PREFIX}effort/{j}": v for j, v in lags.items()}}
+    if len(set(lags.values())) == 1:
+        common = next(iter(lags.values()))
+        by = f"{'lags' if common > 0 else 'runs ahead of'} the position by {abs(common) * 1e3:.3g} ms (every joint)"
+    else:
+        by = "lags the position (ms; negative: runs ahead of it): " + ", ".join(
+            f"{j} {v * 1e3:.3g}" for j, v in lags.items())
+    return out, (f"{series.source}: channel lag: the effort {by}: {why}: moved back onto the position's stamps; the "
+                 f"{dropped} sample(s) this leaves without a value at the end of the log (of each segment) dropped")
+
+
+def _effort_lag_text(lag: float, ratio: float, head: bool = True) -> str:
+    evidence = (f"a fit of it to the motion leaves {ratio:.2g} × the residual once shifted by that lag, the least "
+                f"of every shift within ±{MAX_LAG_S * 1e3:.0f} ms")
+    if not head:
+        return evidence
     return (f"the effort {'lags' if lag > 0 else 'runs ahead of'} the position by {abs(lag) * 1e3:.3g} ms (every "
-            f"joint): a fit of it to the motion leaves "
-            f"{ratio:.2g} × the residual once shifted by that lag, the least of every shift within "
-            f"±{MAX_LAG_S * 1e3:.0f} ms: moved back onto the position's stamps")
+            f"joint): {evidence}: moved back onto the position's stamps")
 
 
-def _effort_scan(grid: _Grid, threshold: float) -> tuple[float, float] | None:
+def _effort_scan(grid: _Grid, threshold: float) -> tuple[float, float, bool] | None:
     """(the lag of the effort behind the position (s), the residual ratio there) when a shift of it
     explains it better by the motion than as logged: each moving joint's effort (whose motion
     explains it: EFFORT_FIT_SHARE) regressed on the motion as :func:`_effort_ratio` does (and on the
     sines and cosines of sums of consecutive moving joints), at every
     shift of the analysis grid within ±MAX_LAG_S (and MAX_LAG_SHARE of the segment); the shift that
-    minimises the geometric mean over the joints of residual(shift) / residual(0) is taken when that
-    mean is at most EFFORT_SCAN_RATIO, each half of the log finds the same shift (within
-    LAG_TOLERANCE_PERIODS analysis periods or LAG_TOLERANCE_SHARE) and the shift is at least
-    ``threshold``; None otherwise. A lag of the effort shows in the Coulomb step at every reversal."""
+    minimises the geometric mean over the joints of residual(shift) / residual(0) is found when each
+    half of the log finds the same shift (within LAG_TOLERANCE_PERIODS analysis periods or
+    LAG_TOLERANCE_SHARE) and the shift is at least MIN_LAG_S: (lag, that mean, confirmed: the mean at
+    most EFFORT_SCAN_RATIO and the shift at least ``threshold``); None otherwise. A lag of the effort
+    shows in the Coulomb step at every reversal; the regression is not the system's model, whose
+    misfit can hide a lag the halves agree on (a one-joint Stribeck law lagged 2 ms: 0.985; a 6-DOF
+    arm's 7.5 ms: 0.96)."""
     n = grid.q.shape[0]
     search = int(min(MAX_LAG_S, MAX_LAG_SHARE * grid.n * grid.dt) / grid.step)
     if not grid.moving.any() or search < 2 or n < 16 * search:
@@ -215,11 +258,13 @@ def _effort_scan(grid: _Grid, threshold: float) -> tuple[float, float] | None:
     if whole is None:
         return None
     lag, ratio = whole
-    if ratio > EFFORT_SCAN_RATIO or abs(lag) < threshold:
+    if ratio >= 1.0 or abs(lag) < MIN_LAG_S:
         return None
     tolerance = max(LAG_TOLERANCE_PERIODS * grid.step, LAG_TOLERANCE_SHARE * abs(lag))
     halves = [_scan(grid, a, b, search) for a, b in ((0, n // 2), (n // 2, n))]
-    return None if any(h is None or abs(h[0] - lag) > tolerance for h in halves) else (lag, ratio)
+    if any(h is None or abs(h[0] - lag) > tolerance for h in halves):
+        return None
+    return lag, ratio, ratio <= EFFORT_SCAN_RATIO and abs(lag) >= threshold
 
 
 def _scan(grid: _Grid, a: int, b: int, search: int) -> tuple[float, float] | None:

@@ -1,0 +1,93 @@
+"""An effort lag the loader found but could not confirm, judged by what it predicts.
+
+The loader's scan (:mod:`frictionid_core.preprocess.lag`) regresses each effort on a generic model
+of the motion at every shift; where that model misses (a Stribeck dip, an arm's inertial coupling)
+a lag both halves of the log agree on still leaves most of the residual (0.96–0.99 on simulated
+logs lagged 2–8 ms) and stays a candidate (:func:`~frictionid_core.preprocess.effort_lag_candidate`).
+Here the system's own linear model decides (:func:`confirmed_effort_lags`): the blocked
+cross-validation of :mod:`.cross_validation` at the rule's cut-offs (those the folds then choose
+from the lagged effort are lower: a low-pass stands in for part of a lag), the candidates' efforts
+as logged and shifted by SHARES of their lags; the best shift is taken when it predicts the effort
+better by the choices' margin (BETTER_SHARE), the model predicts it at all (INFORMATIVE_PCT) and
+the best is not the largest shift. Only a lag is judged so, not a lead: a logging driver stamps the
+effort late; a lead found this weakly was a misfit the shift offsets (a one-joint Stribeck log with
+coloured noise and no lag: −14 ms "predicted" 68 → 30 % by the folds' Coulomb model, and validated
+at 34 % against 19 % as logged). ``validate`` reads a result's effort lag again where
+its log's loader removed none (:func:`with_result_effort_lag`): a lag of the logging, as a drive's
+signs, belongs to the robot.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+from frictionid_core.errors import FrictionIdError
+from frictionid_core.identification.cross_validation import (
+    BETTER_SHARE,
+    INFORMATIVE_PCT,
+    rule_cutoffs_of,
+    score_at,
+)
+from frictionid_core.identification.plan import FitPlan
+from frictionid_core.preprocess import Preprocessing, effort_lag_candidate, lag_record, shift_effort
+from frictionid_core.timeseries import JointSeries
+
+# The shifts scored: the loader's lag times these (its regression, short of the system's model, can
+# misjudge it: a 6 ms lag of an arm on constant-velocity plateaus read as 3.2 ms in each half). A best
+# shift at the last share is none: the error falling ever further with the shift is a misfit it offsets.
+SHARES = (0.5, 1.0, 1.5, 2.0, 3.0)
+
+
+def confirmed_effort_lags(sources: list[JointSeries], plan_of: Callable[[list[JointSeries]], FitPlan],
+                          requested: Preprocessing, asymmetric: bool = False, fixed: dict[str, float] | None = None
+                          ) -> list[JointSeries]:
+    """``sources``, those with an effort lag candidate shifted by it when the system's model
+    predicts their effort better so (module doc; the note saying so appended to each one's notes).
+    ``plan_of(sources)``: the fit's plan of those sources."""
+    found = {i: c for i, c in enumerate(map(effort_lag_candidate, sources)) if c is not None and c[0] > 0}
+    if not found:
+        return sources
+    try:
+        logged_plan = plan_of(sources)
+        cutoffs = rule_cutoffs_of(logged_plan, requested)
+        as_logged = score_at(logged_plan, requested, cutoffs, asymmetric, fixed)
+        if as_logged is None or not as_logged.relerr_pct < INFORMATIVE_PCT:
+            return sources  # a model that does not predict the effort tells nothing of its timing
+        scores = {}
+        for share in SHARES:  # the candidates' lags × each share, scored alike
+            moved = [shift_effort(s, found[i][0] * share, "")[0] if i in found else s for i, s in enumerate(sources)]
+            scores[share] = score_at(plan_of(moved), requested, cutoffs, asymmetric, fixed)
+    except FrictionIdError:  # the fit says why, in its own words
+        return sources
+    scored = {share: sc.relerr_pct for share, sc in scores.items() if sc is not None}
+    share = min(scored, key=scored.get, default=None)
+    if share is None or share == SHARES[-1] or not scored[share] < BETTER_SHARE * as_logged.relerr_pct:
+        return sources  # none better, or better ever further: a shift that stands in for a misfit
+    out = list(sources)
+    for i, (lag, ratio) in found.items():
+        why = (f"each half of the log finds {lag * 1e3:.3g} ms (a fit of the effort to the motion alone leaves "
+               f"{ratio:.2g} × its residual once shifted), and the system's model predicts the effort best shifted by "
+               f"{share:g} × that (blocked cross-validation: {as_logged.relerr_pct:.3g} % as logged, "
+               + ", ".join(f"{s:g} × {v:.3g} %" for s, v in scored.items()) + ")")
+        out[i], note = shift_effort(sources[i], lag * share, why)
+        out[i].notes.append(note)
+    return out
+
+
+def with_result_effort_lag(sources: list[JointSeries], record: Mapping | None) -> list[JointSeries]:
+    """``sources``, each whose loader removed no effort lag shifted by the lags a result removed
+    (``record``: its ``preprocessing`` block, ``lag_s.effort``: {joint: s}), the note saying so."""
+    lags = {j: float(v) for j, v in (((record or {}).get("lag_s") or {}).get("effort") or {}).items() if v}
+    if not lags:
+        return sources
+    out = []
+    for series in sources:
+        own = (lag_record(series) or {}).get("effort") or {}
+        if any(own.values()) or not set(lags) & set(series.joints):
+            out.append(series)
+            continue
+        shifted, note = shift_effort(series, lags, "the identification's result removed it "
+                                                   "(preprocessing.lag_s), and this log's loader found none of its own")
+        shifted.notes.append(note)
+        out.append(shifted)
+    return out
