@@ -2,8 +2,8 @@
 
 The loader's scan (:mod:`frictionid_core.preprocess.lag`) regresses each effort on a generic model
 of the motion at every shift; where that model misses (a Stribeck dip, an arm's inertial coupling)
-a lag both halves of the log agree on still leaves most of the residual (0.96–0.99 on simulated
-logs lagged 2–8 ms) and stays a candidate (:func:`~frictionid_core.preprocess.effort_lag_candidate`).
+a lag the whole log and a half of it agree on still leaves most of the residual (0.96–0.99 on
+simulated logs lagged 2–8 ms) and stays a candidate (:func:`~frictionid_core.preprocess.effort_lag_candidate`).
 Here the system's own linear model decides (:func:`confirmed_effort_lags`): the blocked
 cross-validation of :mod:`.cross_validation` at the rule's cut-offs (those the folds then choose
 from the lagged effort are lower: a low-pass stands in for part of a lag), the candidates' efforts
@@ -65,7 +65,7 @@ def confirmed_effort_lags(sources: list[JointSeries], plan_of: Callable[[list[Jo
         return sources  # none better, or better ever further: a shift that stands in for a misfit
     out = list(sources)
     for i, (lag, ratio) in found.items():
-        why = (f"each half of the log finds {lag * 1e3:.3g} ms (a fit of the effort to the motion alone leaves "
+        why = (f"the log and a half of it find {lag * 1e3:.3g} ms (a fit of the effort to the motion alone leaves "
                f"{ratio:.2g} × its residual once shifted), and the system's model predicts the effort best shifted by "
                f"{share:g} × that (blocked cross-validation: {as_logged.relerr_pct:.3g} % as logged, "
                + ", ".join(f"{s:g} × {v:.3g} %" for s, v in scored.items()) + ")")

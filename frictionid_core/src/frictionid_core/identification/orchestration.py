@@ -138,8 +138,10 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
         return replace(on, system=rigid.fit_system) if rigid else on
 
     # an effort lag the loader could not confirm: the system's model judges it (at the rule's cut-offs: at those
-    # the folds choose from the lagged effort, a lower cut-off stands in for part of the lag)
-    confirmed = confirmed_effort_lags(sources, fit_plan_of, settings, request.asymmetric, fixed_request)
+    # the folds choose from the lagged effort, a lower cut-off stands in for part of the lag); not for a dynamic
+    # law, whose friction follows a reversal late as a lagged Coulomb step does (a LuGre joint: 26 ms "found")
+    confirmed = sources if get_model(request.friction).is_dynamic else confirmed_effort_lags(
+        sources, fit_plan_of, settings, request.asymmetric, fixed_request)
     if confirmed is not sources:
         sources = confirmed
         plan = plan_fit(sources, sys_, request.joints, holds)
