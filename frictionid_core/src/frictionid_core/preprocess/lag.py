@@ -37,8 +37,9 @@ result's ``preprocessing.lag_s``).
   10–60 ms: 0.02–0.56, within a tenth of a sample period at 1 kHz; no real log of
   ``bench/field.py`` moved). Found by each half but leaving more, it is a candidate
   (``meta[CANDIDATE_KEY]``: :func:`effort_lag_candidate`) that the identification judges with the
-  system's own model (:mod:`frictionid_core.identification.effort_lag`); so is the effort of a log
-  whose logged velocity is on time.
+  system's own model (:mod:`frictionid_core.identification.effort_lag`); so is any lag of the effort
+  of a log whose logged velocity is on time (a LuGre joint's friction, late at each reversal, read as a
+  20 ms lag by the motion alone).
 * The lagging channels are moved back onto the position's stamps (linear interpolation at t + lag,
   within each segment of the stamps); the samples the move leaves without a value (the last lag
   seconds of each segment) are dropped. One note says what was found and done.
@@ -136,7 +137,9 @@ def remove_channel_lag(series: JointSeries) -> tuple[JointSeries, str | None]:
     filtered = {j: e for j, e in estimates.items() if j not in counted and e.filtered(threshold)}
     if not any(velocity.values()):
         meta.update({f"{META_PREFIX}{c}/{j}": 0.0 for c in CHANNELS for j in judged})
-        out, note = _effort_only(_with_meta(series, meta), grid)  # the velocity on time: the effort's own lag
+        # the velocity on time: the effort's own lag, a candidate only (its motion regression took a LuGre
+        # joint's late friction at each reversal for a 20 ms lag; the identification judges it by its law)
+        out, note = _effort_only(_with_meta(series, meta), grid, confirm=False)
         notes = [n for n in (_filtered_note(series, filtered) if filtered else None, note) if n]
         return out, "; ".join(notes) if notes else None
     ratio = _effort_ratio(series, grid, velocity)
@@ -187,16 +190,18 @@ def _note(series: JointSeries, velocity: dict, common: float | None, counted: li
             "without a value at the end of the log (of each segment) dropped")
 
 
-def _effort_only(series: JointSeries, grid: _Grid | None = None) -> tuple[JointSeries, str | None]:
+def _effort_only(series: JointSeries, grid: _Grid | None = None, confirm: bool = True
+                 ) -> tuple[JointSeries, str | None]:
     """A log without a logged velocity (or whose velocity is on time): its effort's own lag behind the
     position found (:func:`_effort_scan`) and removed, with its note; the series as it is when none is
-    found, with the lag in ``meta[CANDIDATE_KEY]`` when found but not confirmed."""
+    found, with the lag in ``meta[CANDIDATE_KEY]`` when found but not confirmed (``confirm`` False:
+    never confirmed here)."""
     grid = _Grid(series) if grid is None else grid
     threshold = max(MIN_LAG_PERIODS * _period(series.t), MIN_LAG_S)
     own = _effort_scan(grid, threshold) if grid.ok else None
     if own is None:
         return series, None
-    if not own[2]:
+    if not (own[2] and confirm):
         return _with_meta(series, {**series.meta, CANDIDATE_KEY: own[0], CANDIDATE_RATIO_KEY: own[1]}), None
     return shift_effort(series, own[0], _effort_lag_text(*own[:2], head=False))
 
