@@ -38,17 +38,16 @@ from frictionid_core.timeseries import JointSeries
 SHARES = (0.5, 1.0, 1.5, 2.0, 3.0)
 
 
-def confirmed_effort_lags(sources: list[JointSeries], plan_of: Callable[[list[JointSeries]], FitPlan],
-                          requested: Preprocessing, asymmetric: bool = False, fixed: dict[str, float] | None = None
-                          ) -> list[JointSeries]:
+def confirmed_effort_lags(sources: list[JointSeries], logged_plan: FitPlan,
+                          plan_of: Callable[[list[JointSeries]], FitPlan], requested: Preprocessing,
+                          asymmetric: bool = False, fixed: dict[str, float] | None = None) -> list[JointSeries]:
     """``sources``, those with an effort lag candidate shifted by it when the system's model
     predicts their effort better so (module doc; the note saying so appended to each one's notes).
-    ``plan_of(sources)``: the fit's plan of those sources."""
+    ``logged_plan``: the fit's plan of ``sources``; ``plan_of(other sources)``: theirs."""
     found = {i: c for i, c in enumerate(map(effort_lag_candidate, sources)) if c is not None and c[0] > 0}
     if not found:
         return sources
     try:
-        logged_plan = plan_of(sources)
         cutoffs = rule_cutoffs_of(logged_plan, requested)
         as_logged = score_at(logged_plan, requested, cutoffs, asymmetric, fixed)
         if as_logged is None or not as_logged.relerr_pct < INFORMATIVE_PCT:

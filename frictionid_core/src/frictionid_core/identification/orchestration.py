@@ -31,7 +31,7 @@ from frictionid_core.identification.model_building import (
     model_metrics,
     preprocessing_record,
 )
-from frictionid_core.identification.plan import Holds, plan_fit
+from frictionid_core.identification.plan import FitPlan, Holds, plan_fit
 from frictionid_core.identification.plausibility import (
     check_fit,
     known_rigid_body_report,
@@ -133,21 +133,21 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
     rigid = known_rigid_body(plan.system) if request.known_rigid_body else None
     fixed_request = {**request.fixed, LINK_TORQUE: 1.0} if rigid else dict(request.fixed)
 
-    def fit_plan_of(srcs: list[JointSeries]):
-        on = plan_fit(srcs, sys_, request.joints, holds)
+    def fit_plan_of(on: FitPlan) -> FitPlan:
         return replace(on, system=rigid.fit_system) if rigid else on
 
     # an effort lag the loader could not confirm: the system's model judges it (at the rule's cut-offs: at those
     # the folds choose from the lagged effort, a lower cut-off stands in for part of the lag); not for a dynamic
     # law, whose friction follows a reversal late as a lagged Coulomb step does (a LuGre joint: 26 ms "found")
     confirmed = sources if get_model(request.friction).is_dynamic else confirmed_effort_lags(
-        sources, fit_plan_of, settings, request.asymmetric, fixed_request)
+        sources, fit_plan_of(plan), lambda srcs: fit_plan_of(plan_fit(srcs, sys_, request.joints, holds)), settings,
+        request.asymmetric, fixed_request)
     if confirmed is not sources:
         sources = confirmed
         plan = plan_fit(sources, sys_, request.joints, holds)
     sys_ = plan.system
     held: dict[str, float] = {}  # the directions the data do not resolve, held (identifiability)
-    fit_plan = replace(plan, system=rigid.fit_system) if rigid else plan
+    fit_plan = fit_plan_of(plan)
 
     chosen, choice = settings, None
     if settings.cutoff_hz is None:  # those that predict best (a dynamic law raises them where it predicts better)
