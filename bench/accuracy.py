@@ -23,9 +23,9 @@ system, layout, ``--hold-missing``, ``--gravity`` and — for the Stribeck and L
 ``frictionid validate`` on a separate validation log of the same truth), then:
 
 * ``val_relerr_pct`` (validate's ``relerr_pct``), ``floor_pct`` (the log's effort channel without its
-  additive noise against the recorded one, 100·‖y − y_clean‖/‖y‖, on the baseline's validation rows of
-  the excited joints — a trembling joint is not fitted, and its effort would set another floor;
-  validate's own ``noise_floor_pct`` beside it) and their ratio;
+  additive noise against the recorded one, 100·‖y − y_clean‖/‖y‖, on the recorded samples nearest the
+  baseline's validation rows of the excited joints — a trembling joint is not fitted, and its effort would
+  set another floor; validate's own ``noise_floor_pct`` beside it) and their ratio;
 * ``baseline_relerr_pct``: an independent least-squares fit (Pinocchio's joint torque regressor of every
   body + per joint rotor inertia, viscous, Coulomb and offset columns; positions resampled at the mean
   rate, Butterworth order 4 at 10 Hz (≤ 0.2 × rate) forward-backward, central differences, ≈ 200 Hz rows,
