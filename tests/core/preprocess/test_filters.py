@@ -208,9 +208,10 @@ def test_brief_runs_marks_the_runs_briefer_than_the_periods_of_the_cutoff():
     4-row run are brief, a 5-row run and the long move are not; rows at rest (0) never are; each
     column has its own cut-off."""
     v = np.array([1.0] * 20 + [0.0] * 3 + [-0.01] * 2 + [0.0] * 4 + [0.3] * 4 + [0.0] + [-0.2] * 5 + [0.0] * 2)
-    brief = brief_runs(np.column_stack([v, v]), 100.0, np.array([10.0, 100.0]), 0.5)
+    t = np.arange(v.size) / 100.0
+    brief = brief_runs(np.column_stack([v, v]), t, np.array([10.0, 100.0]), 0.5)
     expected = np.zeros(v.size, dtype=bool)
     expected[23:25] = expected[29:33] = True
     np.testing.assert_array_equal(brief[:, 0], expected)
     assert not brief[:, 1].any()  # 100 Hz: half a period is half a row
-    assert not brief_runs(v[:, None], 100.0, np.array([10.0]), 0.0).any()
+    assert not brief_runs(v[:, None], t, np.array([10.0]), 0.0).any()

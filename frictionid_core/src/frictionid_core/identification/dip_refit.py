@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from frictionid_core.errors import FrictionIdError
 from frictionid_core.identification.dynamic_rates import presliding_changes
 from frictionid_core.identification.solve import Fit
 from frictionid_core.model import IdentificationModel
@@ -28,7 +29,8 @@ def fit_at_dip_rates(model: IdentificationModel, settings: Preprocessing,
     the data, ``fit(rebuild(settings with those rates), previous)`` (too coarse a rate
     overestimates vs, so this may take a few rounds); a dynamic law's, while it predicts the effort
     better at higher cut-offs (:func:`~.dynamic_rates.presliding_changes`). Returns the last model
-    and its fit.
+    and its fit. Rates at which the model cannot be built (a joint's rows all left out there) are
+    not followed: the report's ``dip_not_followed`` says why.
     ``fit(model, previous=None)``: see :func:`frictionid_core.identification.solve.fit_static`."""
     result = fit(model)
     dynamic = model.friction.is_dynamic
@@ -38,7 +40,12 @@ def fit_at_dip_rates(model: IdentificationModel, settings: Preprocessing,
         if not changes:
             break
         from_data = model.obs.report["from_data"]
-        model = rebuild(replace(settings, **changes))
+        try:
+            rebuilt = rebuild(replace(settings, **changes))
+        except FrictionIdError as exc:
+            model.obs.report["dip_not_followed"] = f"{why}, but at those rates {exc}"
+            break
+        model = rebuilt
         model.obs.report["from_data"] = sorted(set(from_data) | set(model.obs.report["from_data"]))
         model.obs.report["presliding_rates" if dynamic else "dip"] = why
         result = fit(model, result)
@@ -138,7 +145,7 @@ def dip_advice(model: IdentificationModel, x: np.ndarray) -> DipAdvice | None:
     coarse for it; None when they are fine. A fit at too coarse rates overestimates vs, so a fit at
     these rates may need finer ones still: :func:`settled_dip_advice` follows the advice until it
     holds."""
-    if model.friction.is_dynamic:
+    if model.friction.is_dynamic or "dip_not_followed" in model.obs.report:
         return None
     n, needs, why, _ = model_dip_needs(model, x)
     pre = model.obs.preprocessing

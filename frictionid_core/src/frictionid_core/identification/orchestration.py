@@ -212,6 +212,9 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
         advice = settled_dip_advice(advice, refit)
     warnings = (inertia_warnings + plan.warnings() + resolved.warning(sys_.robot is not None) + warnings
                 + ([] if advice is None else [advice.warning()]))
+    if "dip_not_followed" in model.obs.report:
+        warnings.append(f"{model.obs.report['dip_not_followed']}: fitted at the rates before; vs and δ may come out "
+                        "biased")
     if res is not None:
         std, design = jacobian_std(model, x, model.held_at_box(x))
         cond = float(np.linalg.cond(design))

@@ -99,20 +99,35 @@ def window_means(x: np.ndarray, n: int, stride: int = 1, rows: np.ndarray | None
     return out.reshape((kept.size,) + x.shape[1:])
 
 
-def brief_runs(velocity: np.ndarray, fs: float, cutoff_hz: np.ndarray, periods: float) -> np.ndarray:
-    """(N, J) True where a row of ``velocity`` (N, J), sampled at ``fs``, belongs to a run of one sign
-    of motion (0 for a row left out or at rest) shorter than ``periods`` / ``cutoff_hz`` (J,) seconds:
-    no motion within the filter's band crosses the min speed that briefly (the filter's ringing after
-    a stop, or noise), so its sign of motion says nothing."""
+def brief_runs(velocity: np.ndarray, t: np.ndarray, cutoff_hz: np.ndarray, periods: float) -> np.ndarray:
+    """(N, J) True where a row of ``velocity`` (N, J), at the instants ``t`` (N,) s, belongs to a run of
+    one sign of motion (0 for a row left out or at rest) shorter than ``periods`` / ``cutoff_hz`` (J,)
+    seconds: no motion within the filter's band crosses the min speed that briefly (the filter's ringing
+    after a stop, or noise), so its sign of motion says nothing. A run lasts from halfway to the row
+    before its first to halfway to the row after its last (its rows × the period on a uniform grid; the
+    rows of a thinned observation are not evenly spaced)."""
     n, joints = velocity.shape
     out = np.zeros((n, joints), dtype=bool)
     if periods <= 0.0 or n == 0:
         return out
+    edges = _row_edges(t)
     for j in range(joints):
         sign = np.sign(velocity[:, j])
         run = np.concatenate([[0], np.cumsum(sign[1:] != sign[:-1])])  # each row's run
-        out[:, j] = (sign != 0) & (np.bincount(run)[run] < periods * fs / cutoff_hz[j])
+        first = np.flatnonzero(np.concatenate([[True], run[1:] != run[:-1]]))
+        last = np.concatenate([first[1:] - 1, [n - 1]])
+        duration = edges[last + 1] - edges[first]
+        out[:, j] = (sign != 0) & (duration[run] < (1.0 - 1e-9) * periods / cutoff_hz[j])  # n rows ≥ n periods
     return out
+
+
+def _row_edges(t: np.ndarray) -> np.ndarray:
+    """(N + 1,) the instants halfway between consecutive rows at ``t`` (N,), the first and last half a
+    step outside (a single row: half a second either side of it)."""
+    if t.size < 2:
+        return np.array([t[0] - 0.5, t[0] + 0.5]) if t.size else np.zeros(1)
+    mid = 0.5 * (t[1:] + t[:-1])
+    return np.concatenate([[t[0] - (mid[0] - t[0])], mid, [t[-1] + (t[-1] - mid[-1])]])
 
 
 def decimation_indices(length: int, n: int) -> np.ndarray:
@@ -121,20 +136,20 @@ def decimation_indices(length: int, n: int) -> np.ndarray:
     return np.arange(start - 1, length, n)
 
 
-def near_reversals(velocity: np.ndarray, fs: float, cutoff_hz: np.ndarray, periods: float) -> np.ndarray:
-    """(N, J) True where a row of ``velocity`` (N, J), sampled at ``fs``, lies within ``periods`` /
-    ``cutoff_hz`` (J,) seconds of a change of its joint's sign of motion (−, 0 for a row left
-    out or at rest, +): a reversal, a stop or a start."""
+def near_reversals(velocity: np.ndarray, t: np.ndarray, cutoff_hz: np.ndarray, periods: float) -> np.ndarray:
+    """(N, J) True where a row of ``velocity`` (N, J), at the instants ``t`` (N,) s, lies within
+    ``periods`` / ``cutoff_hz`` (J,) seconds of a change of its joint's sign of motion (−, 0 for a row
+    left out or at rest, +): a reversal, a stop or a start, taken halfway between the two rows."""
     n, joints = velocity.shape
     out = np.zeros((n, joints), dtype=bool)
     if periods <= 0.0 or n < 2:
         return out
-    rows = np.arange(n)
     for j in range(joints):
         sign = np.sign(velocity[:, j])
-        at = np.flatnonzero(sign[1:] != sign[:-1]) + 0.5  # between the two rows
-        if at.size:
-            k = np.searchsorted(at, rows)
-            gap = np.minimum(np.abs(rows - at[np.maximum(k - 1, 0)]), np.abs(at[np.minimum(k, at.size - 1)] - rows))
-            out[:, j] = gap <= periods * fs / cutoff_hz[j]
+        flips = np.flatnonzero(sign[1:] != sign[:-1])
+        if flips.size:
+            at = 0.5 * (t[flips] + t[flips + 1])
+            k = np.searchsorted(at, t)
+            gap = np.minimum(np.abs(t - at[np.maximum(k - 1, 0)]), np.abs(at[np.minimum(k, at.size - 1)] - t))
+            out[:, j] = gap <= periods / cutoff_hz[j]
     return out

@@ -378,13 +378,14 @@ def reversal_rows(obs: Observation, left_out: np.ndarray, settings: Preprocessin
     if not settings.reversal_periods:
         return np.zeros_like(left_out)
     return _per_stretch(obs, left_out, settings,
-                        lambda v, fs, fc: near_reversals(v, fs, fc, settings.reversal_periods))
+                        lambda v, t, fc: near_reversals(v, t, fc, settings.reversal_periods))
 
 
 def _per_stretch(obs: Observation, left_out: np.ndarray, settings: Preprocessing, rows) -> np.ndarray:
-    """``rows(velocity, fs, cutoffs)`` (the rows ``left_out`` at rest) of each stretch of ``obs`` (a
-    source or a segment: its stamps step back or jump) stacked; a motor's rows take the lowest cut-off
-    of the joints it turns with, a joint without a cut-off of its own the highest."""
+    """``rows(velocity, t, cutoffs)`` (the rows ``left_out`` at rest) of each stretch of ``obs`` (a
+    source or a segment: its stamps step back or jump by more than a thinned row's spacing) stacked; a
+    motor's rows take the lowest cut-off of the joints it turns with, a joint without a cut-off of its
+    own the highest."""
     given = settings.cutoff_hz
     joints = list(obs.data_joints or obs.joints)
     cutoffs = (np.array([given.get(j, max(given.values())) for j in joints]) if isinstance(given, dict)
@@ -393,9 +394,11 @@ def _per_stretch(obs: Observation, left_out: np.ndarray, settings: Preprocessing
         cutoffs = np.array([cutoffs[obs.coupling[m] != 0.0].min() for m in range(len(obs.joints))])
     velocity = np.where(left_out, 0.0, obs.velocity)
     step = np.diff(obs.t)
-    period = float(np.median(step)) if step.size else 1.0
-    cuts = np.concatenate([[0], np.flatnonzero((step <= 0.0) | (step > 1.5 * period)) + 1, [len(obs.t)]])
-    return np.vstack([rows(velocity[a:b], 1.0 / period, cutoffs) for a, b in zip(cuts[:-1], cuts[1:])])
+    rate = obs.report.get("analysis_rate_hz") if obs.report else None
+    period = 1.0 / rate if rate else float(np.median(step)) if step.size else 1.0
+    seam = (step <= 0.0) | (step > 1.5 * period * max(obs.preprocessing.thin, 1))
+    cuts = np.concatenate([[0], np.flatnonzero(seam) + 1, [len(obs.t)]])
+    return np.vstack([rows(velocity[a:b], obs.t[a:b], cutoffs) for a, b in zip(cuts[:-1], cuts[1:])])
 
 
 def brief_motion_rows(obs: Observation, left_out: np.ndarray, settings: Preprocessing,
@@ -405,7 +408,7 @@ def brief_motion_rows(obs: Observation, left_out: np.ndarray, settings: Preproce
     in each stretch of ``obs`` alone (:func:`_per_stretch`)."""
     if not periods:
         return np.zeros_like(left_out)
-    return _per_stretch(obs, left_out, settings, lambda v, fs, fc: brief_runs(v, fs, fc, periods))
+    return _per_stretch(obs, left_out, settings, lambda v, t, fc: brief_runs(v, t, fc, periods))
 
 
 def resampled_reversal_rows(obs: Observation, interval_s: float) -> np.ndarray:
