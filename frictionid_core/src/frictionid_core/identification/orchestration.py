@@ -272,16 +272,21 @@ def dynamic_start(from_folds: tuple, from_rule, held: dict[str, float]) -> tuple
     misreads the log (a quantised encoder read as motion up to its cap) the folds' choice wins. Both
     fits have the same parameters, so their in-sample error on every row of the same log compares
     them; the report's ``cross_validation.dynamic_start`` keeps both figures and the start taken
-    (``rule``: ``validate`` chooses the cut-off again as the rule and the law do). A fit from the folds
+    (``rule``: ``validate`` chooses the cut-off again as the rule and the law do; ``rule_failed``: why
+    the rule's settings could not be fitted, the folds' then taken). A fit from the folds
     within AT_FLOOR × the noise floor on its moving rows is taken as it is (the rule's fit of a 4.5 kHz
     log can take minutes)."""
     metrics = model_metrics(from_folds[0], from_folds[1].x)
     if metrics["relerr_pct"] <= AT_FLOOR * metrics.get("noise_floor_pct", 0.0):
         return from_folds  # nothing left for another start to explain
     folds_held = dict(held)
-    rule = from_rule()
-    scores = {"folds": float((metrics.get("all_rows") or metrics)["relerr_pct"]), "rule": all_rows_relerr(*rule[:2])}
-    taken = "rule" if scores["rule"] < scores["folds"] else "folds"
+    scores, failed = {"folds": float((metrics.get("all_rows") or metrics)["relerr_pct"])}, {}
+    try:
+        rule = from_rule()
+        scores["rule"] = all_rows_relerr(*rule[:2])
+    except FrictionIdError as exc:  # the rule's rows leave a column empty (a coarse encoder's min speed)
+        rule, failed = None, {"rule_failed": str(exc)}
+    taken = "rule" if rule is not None and scores["rule"] < scores["folds"] else "folds"
     if taken == "folds":
         held.clear()
         held.update(folds_held)
@@ -289,7 +294,7 @@ def dynamic_start(from_folds: tuple, from_rule, held: dict[str, float]) -> tuple
     record = out[0].obs.report.get("cross_validation")
     if isinstance(record, dict):
         out[0].obs.report["cross_validation"] = {**record, "dynamic_start": {
-            "all_rows_relerr_pct": scores, "taken": taken}}
+            "all_rows_relerr_pct": scores, "taken": taken, **failed}}
     return out
 
 
