@@ -1,7 +1,7 @@
-"""An effort lag the loader finds in each half of a log but cannot confirm with its generic motion
-regression (a Stribeck dip it does not model) is judged by the system's own model: taken where it
+"""The effort's own lag the loader finds (a candidate: confirmed by its generic motion regression or
+not — a Stribeck dip it does not model hides one) is judged by the system's own model: taken where it
 predicts the effort better by cross-validation, said, kept in the result, and read again by
-``validate``."""
+``validate``; a dynamic law's fit says it and leaves the effort as logged."""
 
 from __future__ import annotations
 
@@ -49,8 +49,8 @@ def test_a_lag_the_motion_alone_cannot_confirm_is_a_candidate_and_none_without_a
     for seed in (1, 2):
         out = loaded(0.003, seed)
         assert lag_record(out) is None
-        lag, ratio = effort_lag_candidate(out)
-        assert lag == pytest.approx(0.003, rel=0.05) and 0.8 < ratio < 1.0
+        lag, ratio, confirmed = effort_lag_candidate(out)
+        assert lag == pytest.approx(0.003, rel=0.05) and 0.8 < ratio < 1.0 and not confirmed
         assert effort_lag_candidate(loaded(0.0, seed)) is None
 
 
@@ -69,3 +69,24 @@ def test_the_systems_model_confirms_the_lag_the_fit_and_the_cross_test_remove_it
     assert "lag_s" not in as_logged.preprocessing or not as_logged.preprocessing["lag_s"]
     cross = validate(loaded(0.003, 2), fit)
     assert cross["relerr_pct"] < 0.3 * validate(stribeck_joint(0.003, 2), as_logged)["relerr_pct"]
+
+
+def test_a_lead_the_motion_confirms_is_taken_and_a_dynamic_law_judges_it_by_its_own_fit():
+    """The effort 20 ms ahead of the position: the generic regression confirms the lead (both halves,
+    a small share of the residual); the loader moves nothing, the Stribeck fit takes it as found and
+    lands within 1 % of the truth. A LuGre fit judges it by its own error on every row, as logged and
+    shifted (its friction, late at each reversal, looks like a lag to that regression, never like a
+    lead): shifted, said with both figures."""
+    out = loaded(-0.02, 1)
+    lag, ratio, confirmed = effort_lag_candidate(out)
+    assert lag == pytest.approx(-0.02, abs=2e-4) and ratio < 0.8 and confirmed
+    assert lag_record(out) is None
+    np.testing.assert_array_equal(out.effort, stribeck_joint(-0.02, 1).effort)
+    fit = identify(out, REQUEST)
+    assert fit.preprocessing["lag_s"]["effort"]["a"] == pytest.approx(-0.02, abs=2e-4)
+    for name, value in TRUTH.items():
+        assert fit.params[name] == pytest.approx(value, rel=0.01), name
+    dynamic = identify(out, IdentifyRequest(system="joint", friction="lugre", solver="lm"))
+    assert dynamic.preprocessing["lag_s"]["effort"]["a"] == pytest.approx(-0.02, abs=2e-4)
+    said = [w for w in dynamic.warnings if w.startswith("one: channel lag: the effort runs ahead of the position")]
+    assert said and "the law's fit predicts every row better so (" in said[0]

@@ -18,7 +18,11 @@ from frictionid_core.identification.at_bound import fit_at_bound
 from frictionid_core.identification.cross_validation import choose_by_cross_validation, choose_min_speed, record_choice
 from frictionid_core.identification.dip_refit import dip_advice, fit_at_dip_rates, settled_dip_advice
 from frictionid_core.identification.dynamic_fit import fit_dynamic
-from frictionid_core.identification.effort_lag import confirmed_effort_lags
+from frictionid_core.identification.effort_lag import (
+    confirmed_effort_lags,
+    law_judged_effort_lags,
+    unjudged_effort_lags,
+)
 from frictionid_core.identification.effort_sign import checked_effort_sign
 from frictionid_core.identification.identifiability import identifiability
 from frictionid_core.identification.law_choice import AUTO, identify_auto
@@ -114,8 +118,19 @@ def logged_joints(series: Sources, request: IdentifyRequest) -> list[str]:
 
 def fit_request(series: Sources, request: IdentifyRequest, progress=None, keep: dict | None = None) -> IdentifyResult:
     """The fit of :func:`identify`, the log's effort signs as they are; ``keep["model"]`` receives
-    its model at the rule's rates (the unresolved directions held)."""
-    return _fit_request(series, request, progress, keep)[0]
+    its model at the rule's rates (the unresolved directions held). A dynamic law judges the effort
+    lags the motion confirms with its own fit (:func:`~.effort_lag.law_judged_effort_lags`)."""
+    if not get_model(request.friction).is_dynamic:
+        return _fit_request(series, request, progress, keep)[0]
+    kept: dict[int, dict] = {}  # each fit's keep, by the id of its sources
+
+    def fit(sources: list[JointSeries]) -> IdentifyResult:
+        return _fit_request(sources, request, progress, kept.setdefault(id(sources), {}))[0]
+
+    result, taken = law_judged_effort_lags(as_sources(series), fit)
+    if keep is not None:
+        keep.update(kept[id(taken)])
+    return result
 
 
 def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep: dict | None = None, *,
@@ -212,6 +227,8 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
         advice = settled_dip_advice(advice, refit)
     warnings = (inertia_warnings + plan.warnings() + resolved.warning(sys_.robot is not None) + warnings
                 + ([] if advice is None else [advice.warning()]))
+    if model.friction.is_dynamic:
+        warnings += unjudged_effort_lags(sources)
     if "dip_not_followed" in model.obs.report:
         warnings.append(f"{model.obs.report['dip_not_followed']}: fitted at the rates before; vs and δ may come out "
                         "biased")

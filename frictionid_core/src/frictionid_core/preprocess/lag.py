@@ -32,14 +32,14 @@ result's ``preprocessing.lag_s``).
   the same regression, with the sines and cosines of the sums of 2 and 3 moving joints in a row
   added (a serial arm's gravity: a lagged UR5 left 0.86 of its residual without them, 0.75 with),
   at every shift of the effort within ±MAX_LAG_S (one FFT correlation per column); the shift that
-  minimises the geometric mean of the residual ratios is taken when it leaves at most
-  EFFORT_SCAN_RATIO of the logged residual and each half of the log finds it (synthetic arms lagged
-  10–60 ms: 0.02–0.56, within a tenth of a sample period at 1 kHz; no real log of
-  ``bench/field.py`` moved). Found by each half but leaving more, it is a candidate
-  (``meta[CANDIDATE_KEY]``: :func:`effort_lag_candidate`) that the identification judges with the
-  system's own model (:mod:`frictionid_core.identification.effort_lag`); so is any lag of the effort
-  of a log whose logged velocity is on time (a LuGre joint's friction, late at each reversal, read as a
-  20 ms lag by the motion alone).
+  minimises the geometric mean of the residual ratios, found by the whole log and at least one half, is
+  a *candidate* (``meta[CANDIDATE_KEY]``: :func:`effort_lag_candidate`), *confirmed by the motion* when
+  it leaves at most EFFORT_SCAN_RATIO of the logged residual and both halves find it (synthetic arms
+  lagged 10–60 ms: 0.02–0.56, within a tenth of a sample period at 1 kHz). The loader moves no effort
+  by its own lag: the identification judges a candidate with the system's own model and law
+  (:mod:`frictionid_core.identification.effort_lag`): the regression is not that model, whose misfit
+  can hide a lag (a one-joint Stribeck law lagged 2 ms: 0.985) or fake one (a LuGre joint's friction,
+  late at each reversal, confirmed as a 9.6 ms lag with 0.49 of the residual).
 * The lagging channels are moved back onto the position's stamps (linear interpolation at t + lag,
   within each segment of the stamps); the samples the move leaves without a value (the last lag
   seconds of each segment) are dropped. One note says what was found and done.
@@ -73,10 +73,11 @@ EFFORT_LAG_RATIO = 0.5  # the effort shares the velocity's lag when its residual
 EFFORT_FIT_SHARE = 0.5  # a joint's effort is judged when the regression leaves at most this share unexplained
 EFFORT_SCAN_RATIO = 0.8  # the effort's own lag: the best shift leaves at most this × the residual as logged
 META_PREFIX = "lag_s/"  # series.meta["lag_s/<velocity|effort>/<joint>"]: the lag removed, s
-# series.meta[CANDIDATE_KEY] (s) and [CANDIDATE_RATIO_KEY]: an effort lag each half of the log finds but the
-# motion regression does not confirm (its residual ratio above EFFORT_SCAN_RATIO): the identification judges it
+# series.meta[CANDIDATE_KEY] (s), [CANDIDATE_RATIO_KEY] and [CANDIDATE_CONFIRMED_KEY] (1.0: the motion regression
+# confirms it, 0.0: not): the effort's own lag, found by the whole log and a half of it; the identification judges it
 CANDIDATE_KEY = "lag_candidate_s/effort"
 CANDIDATE_RATIO_KEY = "lag_candidate_ratio/effort"
+CANDIDATE_CONFIRMED_KEY = "lag_candidate_confirmed/effort"
 CHANNELS = ("velocity", "effort")
 
 
@@ -114,7 +115,7 @@ def remove_channel_lag(series: JointSeries) -> tuple[JointSeries, str | None]:
     """``series`` with a lag of its velocity (and effort) behind its position removed (see the
     module doc), and the note saying what was found and done (None when no lag was judged or found)."""
     if series.velocity is None:
-        return _effort_only(series)
+        return _effort_only(series), None
     grid = _Grid(series)
     estimates = _velocity_estimates(series, grid)
     if not estimates:
@@ -137,31 +138,22 @@ def remove_channel_lag(series: JointSeries) -> tuple[JointSeries, str | None]:
     filtered = {j: e for j, e in estimates.items() if j not in counted and e.filtered(threshold)}
     if not any(velocity.values()):
         meta.update({f"{META_PREFIX}{c}/{j}": 0.0 for c in CHANNELS for j in judged})
-        # the velocity on time: the effort's own lag, a candidate only (its motion regression took a LuGre
-        # joint's late friction at each reversal for a 20 ms lag; the identification judges it by its law)
-        out, note = _effort_only(_with_meta(series, meta), grid, confirm=False)
-        notes = [n for n in (_filtered_note(series, filtered) if filtered else None, note) if n]
-        return out, "; ".join(notes) if notes else None
+        out = _effort_only(_with_meta(series, meta), grid)  # the velocity on time: the effort's own lag, if any
+        return out, _filtered_note(series, filtered) if filtered else None
     ratio = _effort_ratio(series, grid, velocity)
     effort = velocity if ratio is not None and ratio <= EFFORT_LAG_RATIO else dict.fromkeys(series.joints, 0.0)
-    own = None
-    if not any(effort.values()):  # not the velocity's lag: the effort's own, if it has one
-        own = _effort_scan(grid, threshold)
-        if own is not None and not own[2]:  # found, not confirmed: a candidate for the identification
-            meta.update({CANDIDATE_KEY: own[0], CANDIDATE_RATIO_KEY: own[1]})
-            own = None
-        if own is not None:
-            effort = dict.fromkeys(series.joints, own[0])
+    if not any(effort.values()):  # not the velocity's lag: the effort's own, if it has one (a candidate)
+        meta.update(_candidate_meta(_effort_scan(grid, threshold)))
     meta.update({f"{META_PREFIX}velocity/{j}": velocity[j] for j in judged})
     meta.update({f"{META_PREFIX}effort/{j}": effort[j] for j in judged})
     out, dropped = _shifted(series, velocity, effort)
     out.meta = meta
-    note = _note(series, velocity, common, counted, estimates, ratio, effort, dropped, own)
+    note = _note(series, velocity, common, counted, estimates, ratio, effort, dropped)
     return out, note + (f"; {_filtered_note(series, filtered, head=False)}" if filtered else "")
 
 
 def _note(series: JointSeries, velocity: dict, common: float | None, counted: list[str], estimates: dict,
-          ratio: float | None, effort: dict, dropped: int, own: tuple[float, float] | None = None) -> str:
+          ratio: float | None, effort: dict, dropped: int) -> str:
     def by(lag: float) -> str:
         return f"{'lags' if lag > 0 else 'runs ahead of'} the position by {abs(lag) * 1e3:.3g} ms"
 
@@ -175,10 +167,7 @@ def _note(series: JointSeries, velocity: dict, common: float | None, counted: li
     lowest = min(estimates[j].r for j in counted)
     head = (f"{series.source}: channel lag: the logged velocity {lag}: its cross-correlation with the position's "
             f"derivative peaks there (r ≥ {lowest:.4f}), in each half of the log and for their derivatives alike")
-    if own is not None:
-        tail = (f"the effort does not share it{'' if ratio is None else f' ({ratio:.2g} × the residual once shifted)'} "
-                f"but {_effort_lag_text(*own[:2])}")
-    elif ratio is None:
+    if ratio is None:
         tail = "the effort cannot be judged (no joint's effort follows its motion well enough): left as logged"
     elif any(effort.values()):
         tail = (f"the effort shares the lag (a fit of it to the motion leaves {ratio:.2g} × the residual once "
@@ -190,28 +179,29 @@ def _note(series: JointSeries, velocity: dict, common: float | None, counted: li
             "without a value at the end of the log (of each segment) dropped")
 
 
-def _effort_only(series: JointSeries, grid: _Grid | None = None, confirm: bool = True
-                 ) -> tuple[JointSeries, str | None]:
-    """A log without a logged velocity (or whose velocity is on time): its effort's own lag behind the
-    position found (:func:`_effort_scan`) and removed, with its note; the series as it is when none is
-    found, with the lag in ``meta[CANDIDATE_KEY]`` when found but not confirmed (``confirm`` False:
-    never confirmed here)."""
+def _effort_only(series: JointSeries, grid: _Grid | None = None) -> JointSeries:
+    """A log without a logged velocity (or whose velocity is on time): ``series`` with its effort's own
+    lag behind the position (:func:`_effort_scan`), where found, in ``meta`` as a candidate."""
     grid = _Grid(series) if grid is None else grid
     threshold = max(MIN_LAG_PERIODS * _period(series.t), MIN_LAG_S)
-    own = _effort_scan(grid, threshold) if grid.ok else None
+    candidate = _candidate_meta(_effort_scan(grid, threshold) if grid.ok else None)
+    return _with_meta(series, {**series.meta, **candidate}) if candidate else series
+
+
+def _candidate_meta(own: tuple[float, float, bool] | None) -> dict[str, float]:
+    """The meta entries of an effort lag candidate (:func:`_effort_scan`'s (lag, ratio, confirmed)); {}: none."""
     if own is None:
-        return series, None
-    if not (own[2] and confirm):
-        return _with_meta(series, {**series.meta, CANDIDATE_KEY: own[0], CANDIDATE_RATIO_KEY: own[1]}), None
-    return shift_effort(series, own[0], _effort_lag_text(*own[:2], head=False))
+        return {}
+    return {CANDIDATE_KEY: own[0], CANDIDATE_RATIO_KEY: own[1], CANDIDATE_CONFIRMED_KEY: float(own[2])}
 
 
-def effort_lag_candidate(series: JointSeries) -> tuple[float, float] | None:
-    """(lag s, residual ratio) of an effort lag the loader found in each half of ``series`` but could
-    not confirm by the motion alone, or None."""
+def effort_lag_candidate(series: JointSeries) -> tuple[float, float, bool] | None:
+    """(lag s, residual ratio, confirmed by the motion) of the effort's own lag the loader found in
+    ``series`` (the whole log and a half of it), or None."""
     if CANDIDATE_KEY not in series.meta:
         return None
-    return float(series.meta[CANDIDATE_KEY]), float(series.meta.get(CANDIDATE_RATIO_KEY, float("nan")))
+    return (float(series.meta[CANDIDATE_KEY]), float(series.meta.get(CANDIDATE_RATIO_KEY, float("nan"))),
+            bool(series.meta.get(CANDIDATE_CONFIRMED_KEY, 0.0)))
 
 
 def shift_effort(series: JointSeries, lag: float | dict[str, float], why: str) -> tuple[JointSeries, str]:
@@ -221,7 +211,8 @@ def shift_effort(series: JointSeries, lag: float | dict[str, float], why: str) -
     lags = {j: float(lag.get(j, 0.0)) for j in series.joints} if isinstance(lag, dict) \
         else dict.fromkeys(series.joints, float(lag))
     out, dropped = _shifted(series, dict.fromkeys(series.joints, 0.0), lags)
-    out.meta = {**{k: v for k, v in series.meta.items() if k not in (CANDIDATE_KEY, CANDIDATE_RATIO_KEY)},
+    candidate = (CANDIDATE_KEY, CANDIDATE_RATIO_KEY, CANDIDATE_CONFIRMED_KEY)
+    out.meta = {**{k: v for k, v in series.meta.items() if k not in candidate},
                 **{f"{META_PREFIX}effort/{j}": v for j, v in lags.items()}}
     if len(set(lags.values())) == 1:
         common = next(iter(lags.values()))
@@ -231,15 +222,6 @@ def shift_effort(series: JointSeries, lag: float | dict[str, float], why: str) -
             f"{j} {v * 1e3:.3g}" for j, v in lags.items())
     return out, (f"{series.source}: channel lag: the effort {by}: {why}: moved back onto the position's stamps; the "
                  f"{dropped} sample(s) this leaves without a value at the end of the log (of each segment) dropped")
-
-
-def _effort_lag_text(lag: float, ratio: float, head: bool = True) -> str:
-    evidence = (f"a fit of it to the motion leaves {ratio:.2g} × the residual once shifted by that lag, the least "
-                f"of every shift within ±{MAX_LAG_S * 1e3:.0f} ms")
-    if not head:
-        return evidence
-    return (f"the effort {'lags' if lag > 0 else 'runs ahead of'} the position by {abs(lag) * 1e3:.3g} ms (every "
-            f"joint): {evidence}: moved back onto the position's stamps")
 
 
 def _effort_scan(grid: _Grid, threshold: float) -> tuple[float, float, bool] | None:
