@@ -36,6 +36,7 @@ from frictionid_core.identification.cross_validation import (
     rule_cutoffs_of,
     score_at,
 )
+from frictionid_core.identification.model_building import all_rows_relerr_pct
 from frictionid_core.identification.plan import FitPlan
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.preprocess import Preprocessing, effort_lag_candidate, lag_record, shift_effort
@@ -114,7 +115,7 @@ def law_judged_effort_lags(sources: list[JointSeries], fit: Callable[[list[Joint
     if all(s is o for s, o in zip(shifted, sources)):
         return fit(sources), sources
     as_logged, moved = fit(sources), fit(shifted)
-    logged_pct, moved_pct = (float((r.metrics.get("all_rows") or r.metrics)["relerr_pct"]) for r in (as_logged, moved))
+    logged_pct, moved_pct = (all_rows_relerr_pct(r.metrics) for r in (as_logged, moved))
     figures = f"{logged_pct:.3g} % as logged, {moved_pct:.3g} % shifted"
     if moved_pct < logged_pct:
         notes = {s.notes[-1] for s, o in zip(shifted, sources) if s is not o}

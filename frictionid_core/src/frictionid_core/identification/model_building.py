@@ -219,6 +219,12 @@ def model_metrics(model: IdentificationModel, x) -> dict:
     return out
 
 
+def all_rows_relerr_pct(metrics: dict) -> float:
+    """The relative error (%) on every row of a metrics block of :func:`model_metrics` (its own where it
+    has no ``all_rows``: every row is a fit row)."""
+    return float((metrics.get("all_rows") or metrics)["relerr_pct"])
+
+
 def metric_model(model: IdentificationModel) -> IdentificationModel:
     """``model`` on its metric observation (:attr:`Observation.metric`: the recorded effort at the
     analysis instants with the unfiltered columns there, or its own rows under the EMPS protocol)."""

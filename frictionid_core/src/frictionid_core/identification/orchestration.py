@@ -30,6 +30,7 @@ from frictionid_core.identification.linear_case import holdout_comparison, linea
 from frictionid_core.identification.load_dependent_fit import fit_with_load
 from frictionid_core.identification.model_building import (
     Sources,
+    all_rows_relerr_pct,
     as_sources,
     build_model,
     model_metrics,
@@ -151,9 +152,9 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
     def fit_plan_of(on: FitPlan) -> FitPlan:
         return replace(on, system=rigid.fit_system) if rigid else on
 
-    # an effort lag the loader could not confirm: the system's model judges it (at the rule's cut-offs: at those
-    # the folds choose from the lagged effort, a lower cut-off stands in for part of the lag); not for a dynamic
-    # law, whose friction follows a reversal late as a lagged Coulomb step does (a LuGre joint: 26 ms "found")
+    # the effort's own lag the loader found: taken where the motion confirms it, else judged by the system's model
+    # (at the rule's cut-offs: at those the folds choose from the lagged effort, a lower cut-off stands in for part
+    # of the lag); a dynamic law's judged by its own fit in fit_request (its friction is late at reversals alike)
     confirmed = sources if get_model(request.friction).is_dynamic else confirmed_effort_lags(
         sources, fit_plan_of(plan), lambda srcs: fit_plan_of(plan_fit(srcs, sys_, request.joints, holds)), settings,
         request.asymmetric, fixed_request)
@@ -297,10 +298,10 @@ def dynamic_start(from_folds: tuple, from_rule, held: dict[str, float]) -> tuple
     if metrics["relerr_pct"] <= AT_FLOOR * metrics.get("noise_floor_pct", 0.0):
         return from_folds  # nothing left for another start to explain
     folds_held = dict(held)
-    scores, failed = {"folds": float((metrics.get("all_rows") or metrics)["relerr_pct"])}, {}
+    scores, failed = {"folds": all_rows_relerr_pct(metrics)}, {}
     try:
         rule = from_rule()
-        scores["rule"] = all_rows_relerr(*rule[:2])
+        scores["rule"] = all_rows_relerr_pct(model_metrics(rule[0], rule[1].x))
     except FrictionIdError as exc:  # the rule's rows leave a column empty (a coarse encoder's min speed)
         rule, failed = None, {"rule_failed": str(exc)}
     taken = "rule" if rule is not None and scores["rule"] < scores["folds"] else "folds"
@@ -313,12 +314,6 @@ def dynamic_start(from_folds: tuple, from_rule, held: dict[str, float]) -> tuple
         out[0].obs.report["cross_validation"] = {**record, "dynamic_start": {
             "all_rows_relerr_pct": scores, "taken": taken, **failed}}
     return out
-
-
-def all_rows_relerr(model: IdentificationModel, fit: Fit) -> float:
-    """The relative error (%) of ``model`` with the parameters of ``fit`` on every row of its log."""
-    metrics = model_metrics(model, fit.x)
-    return float((metrics.get("all_rows") or metrics)["relerr_pct"])
 
 
 def reported_parameters(model: IdentificationModel, x: np.ndarray, sigmas: tuple, held: dict[str, float],
