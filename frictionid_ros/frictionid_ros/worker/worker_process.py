@@ -93,6 +93,7 @@ class WorkerProcess:
         self._outbox: queue.Queue = queue.Queue()  # (child, message or None: close its stdin) | None: end
         self._lock = threading.Lock()  # the child, the job in hand and job.sent
         self._current: _Job | None = None  # the job the owner thread handles (waiting for the child, or sent)
+        self._killed: subprocess.Popen | None = None  # the last child killed (it may take moments to exit)
         self._ids = 0
         self._closed = False
         self._writer = threading.Thread(target=self._write, name="frictionid-worker-writer", daemon=True)
@@ -161,7 +162,10 @@ class WorkerProcess:
                 return
             with self._lock:
                 self._current = job
+                killed = proc is not None and proc is self._killed
             try:
+                if killed:  # a SIGKILLed child is gone in moments; its pipe's EOF is no crash of this job
+                    proc.wait()
                 if proc is None or proc.poll() is not None:
                     self._retire(proc)
                     proc, ready = self._start(), False
@@ -211,6 +215,8 @@ class WorkerProcess:
                 _stopped(proc.pid) or time.monotonic() - self._started_at > READY_TIMEOUT_S))
         if proc is not None and stuck and proc.poll() is None:
             job.control.killed = True
+            with self._lock:
+                self._killed = proc
             proc.kill()  # SIGKILL: a stopped child too; its pipes then break, freeing the owner and the writer
 
     def run(self, series, request: IdentifyRequest, control: JobControl | None = None, gate: Gate | None = None
