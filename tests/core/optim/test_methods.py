@@ -410,6 +410,25 @@ def test_lm_batched_jacobian_matches_the_pointwise_one():
     assert batched.nfev == len(batched.history_fmin) + 1 and abs(batched.nfev - plain.nfev) <= 0.2 * plain.nfev
 
 
+@pytest.mark.parametrize("beyond", [np.inf, np.nan, 1e200])
+def test_lm_slope_into_a_region_that_cannot_be_evaluated_is_taken_from_the_other_side(beyond):
+    """A model that cannot be evaluated past b = 0.5 (a state that diverges: inf, NaN, or values whose
+    squares overflow) and a start 1e-9 below it: the Jacobian's forward step lands past it, the slope
+    is taken backwards instead (scipy's trf would stop on a non-finite Jacobian), and lm reaches the
+    optimum (1, 0.2)."""
+
+    def batch(P):
+        P = np.atleast_2d(P)
+        r = np.column_stack([P[:, 0] - 1.0, P[:, 1] - 0.2])
+        r[P[:, 1] > 0.5] = beyond
+        return r
+
+    problem = Problem(["a", "b"], [-2.0, 0.0], [2.0, 1.0], lambda P: np.sum(batch(P) ** 2, axis=1),
+                      residuals=lambda x: batch(x)[0], x0=[0.0, 0.5 - 1e-9], batch_residuals=batch)
+    res = minimize(problem, "lm")
+    np.testing.assert_allclose(res.x, [1.0, 0.2], atol=1e-8)
+
+
 @pytest.mark.parametrize("method", ALL_POPULATION + ["bo", "dt"])
 def test_start_point_is_evaluated_first_and_never_lost(method):
     """With ``problem.x0`` the first evaluation is x0 itself, so the result is never worse

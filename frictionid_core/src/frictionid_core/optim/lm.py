@@ -28,6 +28,12 @@ from frictionid_core.optim.problem import OptimResult, Problem
 from frictionid_core.parallel import single_threaded_libraries
 
 
+def _unusable(D: np.ndarray) -> np.ndarray:
+    """(k,) True for the rows of slopes ``D`` (k, n) that trf cannot use: not finite, or so large that their
+    squares overflow (its scaling and SVD square them; call it with overflow warnings off)."""
+    return ~np.isfinite(np.einsum("ij,ij->i", D, D))
+
+
 def solve(
     problem: Problem,
     rng: np.random.Generator,
@@ -68,7 +74,8 @@ def solve(
             r = np.asarray(problem.residuals(x), dtype=float).ravel()
             last["x"], last["r"] = x.copy(), r
             n_resid.append(r.size)
-            log.add(x, float(r @ r) if r.size else 0.0)
+            with np.errstate(over="ignore", invalid="ignore"):  # a diverging model: an infinite cost
+                log.add(x, float(r @ r) if r.size else 0.0)
             return r
 
         first = residuals(x0)
@@ -80,17 +87,26 @@ def solve(
         jac = "2-point"
         if problem.batch_residuals is not None:
 
+            def counted(X: np.ndarray) -> np.ndarray:
+                R = np.asarray(problem.batch_residuals(X), dtype=float)
+                with np.errstate(over="ignore", invalid="ignore"):
+                    for xi, ri in zip(X, R):  # every evaluation is counted, as in the 2-point mode
+                        log.add(xi, float(ri @ ri))
+                return R
+
             def jac(x: np.ndarray) -> np.ndarray:
                 # scipy's 2-point step, turned inwards at an upper bound
                 h = np.sqrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(x))
                 h = np.where(x + h > upper, -h, h)
                 same = "x" in last and np.array_equal(last["x"], x)  # trf evaluates fun(x) before jac(x)
                 r0 = last["r"] if same else np.asarray(problem.residuals(x), dtype=float).ravel()
-                X = x[None, :] + np.diag(h)
-                R = np.asarray(problem.batch_residuals(X), dtype=float)
-                for xi, ri in zip(X, R):  # every evaluation is counted, as in the 2-point mode
-                    log.add(xi, float(ri @ ri))
-                return ((R - r0[None, :]) / h[:, None]).T
+                with np.errstate(over="ignore", invalid="ignore"):
+                    D = (counted(x[None, :] + np.diag(h)) - r0[None, :]) / h[:, None]
+                    broken = _unusable(D)
+                    if broken.any():  # a step into a region the model cannot be evaluated in (a state that diverges)
+                        D[broken] = (r0[None, :] - counted(x[None, :] - np.diag(h)[broken])) / h[broken, None]
+                        D[_unusable(D)] = 0.0  # the other side neither: no slope there
+                return D.T
 
         with single_threaded_libraries():  # SVDs of an (n, k) Jacobian: threads stall on a busy machine
             sol = least_squares(
