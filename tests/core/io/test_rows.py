@@ -220,3 +220,21 @@ def test_rows_repeated_at_rest_or_by_a_slow_quantised_joint_are_samples():
     creep = JointSeries(t, ["a"], np.floor(t * 300) * 1e-3, np.ones(t.size), source="creep")  # a count every 3.3 ms
     out, warned = checked(creep)
     assert len(out) == len(creep) and warned == []
+
+
+def test_a_stale_row_of_a_noisy_log_is_dropped_however_slow_the_joint():
+    """A driver republishes its last sample while the joint creeps out of a reversal at 1.6 % of its top
+    speed (0.05 rad/s, 50 µrad per sample — 50 times its position noise): with noise on every channel a
+    whole row never repeats by itself, so the row is stale and dropped (kept, it put a 50 µrad step
+    back in time, whose second difference is 50 rad/s², into the acceleration)."""
+    rng = np.random.default_rng(3)
+    t = np.arange(3000) * 1e-3
+    q = np.sin(np.pi * t) + 1e-6 * rng.standard_normal(t.size)  # top speed π rad/s; reversal at 0.5 s
+    e = np.cos(np.pi * t) + 0.01 * rng.standard_normal(t.size)
+    k = 516  # |q̇| = π·|cos(0.516 π)| = 0.05 rad/s
+    q[k], e[k] = q[k - 1], e[k - 1]
+    out, warned = checked(JointSeries(t, ["a"], q[:, None], e[:, None], source="slow"))
+    np.testing.assert_array_equal(out.t, np.delete(t, k))
+    assert warned == ["slow: 1 repeated row(s) dropped: 1 stale: the values of the row before under a new time stamp "
+                      "while the joints move (a driver republishing its last sample); at sample 516 (0.516 s) from "
+                      "the start"]
