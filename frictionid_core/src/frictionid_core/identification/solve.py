@@ -115,8 +115,11 @@ def start_point(model: IdentificationModel, rng: np.random.Generator, samples: i
     """Best of ``samples`` random nonlinear parameter sets, the lower corner (where the
     Stribeck/Threlfall dip vanishes and the model is the nested Coulomb one) and the dip read off
     the data's low-speed friction curve (:func:`~.feature_starts.dip_start`), each with its linear
-    parameters solved in closed form: the start of local solvers (lm) and a member of the global
-    methods' first population, so no solver returns worse than the nested model."""
+    parameters solved in closed form — and, with the dips of several joints, the set that takes for
+    each dip the sample that fits its joint's rows best (a sample is drawn for every joint at once:
+    the best of them can hold one joint's dip in a wrong basin), where it costs less: the start of
+    local solvers (lm) and a member of the global methods' first population, so no solver returns
+    worse than the nested model."""
     lo, hi = model.bounds()
     nl = model.nonlinear_index
     theta = np.zeros((samples + 1, model.k))
@@ -125,7 +128,17 @@ def start_point(model: IdentificationModel, rng: np.random.Generator, samples: i
     if feature is not None:
         theta = np.vstack([theta, np.clip(feature, lo, hi)[None]])
     full, cost = model.solve_linear(theta)
-    return np.clip(full[int(np.argmin(cost))], lo, hi)
+    best = int(np.argmin(cost))
+    rows = model.dip_rows()
+    if len({r.start for r, _ in rows}) > 1:  # the dips of several joints: each its own best sample
+        sq = np.vstack([(model.obs.y[None] - model.predict(full[i : i + 8])) ** 2 for i in range(0, len(full), 8)])
+        joint_wise = theta[best].copy()
+        for r, index in rows:
+            joint_wise[index] = theta[int(np.argmin(sq[:, r].sum(axis=1))), index]
+        full_jw, cost_jw = model.solve_linear(joint_wise[None])
+        if cost_jw[0] < cost[best]:
+            return np.clip(full_jw[0], lo, hi)
+    return np.clip(full[best], lo, hi)
 
 
 def full_problem(model: IdentificationModel) -> Problem:

@@ -298,6 +298,11 @@ class IdentificationModel:
             lo[i] = hi[i] = value
         return lo, hi
 
+    def dip_rows(self) -> list[tuple[slice, np.ndarray]]:
+        """Per dip: (the rows of its joint in the residual, the indices of its nonlinear parameters)."""
+        nd = self._nd
+        return [(slice(d.joint * nd, (d.joint + 1) * nd), np.asarray(d.nl_index, dtype=int)) for d in self._dips]
+
     # --------------------------------------------------------------- prediction
     def _dip_columns(self, theta: np.ndarray) -> list[np.ndarray]:
         """Per dip: (P, Nd) signed dip shape at the decimated velocity."""
