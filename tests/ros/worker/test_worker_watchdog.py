@@ -53,12 +53,9 @@ def test_a_worker_stopped_before_it_is_ready_is_killed_at_the_wall_time_limit(st
 
 
 @pytest.mark.slow
-def test_a_job_that_overruns_while_the_child_starts_leaves_a_child_that_is_only_slow():
+def test_a_job_that_overruns_while_the_child_starts_leaves_a_child_that_is_only_slow(emps):
     """A wall-time limit shorter than the child's start (imports and warm-up take well over 50 ms) answers the
     job at once, but the child is not stuck: it is left to start and the next job runs on it."""
-    from frictionid_core.io import load
-
-    emps = load(ROOT / "bags" / "emps_estimation").slice(0, 4000)
     worker = WorkerProcess()
     try:
         pid = wait_until(lambda: worker.pid, "the worker's child")

@@ -131,14 +131,20 @@ def start_point(model: IdentificationModel, rng: np.random.Generator, samples: i
     best = int(np.argmin(cost))
     rows = model.dip_rows()
     if len({r.start for r, _ in rows}) > 1:  # the dips of several joints: each its own best sample
-        sq = np.vstack([(model.obs.y[None] - model.predict(full[i : i + 8])) ** 2 for i in range(0, len(full), 8)])
+        errors = np.vstack([_dip_errors(model, full[i : i + 8], rows) for i in range(0, len(full), 8)])
         joint_wise = theta[best].copy()
-        for r, index in rows:
-            joint_wise[index] = theta[int(np.argmin(sq[:, r].sum(axis=1))), index]
+        for d, (_, index) in enumerate(rows):
+            joint_wise[index] = theta[int(np.argmin(errors[:, d])), index]
         full_jw, cost_jw = model.solve_linear(joint_wise[None])
         if cost_jw[0] < cost[best]:
             return np.clip(full_jw[0], lo, hi)
     return np.clip(full[best], lo, hi)
+
+
+def _dip_errors(model: IdentificationModel, full: np.ndarray, rows: list[tuple[slice, np.ndarray]]) -> np.ndarray:
+    """(P, D) the squared residual of the parameters ``full`` (P, k) on the rows of each dip."""
+    squared = (model.obs.y[None] - model.predict(full)) ** 2
+    return np.column_stack([squared[:, r].sum(axis=1) for r, _ in rows])
 
 
 def full_problem(model: IdentificationModel) -> Problem:
