@@ -24,8 +24,11 @@ system, layout, ``--hold-missing``, ``--gravity`` and — for the Stribeck and L
 
 * ``val_relerr_pct`` (validate's ``relerr_pct``), ``floor_pct`` (the log's effort channel without its
   additive noise against the recorded one, 100·‖y − y_clean‖/‖y‖, on the recorded samples nearest the
-  baseline's validation rows of the excited joints — a trembling joint is not fitted, and its effort would
-  set another floor; validate's own ``noise_floor_pct`` beside it) and their ratio;
+  instants validate compares — ``validate --residuals``: the product chooses its rows, slow and micro-motion
+  ones among them, whose smaller torques have a higher floor — of the excited joints: a trembling joint is
+  not fitted, and its effort would set another floor; ``product_rows`` has it with the largest distance
+  from an instant to its sample, in periods; ``floor_pct_baseline_rows`` the same on the baseline's rows,
+  the floor before 2026-11-29; validate's own ``noise_floor_pct`` beside them) and their ratio;
 * ``baseline_relerr_pct``: an independent least-squares fit (Pinocchio's joint torque regressor of every
   body + per joint rotor inertia, viscous, Coulomb and offset columns; positions resampled at the mean
   rate, Butterworth order 4 at 10 Hz (≤ 0.2 × rate) forward-backward, central differences, ≈ 200 Hz rows,
@@ -235,9 +238,10 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
     if result is not None:
         val = [*FRICTIONID, "validate", str(val_src), *(["--layout", str(val_layout)] if val_layout else []),
                "--params", str(rjson), "--json", str(vjson)]
-        runs["validate"] = _run(val, timeout)
+        runs["validate"] = _run([*val, "--residuals", str(tmp / "residuals.csv")], timeout)
         if runs["validate"]["exit_code"] == 0 and vjson.exists():
             validation = json.loads(vjson.read_text())
+            rec["product_rows"] = sim.product_rows_floor(case, logs["validation"], tmp / "residuals.csv")
         # diagnostic, not a user's command: the same cross-test under the identification's own cut-offs and
         # decimation (validate re-chooses them from the validation log): tells a re-choice from a bad fit
         pre = result.get("preprocessing") or {}
@@ -294,8 +298,11 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
         rec["val_per_joint"] = {j: v.get("relerr_pct") for j, v in (m.get("per_joint") or {}).items()}
         vp = validation.get("preprocessing") or {}
         rec["val_preprocessing"] = {k: vp.get(k) for k in ("cutoff_hz", "decimate", "min_speed", "rechosen", "kept")}
-    floor, ls = base["floor_pct"], base["relerr_pct"]
+    # the floor of the rows validate compares (its own choice of rows); the baseline's rows' one beside it
+    rows_floor = (rec.get("product_rows") or {}).get("floor_pct")
+    floor, ls = rows_floor if rows_floor else base["floor_pct"], base["relerr_pct"]
     rec["floor_pct"] = floor
+    rec["floor_pct_baseline_rows"] = base["floor_pct"]
     rec["baseline_relerr_pct"] = ls
     v = rec.get("val_relerr_pct")
     rec["floor_ratio"] = v / floor if v is not None and floor > 0 else None

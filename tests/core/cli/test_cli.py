@@ -145,6 +145,60 @@ def test_validate_reproduces_the_identification_metrics(csv_file, tmp_path):
     assert v["metrics"]["relerr_pct"] == pytest.approx(r["metrics"]["relerr_pct"], rel=1e-12)
 
 
+def _residual_table(path):
+    """(header, source names, numbers) of a ``--residuals`` file."""
+    import csv
+
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], [r[0] for r in rows[1:]], np.array([[float(v) for v in r[1:]] for r in rows[1:]])
+
+
+def test_validate_residuals_hold_the_rows_the_metrics_compare(tmp_path):
+    # two sources of two joints, the second shorter: every instant is written under its source, t on its
+    # own clock, and the used rows give back the JSON's relative errors (overall and per joint)
+    series = two_joint_friction_series()
+    series.effort = series.effort + 0.02 * np.random.default_rng(3).standard_normal(series.effort.shape)
+    first = write_joint_state_bag(tmp_path / "a", series)
+    second = write_joint_state_bag(tmp_path / "b", series.window(0.0, 2.0))
+    params, out, res = tmp_path / "r.json", tmp_path / "v.json", tmp_path / "res.csv"
+    assert main(["identify", str(first), "--system", "friction-only", "--json", str(params)]) == 0
+    r = json.loads(params.read_text())
+    r["params"]["j1/Fv"] *= 1.2  # an error to find in the residuals
+    params.write_text(json.dumps(r))
+    assert main(["validate", str(first), str(second), "--params", str(params), "--json", str(out),
+                 "--residuals", str(res)]) == 0
+    header, sources, table = _residual_table(res)
+    assert header == ["source", "t", "j1.effort", "j1.predicted", "j1.used", "j2.effort", "j2.predicted", "j2.used"]
+    v = json.loads(out.read_text())
+    names = v["source"]  # as the JSON names them (a bag's with its topic)
+    assert names[0].startswith(str(first)) and names[1].startswith(str(second))
+    assert sources[0] == names[0] and sources[-1] == names[1] and set(sources) == set(names)
+    t = table[:, 0]
+    for name, duration in zip(names, (3.0, 2.0)):
+        mine = t[[s == name for s in sources]]
+        assert np.all(np.diff(mine) > 0) and 0.0 < mine[0] < 0.5 < duration - 0.5 < mine[-1] < duration
+    metrics = v["metrics"]
+    used = table[:, [3, 6]] > 0.5
+    effort, predicted = table[:, [1, 4]], table[:, [2, 5]]
+    assert used.sum() == metrics["samples"]
+    whole = 100 * np.linalg.norm((effort - predicted)[used]) / np.linalg.norm(effort[used])
+    assert whole == pytest.approx(metrics["relerr_pct"], rel=1e-8)
+    for k, joint in enumerate(("j1", "j2")):
+        e, p = effort[used[:, k], k], predicted[used[:, k], k]
+        assert 100 * np.linalg.norm(e - p) / np.linalg.norm(e) == pytest.approx(
+            metrics["per_joint"][joint]["relerr_pct"], rel=1e-8)
+    assert metrics["per_joint"]["j1"]["relerr_pct"] > 2 * metrics["per_joint"]["j2"]["relerr_pct"]  # 6.7 vs 2.3
+
+
+def test_validate_refuses_residuals_over_its_own_input(csv_file, tmp_path, capsys):
+    params = tmp_path / "p.json"
+    assert main(["identify", str(csv_file), "--json", str(params)]) == 0
+    before = params.read_bytes()
+    assert main(["validate", str(csv_file), "--params", str(params), "--residuals", str(params)]) == 2
+    assert "--residuals" in capsys.readouterr().err and params.read_bytes() == before
+
+
 def test_two_joints_friction_only_from_bag(tmp_path):
     bag = write_joint_state_bag(tmp_path / "b", two_joint_friction_series())
     out = tmp_path / "r.json"

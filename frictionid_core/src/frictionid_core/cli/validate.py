@@ -1,5 +1,6 @@
 """``frictionid validate SOURCE [SOURCE ...] --params OUT.json [--start S] [--end S] [--cutoff HZ|JOINT=HZ,…]
-[--decimate N] [--trim S[:S]] [--min-speed V] [--json V.json]``: cross-test identified parameters.
+[--decimate N] [--trim S[:S]] [--min-speed V] [--json V.json] [--residuals R.csv]``: cross-test identified
+parameters.
 
 System, joint map, joints, friction, drive and pre-processing come from the parameter file;
 ``--system``/``--joint-map``/``--joints`` override them. The pre-processing settings the
@@ -11,6 +12,8 @@ JSON's ``preprocessing`` block say which were re-chosen, kept and set.
 from __future__ import annotations
 
 import argparse
+import csv
+import io
 from pathlib import Path
 
 from frictionid_core.cli._common import (
@@ -40,6 +43,30 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--system", help="inverse dynamic model (default: the parameter file's)")
     p.add_argument("--joint-map", help="bag joint → model joint names (default: the parameter file's): a=b,c=d")
     add_preprocessing_arguments(p)
+    p.add_argument("--residuals", type=Path, metavar="R.csv",
+                   help="write the compared instants as CSV: source, t (s on the source's clock) and per joint "
+                        "its recorded effort, the prediction and whether the metrics count the row (1/0)")
+
+
+def residuals_csv(residuals: dict, sources: list[str]) -> str:
+    """The text of ``--residuals``: a header ``source,t,<joint>.effort,<joint>.predicted,<joint>.used,…``
+    and one line per analysis instant of :func:`~frictionid_core.identification.validation_residuals`
+    (numbers to 10 significant digits, efforts in the joint's units: N·m or N)."""
+    import numpy as np
+
+    joints = residuals["joints"]
+    header = ["source", "t"] + [f"{j}.{k}" for j in joints for k in ("effort", "predicted", "used")]
+    buffer = io.StringIO()
+    csv.writer(buffer, lineterminator="\n").writerow(header)
+    per_joint = [np.column_stack([residuals["effort"][j], residuals["predicted"][j], residuals["used"][j]])
+                 for j in range(len(joints))]
+    table = np.column_stack([residuals["t"], *per_joint])
+    for k, name in enumerate(sources):
+        quoted = io.StringIO()
+        csv.writer(quoted, lineterminator="").writerow([name])
+        fmt = quoted.getvalue().replace("%", "%%") + ",%.10g" + ",%.10g,%.10g,%d" * len(joints)
+        np.savetxt(buffer, table[residuals["source"] == k], fmt=fmt)
+    return buffer.getvalue()
 
 
 def run(args) -> int:
@@ -58,9 +85,9 @@ def run(args) -> int:
     from frictionid_core.systems import parse_joint_map
 
     result = read_result(args.params)
-    refuse_overwriting({"--json": args.json}, {**source_inputs(args), "--params": args.params,
-                                               "--system": system_file(args.system or result.system),
-                                               "--payload": args.payload})
+    refuse_overwriting({"--json": args.json, "--residuals": args.residuals},
+                       {**source_inputs(args), "--params": args.params,
+                        "--system": system_file(args.system or result.system), "--payload": args.payload})
     drive = drive_option(args)
     if drive is not None:
         result = replace(result, drive=drive.to_dict())
@@ -87,4 +114,9 @@ def run(args) -> int:
     print(preprocessing_line(record))
     print_metrics(metrics)
     save_json(args.json, out)
+    if args.residuals is not None:
+        from frictionid_core.files import write_text
+        from frictionid_core.identification import validation_residuals
+
+        write_text(args.residuals, residuals_csv(validation_residuals(model, x), names))
     return 0

@@ -45,7 +45,8 @@ _LAZY = {
     ), "frictionid_core.identification.settings"),
     **dict.fromkeys(("solve_model",), "frictionid_core.identification.solve"),
     **dict.fromkeys((
-        "model_from_result", "validate", "validation_metrics", "validation_record", "validation_settings",
+        "model_from_result", "validate", "validation_metrics", "validation_record", "validation_residuals",
+        "validation_settings",
     ), "frictionid_core.identification.validation"),
 }
 
@@ -53,7 +54,7 @@ __all__ = ["FieldError", "IdentifyRequest", "IdentifyResult", "PayloadRequest", 
            "PreprocessingOverrides", "SolverOptions", "Sources", "as_sources", "budget_field", "build_model",
            "check_metrics", "identify", "identify_payload", "loaded_result", "metric_model", "model_from_result",
            "model_metrics", "nonlinear_at_bound", "observe_sources", "payload_of", "read_payload", "read_request",
-           "read_result", "solve_model", "validate", "validation_metrics", "validation_record", "validation_settings",
-           "window_record", "write_request"]
+           "read_result", "solve_model", "validate", "validation_metrics", "validation_record", "validation_residuals",
+           "validation_settings", "window_record", "write_request"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

@@ -101,6 +101,7 @@ def observe_plan(plan: FitPlan, settings: Preprocessing | None = None, *, all_ro
     stacked = [_on_rows(o, joints, names, system.per_joint, merged) for o in observations]
     out = concat_observations(stacked)
     out.report = _merged_report([o.report for o in observations])
+    out.report["_source_samples"] = [o.n_samples for o in stacked]  # the rows of each source, in turn
     for o in (out.sampled, out.full, out.full and out.full.sampled):
         if o is not None:
             o.report = out.report

@@ -25,7 +25,7 @@ from frictionid_core.identification.model_building import (
 from frictionid_core.identification.plan import Holds, plan_fit
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.settings import PreprocessingOverrides
-from frictionid_core.model import LOAD_NAME, IdentificationModel
+from frictionid_core.model import LOAD_NAME, IdentificationModel, metric_rows
 from frictionid_core.preprocess import Preprocessing
 from frictionid_core.systems import as_system, result_system
 from frictionid_core.timeseries import JointSeries
@@ -189,6 +189,22 @@ def validation_metrics(model: IdentificationModel, x: np.ndarray, names: list[st
         raise FrictionIdError(f"{', '.join(names)}: no sample left to cross-test on (every one slower than the min "
                               "speed of the pre-processing, or trimmed away); --cutoff and --min-speed set them")
     return model_metrics(model, x)
+
+
+def validation_residuals(model: IdentificationModel, x: np.ndarray) -> dict:
+    """The rows :func:`validation_metrics` compares, instant by instant: ``t`` (Nd,) s on each
+    source's own clock, ``source`` (Nd,) the index of the source of each instant, ``joints``,
+    ``effort`` and ``predicted`` (J, Nd) the recorded effort and the prediction (joint torques,
+    N·m or N), ``used`` (J, Nd) the rows the metrics count (slow rows, reversals and trims out; a
+    dynamic law's: its moving rows)."""
+    on = metric_model(model)
+    obs = on.obs
+    joints, y, y_hat, used = metric_rows(obs, on.predict(x), obs.moving)
+    nd = obs.n_samples
+    sizes = obs.report.get("_source_samples") or [nd]
+    return {"t": obs.t, "source": np.repeat(np.arange(len(sizes)), sizes), "joints": joints,
+            "effort": y.reshape(len(joints), nd), "predicted": y_hat.reshape(len(joints), nd),
+            "used": used.reshape(len(joints), nd)}
 
 
 def validation_record(model: IdentificationModel) -> dict:

@@ -16,7 +16,7 @@ _LAZY = {
     **dict.fromkeys(("LOAD_NAME", "rigid_torque"), "frictionid_core.model.load_dependence"),
     **dict.fromkeys((
         "all_rows_metrics", "check_finite", "FINITE_METRICS", "fit_metrics", "improvement_pct",
-        "observation_metrics", "relerr_pct",
+        "metric_rows", "observation_metrics", "relerr_pct",
     ), "frictionid_core.model.metrics"),
     **dict.fromkeys((
         "build_observation", "concat_observations", "keep_all_rows", "Observation", "VELOCITY_COLUMNS",
@@ -26,7 +26,7 @@ _LAZY = {
 
 __all__ = ["DynamicIdentificationModel", "FINITE_METRICS", "IdentificationModel", "LOAD_NAME", "Observation",
            "VELOCITY_COLUMNS", "all_rows_metrics", "build_observation", "check_finite", "concat_observations",
-           "fit_metrics", "improvement_pct", "keep_all_rows", "observation_metrics", "parameter_kind", "relerr_pct",
-           "rigid_torque"]
+           "fit_metrics", "improvement_pct", "keep_all_rows", "metric_rows", "observation_metrics", "parameter_kind",
+           "relerr_pct", "rigid_torque"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

@@ -43,6 +43,22 @@ def noise_sigma(residual: np.ndarray, used: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(d2)) / np.sqrt(6.0)) if d2.size >= 10 else NAN
 
 
+def metric_rows(obs, y_hat: np.ndarray, rows: np.ndarray | None = None) -> tuple[list[str], np.ndarray, np.ndarray,
+                                                                                 np.ndarray]:
+    """The rows :func:`observation_metrics` compares: (joints, effort, prediction, used), the last
+    three (J·Nd,) joint-major — the joint torques τ = Cᵀ·u of motor rows (a joint's row used when
+    every motor turning with it is), else the observation's own rows; ``rows`` (J·Nd,): only those
+    of the used rows (default all)."""
+    y, used = obs.y, obs.used if rows is None else obs.used & rows
+    y_hat = np.ravel(y_hat)
+    if obs.coupling is None:
+        return list(obs.joints), y, y_hat, used
+    motors_used = used.reshape(len(obs.joints), obs.n_samples)
+    turns = obs.coupling != 0.0  # (motor, joint): the motor turns with the joint
+    used = np.all(~turns[:, :, None] | motors_used[:, None, :], axis=0).reshape(-1)
+    return obs.torque_joints, obs.joint_torques(y), obs.joint_torques(y_hat), used
+
+
 def observation_metrics(obs, y_hat: np.ndarray, rows: np.ndarray | None = None) -> dict:
     """Metrics of the prediction ``y_hat`` (J·Nd,) on the used rows of the observation ``obs``
     (its ``metric`` observation: the recorded effort at the analysis instants, or the filtered
@@ -51,14 +67,8 @@ def observation_metrics(obs, y_hat: np.ndarray, rows: np.ndarray | None = None) 
     relative error the effort's noise alone would leave, its σ from the residual by
     :func:`noise_sigma`), ``against`` (which effort) and ``per_joint`` {joint: {relerr_pct,
     rmse, r2, noise_floor_pct}}. ``rows`` (J·Nd,): only those of the used rows (default all)."""
-    y, used, nd = obs.y, obs.used if rows is None else obs.used & rows, obs.n_samples
-    y_hat = np.ravel(y_hat)
-    joints = obs.joints
-    if obs.coupling is not None:  # motor rows: metrics on the joint torques τ = Cᵀ·u
-        y, y_hat, joints = obs.joint_torques(y), obs.joint_torques(y_hat), obs.torque_joints
-        motors_used = used.reshape(len(obs.joints), nd)
-        turns = obs.coupling != 0.0  # (motor, joint): the motor turns with the joint
-        used = np.all(~turns[:, :, None] | motors_used[:, None, :], axis=0).reshape(-1)
+    joints, y, y_hat, used = metric_rows(obs, y_hat, rows)
+    nd = obs.n_samples
     out = fit_metrics(y[used], y_hat[used])
     out["samples"] = int(used.sum())
     per_joint, noise_sum, power_sum = {}, 0.0, 0.0
