@@ -804,20 +804,23 @@ def _baseline_rows(case: Case, robot: Robot | None, log: Log):
     return X, y, recorded, clean, keep
 
 
-def product_rows_floor(case: Case, log: Log, residuals: Path) -> dict:
+def product_rows_floor(case: Case, log: Log, residuals: Path, uniform_clock: bool = False) -> dict:
     """The noise floor on the rows the product's cross-test compares (``frictionid validate --residuals``):
     at each instant it counts (the product's clock: a bag's starts at its first message, a CSV's is the
     log's stamps or row index / rate, which are the log's stamps here), the recorded effort and its noise
     interpolated linearly between the samples around it — the sample itself at a sample's stamp, what the
     product compares where it resamples jittered stamps — and 100·‖y − y_clean‖/‖y‖ over the excited
-    joints. Also the largest distance from an instant to its nearest sample, in sample periods (≤ 0.5 when
-    the clocks agree)."""
+    joints. ``uniform_clock``: the product replaced the stamps by a uniform clock in row order (it said
+    so): its instants are the samples' true instants, each compared with its own sample (no
+    interpolation). Also the largest distance from an instant to its nearest sample, in sample periods
+    (≤ 0.5 when the clocks agree)."""
     with open(residuals) as f:
         header = f.readline().rstrip("\n").split(",")
     table = np.loadtxt(residuals, delimiter=",", skiprows=1, usecols=range(1, len(header)), ndmin=2)
-    t = table[:, 0] + (log.stamp[0] if case.fmt == "mcap" else 0.0)
-    order = np.argsort(log.stamp, kind="stable")
-    st = log.stamp[order]
+    clock = log.true_t if uniform_clock else log.stamp
+    t = table[:, 0] + (clock[0] if case.fmt == "mcap" or uniform_clock else 0.0)
+    order = np.argsort(clock, kind="stable")
+    st = clock[order]
     after = np.clip(np.searchsorted(st, t), 1, len(st) - 1)
     nearest = np.where(t - st[after - 1] <= st[after] - t, after - 1, after)
     off = np.abs(st[nearest] - t) * case.rate_hz
@@ -826,8 +829,12 @@ def product_rows_floor(case: Case, log: Log, residuals: Path) -> dict:
         if k in case.trembling or f"{name}.used" not in header:
             continue
         used = table[:, header.index(f"{name}.used") - 1] > 0.5
-        y = np.interp(t[used], st, log.effort[order, k])
-        e = np.interp(t[used], st, (log.effort - log.clean)[order, k])
+        if uniform_clock:
+            rows = order[nearest[used]]
+            y, e = log.effort[rows, k], (log.effort - log.clean)[rows, k]
+        else:
+            y = np.interp(t[used], st, log.effort[order, k])
+            e = np.interp(t[used], st, (log.effort - log.clean)[order, k])
         noise += float(np.sum(e**2))
         power += float(np.sum(y**2))
     return {"floor_pct": 100 * math.sqrt(noise / power) if power > 0 else None,

@@ -241,7 +241,8 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
         runs["validate"] = _run([*val, "--residuals", str(tmp / "residuals.csv")], timeout)
         if runs["validate"]["exit_code"] == 0 and vjson.exists():
             validation = json.loads(vjson.read_text())
-            rec["product_rows"] = sim.product_rows_floor(case, logs["validation"], tmp / "residuals.csv")
+            uniform = any("stamps replaced by a uniform" in w for w in runs["validate"]["warnings"])
+            rec["product_rows"] = sim.product_rows_floor(case, logs["validation"], tmp / "residuals.csv", uniform)
         # diagnostic, not a user's command: the same cross-test under the identification's own cut-offs and
         # decimation (validate re-chooses them from the validation log): tells a re-choice from a bad fit
         pre = result.get("preprocessing") or {}
