@@ -757,10 +757,11 @@ BASELINE_TRIM_S = 1.0
 BASELINE_SPEED_SHARE = 0.02
 
 
-def _baseline_rows(case: Case, robot: Robot | None, log: Log):
+def _baseline_rows(case: Case, robot: Robot | None, log: Log, every_row: bool = False):
     """The baseline's pre-processing of one log: stamps sorted, resampled at the mean rate, Butterworth
     order 4 at 10 Hz (≤ 0.2 × rate) forward-backward, central differences, every k-th row (≈ 200 Hz), 1 s
-    trimmed; (X (n, J, p), y (n, J), recorded (n, J), clean (n, J), keep (n, J)): ``y`` the effort the
+    trimmed (``every_row``: every instant of the grid, none trimmed); (X (n, J, p), y (n, J), recorded
+    (n, J), clean (n, J), keep (n, J), t (n,) the instants on the log's clock): ``y`` the effort the
     baseline fits (interpolated onto its grid), ``recorded`` and ``clean`` the recorded sample nearest each
     grid instant and its effort without noise (the noise floor's: interpolating between two samples at
     scattered stamps averages their noise, which would lower the floor by up to 18 %)."""
@@ -782,7 +783,8 @@ def _baseline_rows(case: Case, robot: Robot | None, log: Log):
     qdd = np.gradient(qd, 1 / rate, axis=0)
     step = max(1, int(round(rate / BASELINE_RATE_HZ)))
     tt = grid - grid[0]
-    pick = np.flatnonzero((tt >= BASELINE_TRIM_S) & (tt <= tt[-1] - BASELINE_TRIM_S))[::step]
+    pick = (np.arange(len(grid)) if every_row
+            else np.flatnonzero((tt >= BASELINE_TRIM_S) & (tt <= tt[-1] - BASELINE_TRIM_S))[::step])
     qf, qd, qdd, y, recorded, clean = qf[pick], qd[pick], qdd[pick], y[pick], recorded[pick], clean[pick]
     n, nj = y.shape
     if robot is None:
@@ -801,56 +803,68 @@ def _baseline_rows(case: Case, robot: Robot | None, log: Log):
     X = np.concatenate([rigid, fric], axis=2)
     speed = np.abs(qd)
     keep = speed >= np.maximum(BASELINE_SPEED_SHARE * np.percentile(speed, 99, axis=0), 1e-4)
-    return X, y, recorded, clean, keep
+    return X, y, recorded, clean, keep, grid[pick]
 
 
-def product_rows_floor(case: Case, log: Log, residuals: Path, uniform_clock: bool = False) -> dict:
-    """The noise floor on the rows the product's cross-test compares (``frictionid validate --residuals``):
-    at each instant it counts (the product's clock: a bag's starts at its first message, a CSV's is the
-    log's stamps or row index / rate, which are the log's stamps here), the recorded effort and its noise
-    interpolated linearly between the samples around it — the sample itself at a sample's stamp, what the
-    product compares where it resamples jittered stamps — and 100·‖y − y_clean‖/‖y‖ over the excited
-    joints. ``uniform_clock``: the product replaced the stamps by a uniform clock in row order (it said
-    so): its instants are the samples' true instants, each compared with its own sample (no
-    interpolation). Also the largest distance from an instant to its nearest sample, in sample periods
-    (≤ 0.5 when the clocks agree)."""
+def product_rows(case: Case, robot: Robot | None, log: Log, residuals: Path, theta: np.ndarray,
+                 uniform_clock: bool = False) -> dict:
+    """The noise floor and the baseline's error on the rows the product's cross-test compares (``frictionid
+    validate --residuals``): at each instant it counts (the product's clock: a bag's starts at its first
+    message, a CSV's is the log's stamps or row index / rate, which are the log's stamps here), the recorded
+    effort and its noise interpolated linearly between the samples around it — the sample itself at a
+    sample's stamp, what the product compares where it resamples jittered stamps — then 100·‖y − y_clean‖/‖y‖
+    (``floor_pct``) and 100·‖y − ŷ‖/‖y‖ of the baseline's parameters ``theta`` predicting at its grid
+    instant nearest (``baseline_relerr_pct``), over the excited joints. ``uniform_clock``: the product
+    replaced the stamps by a uniform clock in row order (it said so): its instants are the samples' true
+    instants, each compared with its own sample (no interpolation). Also the largest distance from an
+    instant to its nearest sample, in sample periods (≤ 0.5 when the clocks agree)."""
     with open(residuals) as f:
         header = f.readline().rstrip("\n").split(",")
     table = np.loadtxt(residuals, delimiter=",", skiprows=1, usecols=range(1, len(header)), ndmin=2)
     clock = log.true_t if uniform_clock else log.stamp
     t = table[:, 0] + (clock[0] if case.fmt == "mcap" or uniform_clock else 0.0)
+
+    def nearest_of(times: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        order = np.argsort(times, kind="stable")
+        ts = times[order]
+        after = np.clip(np.searchsorted(ts, at), 1, len(ts) - 1)
+        near = np.where(at - ts[after - 1] <= ts[after] - at, after - 1, after)
+        return order[near], np.abs(ts[near] - at)
+
+    rows, off = nearest_of(clock, t)
+    X, *_, grid_t = _baseline_rows(case, robot, log, every_row=True)
+    predicted = X @ theta
+    on_grid = nearest_of(grid_t, t)[0]
     order = np.argsort(clock, kind="stable")
-    st = clock[order]
-    after = np.clip(np.searchsorted(st, t), 1, len(st) - 1)
-    nearest = np.where(t - st[after - 1] <= st[after] - t, after - 1, after)
-    off = np.abs(st[nearest] - t) * case.rate_hz
-    noise, power = 0.0, 0.0
+    noise = power = miss = 0.0
     for k, name in enumerate(case.joints):
         if k in case.trembling or f"{name}.used" not in header:
             continue
         used = table[:, header.index(f"{name}.used") - 1] > 0.5
         if uniform_clock:
-            rows = order[nearest[used]]
-            y, e = log.effort[rows, k], (log.effort - log.clean)[rows, k]
+            y, e = log.effort[rows[used], k], (log.effort - log.clean)[rows[used], k]
         else:
-            y = np.interp(t[used], st, log.effort[order, k])
-            e = np.interp(t[used], st, (log.effort - log.clean)[order, k])
+            y = np.interp(t[used], clock[order], log.effort[order, k])
+            e = np.interp(t[used], clock[order], (log.effort - log.clean)[order, k])
         noise += float(np.sum(e**2))
         power += float(np.sum(y**2))
+        miss += float(np.sum((y - predicted[on_grid[used], k]) ** 2))
     return {"floor_pct": 100 * math.sqrt(noise / power) if power > 0 else None,
-            "max_offset_periods": float(off.max()) if off.size else None}
+            "baseline_relerr_pct": 100 * math.sqrt(miss / power) if power > 0 else None,
+            "max_offset_periods": float(off.max() * case.rate_hz) if off.size else None}
 
 
 def baseline(case: Case, robot: Robot | None, est: Log, val: Log) -> dict:
     """An independent least-squares fit on the estimation log, its relative error on the validation log's
-    rows and the noise floor (the log's clean effort channel against the recorded one) on the same rows."""
-    Xe, ye, _, _, ke = _baseline_rows(case, robot, est)
+    rows and the noise floor (the log's clean effort channel against the recorded one) on the same rows;
+    ``theta`` its parameters (an array: :func:`product_rows` predicts with them, not for the JSON)."""
+    Xe, ye, _, _, ke, _ = _baseline_rows(case, robot, est)
     A, b = Xe[ke], ye[ke]
     norms = np.linalg.norm(A, axis=0)
     live = norms > 1e-9 * norms.max()
     theta = np.zeros(A.shape[1])
     theta[live] = np.linalg.lstsq(A[:, live] / norms[live], b, rcond=1e-10)[0] / norms[live]
-    Xv, yv, rv, cv, kv = _baseline_rows(case, robot, val)
+    Xv, yv, rv, cv, kv, _ = _baseline_rows(case, robot, val)
     pred = Xv @ theta
     # the error and the floor over the excited joints: a trembling joint is not fitted (the product holds
     # it, rightly), and its effort — often a large gravity torque with little noise — would lower the floor
@@ -871,4 +885,5 @@ def baseline(case: Case, robot: Robot | None, est: Log, val: Log) -> dict:
             "per_joint": per_joint, "columns": int(live.sum()),
             "friction": ({j: {"Ia": float(fr[k, 0]), "Fv": float(fr[k, 1]), "Fc": float(fr[k, 2])}
                           for k, j in enumerate(case.joints)} if fr is not None else
-                         {case.joints[0]: {"J": float(theta[0]), "Fv": float(theta[-3]), "Fc": float(theta[-2])}})}
+                         {case.joints[0]: {"J": float(theta[0]), "Fv": float(theta[-3]), "Fc": float(theta[-2])}}),
+            "theta": theta}

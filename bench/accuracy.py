@@ -29,6 +29,9 @@ system, layout, ``--hold-missing``, ``--gravity`` and — for the Stribeck and L
   not fitted, and its effort would set another floor; ``product_rows`` has it with the largest distance
   from an instant to its sample, in periods; ``floor_pct_baseline_rows`` the same on the baseline's rows,
   the floor before 2026-11-29; validate's own ``noise_floor_pct`` beside them) and their ratio;
+* ``ls_ratio_same_rows``: the product's error over the baseline's on the product's rows (``product_rows``'
+  ``baseline_relerr_pct``: the baseline's prediction at its grid instant nearest each; summary
+  ``val_vs_ls_same_rows_within_1.05``);
 * ``baseline_relerr_pct``: an independent least-squares fit (Pinocchio's joint torque regressor of every
   body + per joint rotor inertia, viscous, Coulomb and offset columns; positions resampled at the mean
   rate, Butterworth order 4 at 10 Hz (≤ 0.2 × rate) forward-backward, central differences, ≈ 200 Hz rows,
@@ -210,6 +213,7 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
         rec["truth"] = case_truth(case)  # after the simulation: a MuJoCo one-joint truth is read from MuJoCo
         rec["sim_s"] = round(time.perf_counter() - t_start, 2)
         base = sim.baseline(case, robot, logs["estimation"], logs["validation"])
+        theta = base.pop("theta")
         rec["baseline"] = base
     except Exception:
         rec.update(status="bench_error", bench_error=traceback.format_exc())
@@ -242,7 +246,8 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
         if runs["validate"]["exit_code"] == 0 and vjson.exists():
             validation = json.loads(vjson.read_text())
             uniform = any("stamps replaced by a uniform" in w for w in runs["validate"]["warnings"])
-            rec["product_rows"] = sim.product_rows_floor(case, logs["validation"], tmp / "residuals.csv", uniform)
+            rec["product_rows"] = sim.product_rows(case, robot, logs["validation"], tmp / "residuals.csv", theta,
+                                                   uniform)
         # diagnostic, not a user's command: the same cross-test under the identification's own cut-offs and
         # decimation (validate re-chooses them from the validation log): tells a re-choice from a bad fit
         pre = result.get("preprocessing") or {}
@@ -310,6 +315,10 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
     rec["ls_ratio"] = v / ls if v is not None and ls > 0 else None
     rec["within_floor"] = bool(v is not None and v <= FLOOR_FACTOR * floor)
     rec["within_ls"] = bool(v is not None and v <= LS_FACTOR * ls)
+    # the baseline predicting the product's rows: both errors on the same instants
+    ls_rows = (rec.get("product_rows") or {}).get("baseline_relerr_pct")
+    rec["ls_ratio_same_rows"] = v / ls_rows if v is not None and ls_rows else None
+    rec["within_ls_same_rows"] = bool(v is not None and ls_rows and v <= LS_FACTOR * ls_rows)
     vk = rec.get("val_kept_settings_pct")
     rec["within_floor_kept_settings"] = bool(vk is not None and vk <= FLOOR_FACTOR * floor)
     rec["wall_s"] = round(time.perf_counter() - t_start, 2)
@@ -359,6 +368,7 @@ def _figures(cases: list[dict]) -> dict:
         "internal_errors": sum(bool(c.get("internal_error")) for c in counted),
         "tracebacks": sum(bool(c.get("traceback")) for c in counted),
         "val_vs_ls_within_1.05": frac("within_ls"),
+        "val_vs_ls_same_rows_within_1.05": frac("within_ls_same_rows"),
         "coverage_1.96_white": _coverage(counted, "std")[0],
         "identified_params": identified,
         "unidentified_params": unidentified,

@@ -66,6 +66,7 @@ def test_structure(corpus):
         # the product's clock and the log's agree (a bag's from its first message, a CSV's stamps or rate)
         assert c["product_rows"]["max_offset_periods"] <= 0.5, seed
         assert c["floor_pct"] == c["product_rows"]["floor_pct"] > 0, seed
+        assert c["ls_ratio_same_rows"] == pytest.approx(c["val_relerr_pct"] / c["product_rows"]["baseline_relerr_pct"])
     assert "dimension" in stdout and "bench errors" in stdout  # the table
 
 
