@@ -29,7 +29,7 @@ import numpy as np
 from frictionid_core import FrictionIdError, write_json
 from frictionid_core.loop import SERVO_BANDWIDTH_HZ
 from frictionid_ros.experiment import DEFAULT_RATES
-from frictionid_ros.loop.loop_command import Client, Processes
+from frictionid_ros.loop.loop_command import ANSWER_MARGIN_S, Client, Processes
 from frictionid_ros.runtime import AUTO_PRIORITY, realtime_priority, reserve_domain
 
 DESCRIPTION = """\
@@ -46,6 +46,7 @@ NS = 1_000_000_000
 STILL_SPEED = 0.01  # the arm stands still when every joint is slower than this [rad/s | m/s]
 FAULT_AT = 0.4  # the fault is injected at this share of the excitation
 AFTER_WINDOW_S = 30.0  # ~/identify afterwards: a dry run on the last 30 s (the excitation, or what came of it)
+NODE_MAX_WALL_S = 300.0  # the node's wall-time limit of an identification; its answer comes by then
 EFFORT_NOISE = 0.05  # [N·m]: the TX40's published torque noise (docs/reference.md#tx40), every robot
 POSITION_NOISE = 1e-6  # [rad]: an absolute encoder's noise (the TX40's: 1.0-3.0e-6 rad)
 MIN_SPEED = 0.2  # [rad/s]: 4 × the largest Stribeck speed of the hidden friction (docs/experiment.md#sim)
@@ -137,7 +138,7 @@ def node_parameters(robot_spec: str, joints: list[str], out: Path) -> Path:
     """The node's parameters file."""
     system = robot_spec if robot_spec.startswith("urdf:") else "tx40"
     values = {"system": system, "joints": joints, "friction_model": "coulomb", "solver": "ls",
-              "results_file": str(out / "parameters.json"), "buffer_seconds": 40.0, "max_wall_s": 300.0,
+              "results_file": str(out / "parameters.json"), "buffer_seconds": 40.0, "max_wall_s": NODE_MAX_WALL_S,
               "max_missing_pct": 20.0, "unique_name": False, "diagnostics_period_s": 1.0}
     path = out / "node.yaml"
     path.write_text("frictionid:\n  ros__parameters:\n" + "".join(
@@ -309,7 +310,8 @@ def run(args) -> dict:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DeprecationWarning)
             after = client.call(Identify, "/frictionid/identify",
-                                Identify.Request(window_seconds=AFTER_WINDOW_S, dry_run=True), timeout=120.0)
+                                Identify.Request(window_seconds=AFTER_WINDOW_S, dry_run=True),
+                                timeout=NODE_MAX_WALL_S + ANSWER_MARGIN_S)
     finally:
         if client is not None:
             client.close()

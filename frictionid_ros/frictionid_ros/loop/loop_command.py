@@ -42,6 +42,11 @@ feedforward_on_lugre, its states driven by the desired velocity); no drift, no o
 re-identification. The JSON's lugre_vs_stribeck_at_reversals compares the two."""
 
 NS = 1_000_000_000
+# The node's wall-time limit of an identification in the loop (its answer comes by then, the job
+# done or stopped); a client waits that long and ANSWER_MARGIN_S more for the answer to arrive.
+NODE_MAX_WALL_S = 120.0
+ANSWER_MARGIN_S = 30.0
+ANSWER_TIMEOUT_S = NODE_MAX_WALL_S + ANSWER_MARGIN_S
 
 
 def register(subparsers):
@@ -148,8 +153,9 @@ def node_parameters(robot: str, joints: list[str], work: Path, args) -> Path:
               "online_window_s": float(args.online_window_s),
               "online_holdout": 0.25, "gate_max_abs": 1000.0, "feedforward_max": 100.0, "feedforward_ramp_s": 0.5,
               "results_file": str(work / "results" / "parameters.json"), "max_missing_pct": 20.0,
+              # lugre: the off phase stays buffered for its second identification
               "buffer_seconds": 30.0 if args.hidden_friction == "stribeck" else 4.0 * args.phase_s + 30.0,
-              "diagnostics_period_s": 0.5}  # lugre: the off phase stays buffered for its second identification
+              "diagnostics_period_s": 0.5, "max_wall_s": NODE_MAX_WALL_S}
     path = work / "node.yaml"
     path.write_text("frictionid:\n  ros__parameters:\n" + "".join(
         f"    {k}: {json.dumps(v)}\n" for k, v in values.items()))
@@ -328,7 +334,7 @@ def payload_phases(client: Client, args, phase, phases: dict, procs: Processes) 
     phase("payload_attached", args.payload_s)
     start, end = phases["payload_attached"]
     request = IdentifyPayload.Request(window_start=to_time(start + NS), window_end=to_time(end))
-    res = client.call(IdentifyPayload, "/frictionid/identify_payload", request, timeout=120.0)
+    res = client.call(IdentifyPayload, "/frictionid/identify_payload", request, timeout=ANSWER_TIMEOUT_S)
     if not res.success:
         raise FrictionIdError(f"identification of the payload failed: {res.message}")
     print(f"payload: {res.message}")
@@ -350,7 +356,7 @@ def identify_off_phase(client: Client, friction: str = "", span: tuple[int, int]
         start, end = span[0] + NS, span[1]
         request.window_start, request.window_end = (Time(sec=x // NS, nanosec=x % NS) for x in (start, end))
     while True:  # the online re-identification may hold the slot for a moment
-        res = client.call(Identify, "/frictionid/identify", request)
+        res = client.call(Identify, "/frictionid/identify", request, timeout=ANSWER_TIMEOUT_S)
         if res.success or not res.message.startswith("busy"):
             break
         time.sleep(0.2)
