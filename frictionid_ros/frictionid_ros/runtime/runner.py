@@ -168,6 +168,8 @@ def serve(make_node, make_executors, prog: str, input_setup=None) -> int:
         # collector: a full collection then takes ~0.1 ms instead of ~90 ms, a stall of the 1 kHz
         # input thread that bench/ros_load.py showed as ~100 ms feed-forward latency bursts.
         gc.freeze()
+        if not rclpy.ok():  # a signal shut ROS down while the node started: a stop, before any executor
+            return 0
         executors = list(make_executors(node))
 
         def spin_input(executor, node):
@@ -186,6 +188,10 @@ def serve(make_node, make_executors, prog: str, input_setup=None) -> int:
         return 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception:
+        if not rclpy.ok():  # a signal shut ROS down while it started: rclpy's objects fail to build, a stop
+            return 0
+        raise
     finally:
         if node is not None:
             node.close()

@@ -45,7 +45,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_preprocessing_arguments(p)
     p.add_argument("--residuals", type=Path, metavar="R.csv",
                    help="write the compared instants as CSV: source, t (s on the source's clock) and per joint "
-                        "its recorded effort, the prediction and whether the metrics count the row (1/0)")
+                        "the effort the metrics compare, the prediction and whether they count the row (1/0)")
 
 
 def residuals_csv(residuals: dict, sources: list[str]) -> str:

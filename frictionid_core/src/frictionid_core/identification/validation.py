@@ -194,9 +194,10 @@ def validation_metrics(model: IdentificationModel, x: np.ndarray, names: list[st
 def validation_residuals(model: IdentificationModel, x: np.ndarray) -> dict:
     """The rows :func:`validation_metrics` compares, instant by instant: ``t`` (Nd,) s on each
     source's own clock, ``source`` (Nd,) the index of the source of each instant, ``joints``,
-    ``effort`` and ``predicted`` (J, Nd) the recorded effort and the prediction (joint torques,
-    N·m or N), ``used`` (J, Nd) the rows the metrics count (slow rows, reversals and trims out; a
-    dynamic law's: its moving rows)."""
+    ``effort`` and ``predicted`` (J, Nd) the effort the metrics compare (recorded, at the analysis
+    instants; the EMPS protocol's filtered one) and the prediction (joint torques, N·m or N),
+    ``used`` (J, Nd) the rows the metrics count (slow rows, reversals and trims out; a dynamic
+    law's: its moving rows)."""
     on = metric_model(model)
     obs = on.obs
     joints, y, y_hat, used = metric_rows(obs, on.predict(x), obs.moving)
