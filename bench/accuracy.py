@@ -23,8 +23,9 @@ system, layout, ``--hold-missing``, ``--gravity`` and — for the Stribeck and L
 ``frictionid validate`` on a separate validation log of the same truth), then:
 
 * ``val_relerr_pct`` (validate's ``relerr_pct``), ``floor_pct`` (the log's effort channel without its
-  additive noise against the recorded one, 100·‖y − y_clean‖/‖y‖, on the recorded samples nearest the
-  instants validate compares — ``validate --residuals``: the product chooses its rows, slow and micro-motion
+  additive noise against the recorded one, 100·‖y − y_clean‖/‖y‖, at the instants validate compares
+  (interpolated between the samples around each; each instant's own sample where validate replaced jittered
+  stamps by a uniform clock) — ``validate --residuals``: the product chooses its rows, slow and micro-motion
   ones among them, whose smaller torques have a higher floor — of the excited joints: a trembling joint is
   not fitted, and its effort would set another floor; ``product_rows`` has it with the largest distance
   from an instant to its sample, in periods; ``floor_pct_baseline_rows`` the same on the baseline's rows,
@@ -246,8 +247,11 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
         if runs["validate"]["exit_code"] == 0 and vjson.exists():
             validation = json.loads(vjson.read_text())
             uniform = any("stamps replaced by a uniform" in w for w in runs["validate"]["warnings"])
-            rec["product_rows"] = sim.product_rows(case, robot, logs["validation"], tmp / "residuals.csv", theta,
-                                                   uniform)
+            try:
+                rec["product_rows"] = sim.product_rows(case, robot, logs["validation"], tmp / "residuals.csv",
+                                                       theta, uniform)
+            except Exception:  # the bench's own failure: the baseline rows' floor stands in, the record says why
+                rec["product_rows"] = {"bench_error": traceback.format_exc()}
         # diagnostic, not a user's command: the same cross-test under the identification's own cut-offs and
         # decimation (validate re-chooses them from the validation log): tells a re-choice from a bad fit
         pre = result.get("preprocessing") or {}
