@@ -824,28 +824,26 @@ def product_rows(case: Case, robot: Robot | None, log: Log, residuals: Path, the
     clock = log.true_t if uniform_clock else log.stamp
     t = table[:, 0] + (clock[0] if case.fmt == "mcap" or uniform_clock else 0.0)
 
-    def nearest_of(times: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        order = np.argsort(times, kind="stable")
-        ts = times[order]
-        after = np.clip(np.searchsorted(ts, at), 1, len(ts) - 1)
-        near = np.where(at - ts[after - 1] <= ts[after] - at, after - 1, after)
-        return order[near], np.abs(ts[near] - at)
+    def nearest_of(sorted_times: np.ndarray, at: np.ndarray) -> np.ndarray:
+        after = np.clip(np.searchsorted(sorted_times, at), 1, len(sorted_times) - 1)
+        return np.where(at - sorted_times[after - 1] <= sorted_times[after] - at, after - 1, after)
 
-    rows, off = nearest_of(clock, t)
-    X, *_, grid_t = _baseline_rows(case, robot, log, every_row=True)
-    predicted = X @ theta
-    on_grid = nearest_of(grid_t, t)[0]
     order = np.argsort(clock, kind="stable")
+    st, effort, noise_of = clock[order], log.effort[order], (log.effort - log.clean)[order]
+    rows = nearest_of(st, t)
+    off = np.abs(st[rows] - t)
+    X, *_, grid_t = _baseline_rows(case, robot, log, every_row=True)  # the grid is increasing
+    predicted = X @ theta
+    on_grid = nearest_of(grid_t, t)
     noise = power = miss = 0.0
     for k, name in enumerate(case.joints):
         if k in case.trembling or f"{name}.used" not in header:
             continue
         used = table[:, header.index(f"{name}.used") - 1] > 0.5
         if uniform_clock:
-            y, e = log.effort[rows[used], k], (log.effort - log.clean)[rows[used], k]
+            y, e = effort[rows[used], k], noise_of[rows[used], k]
         else:
-            y = np.interp(t[used], clock[order], log.effort[order, k])
-            e = np.interp(t[used], clock[order], (log.effort - log.clean)[order, k])
+            y, e = np.interp(t[used], st, effort[:, k]), np.interp(t[used], st, noise_of[:, k])
         noise += float(np.sum(e**2))
         power += float(np.sum(y**2))
         miss += float(np.sum((y - predicted[on_grid[used], k]) ** 2))
