@@ -293,6 +293,8 @@ def draw_case(sub_seed: int, overrides: dict | None = None, quick: bool = False)
     log_velocity = bool(rn.random() < 0.5)
     tremble = sorted(int(k) for k in rt.choice(nj, size=1 if nj <= 6 else 2, replace=False))
     trembling = tremble if excitation == "trembling" else []
+    if noise == "reversed" and detail["joint"] in trembling:  # a joint not excited has no fit to reverse: the next
+        detail["joint"] = next(k % nj for k in range(detail["joint"], detail["joint"] + nj) if k % nj not in trembling)
     seeds = rs.integers(0, 2**31, 4)
     case = Case(sub_seed, arm, law, noise, excitation, fmt, rate, float(d_est), float(d_val), list(joints), centre,
                 amp, vmax, amax, size, friction, armature, offset, one, effort_sigma, pos_sigma, detail,
@@ -304,6 +306,8 @@ def draw_case(sub_seed: int, overrides: dict | None = None, quick: bool = False)
 # --------------------------------------------------------------------------------------------- the motion
 GRID_DT = 1e-3  # s: the motion is designed on this grid, then a quintic spline gives q, q̇, q̈ anywhere
 PRE_ROLL = 0.5  # s before t = 0 (the lags, the MuJoCo start)
+FRICTION_IMPEDANCE = 0.99  # MuJoCo solimp (d0, dwidth) of the friction-loss constraints (see simulate_mujoco)
+FEEDFORWARD_SIGN_SPEED = 0.01  # rad/s: the MuJoCo controller's friction feed-forward reaches Fc·tanh(1) here
 
 
 class Motion:
@@ -586,6 +590,12 @@ def simulate_mujoco(case: Case, robot: Robot | None, motion: Motion, duration: f
     n_sub = max(1, int(math.ceil(1.0 / (case.rate_hz * 1e-3))))
     h = 1.0 / (case.rate_hz * n_sub)
     model.opt.timestep = h
+    # frictionloss is a soft constraint: under MuJoCo's default softness (solref 0.02 s, solimp 0.9) a light
+    # joint's friction is a steep viscous law that never reaches its level within the motion (xarm7 joint7,
+    # armature 1e-3: 51 % of frictionloss at 1-10 rad/s), so "Fc = frictionloss" would not be in the data.
+    # The stiffest stable softness (time constant 2 steps, impedance 0.99) reaches the level above ~0.01 rad/s.
+    model.dof_solref[dof] = (2.0 * h, 1.0)
+    model.dof_solimp[dof, :2] = FRICTION_IMPEDANCE
     data = mujoco.MjData(model)
     # truth of the one-joint model, as the product parameterises it (J, g_sin, g_cos) from MuJoCo itself
     if robot is None:
@@ -604,7 +614,10 @@ def simulate_mujoco(case: Case, robot: Robot | None, motion: Motion, duration: f
     steps = n_pre + (n - 1) * n_sub + 1
     ts = (np.arange(steps) - n_pre) * h
     qr, qdr, qddr = motion.at(ts)
-    tau_ff = _inverse_dynamics(case, robot, qr, qdr, qddr)
+    # computed torque with the friction at the reference speed (a smooth sign): under a hard friction loss a
+    # light joint's PD alone sticks until its error reaches Fc / kp (a UR10 wrist: 0.3 rad) and never moves
+    tau_ff = (_inverse_dynamics(case, robot, qr, qdr, qddr) + np.asarray(f["Fv"]) * qdr
+              + np.asarray(f["Fc"]) * np.tanh(qdr / FEEDFORWARD_SIGN_SPEED))
     mdiag = np.array([case.one_joint["J"]]) if robot is None else robot.mass_diag(case.centre) + case.armature
     w = 2 * math.pi * 6.0
     kp, kd = mdiag * w * w, 2 * 0.9 * w * mdiag

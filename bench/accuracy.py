@@ -16,7 +16,8 @@ stamps, the effort and velocity channels lagging the position, one effort's sign
 part, joints left trembling by a few mrad); a log format (frictionid's CSV, a CSV + layout YAML, an MCAP bag).
 The truth is simulated without frictionid_core (bench/_accuracy_sim.py): Pinocchio ``rnea`` on the URDF
 along the designed motion + the law's friction (LuGre integrated here) + a sensor offset, or MuJoCo
-tracking the motion under computed torque + PD with per-DOF damping, frictionloss and armature.
+tracking the motion under computed torque + friction feed-forward + PD with per-DOF damping, frictionloss
+(its constraint made stiff: the level reached above ~0.01 rad/s) and armature.
 
 Per case the product runs as a user would (``frictionid identify`` on the estimation log with only the
 system, layout, ``--hold-missing``, ``--gravity`` and — for the Stribeck and LuGre classes — ``--friction``;

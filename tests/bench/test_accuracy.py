@@ -104,15 +104,16 @@ def test_accuracy_bounds(corpus):
     assert joint_g["floor_ratio"] < 5.0
     for name, bound in (("J", 10.0), ("Fs", 10.0), ("g_sin", 15.0), ("g_cos", 15.0)):
         assert abs(joint_g["params"][name]["err_pct"]) < bound, name
-    # Panda in MuJoCo, quantised encoders [ratio 1.06, to the LS baseline 0.81; Fc of joints 1–6 within 17 %]
+    # Panda in MuJoCo, quantised encoders [ratio 1.01, to the LS baseline 0.99; Fc of joints 1–6 within 7.7 %;
+    # 17 % while the bench left MuJoCo's friction loss soft, below its level on light joints]
     assert panda["floor_ratio"] < 1.6 and panda["ls_ratio"] < 1.2
     for k in range(1, 7):
-        assert abs(panda["params"][f"panda_joint{k}/Fc"]["err_pct"]) < 30.0, k
+        assert abs(panda["params"][f"panda_joint{k}/Fc"]["err_pct"]) < 15.0, k
     # one joint, LuGre in micro-motions [ratio 1.63; Fv, Fc, Fs, σ0, J within 1.2 %]
     assert lugre["floor_ratio"] < 3.5
     for name in ("Fv", "Fc", "Fs", "sigma0", "J"):
         assert abs(lugre["params"][name]["err_pct"]) < 6.0, name
-    # the pooled Coulomb/Stribeck/MuJoCo friction errors [median 3.0 %]
+    # the pooled Coulomb/Stribeck/MuJoCo friction errors [median 1.5 %]
     assert data["summary"]["friction_err_median_pct"] < 8.0
 
 
