@@ -306,8 +306,6 @@ def draw_case(sub_seed: int, overrides: dict | None = None, quick: bool = False)
 # --------------------------------------------------------------------------------------------- the motion
 GRID_DT = 1e-3  # s: the motion is designed on this grid, then a quintic spline gives q, q̇, q̈ anywhere
 PRE_ROLL = 0.5  # s before t = 0 (the lags, the MuJoCo start)
-FRICTION_IMPEDANCE = 0.99  # MuJoCo solimp (d0, dwidth) of the friction-loss constraints (see simulate_mujoco)
-FEEDFORWARD_SIGN_SPEED = 0.01  # rad/s: the MuJoCo controller's friction feed-forward reaches Fc·tanh(1) here
 
 
 class Motion:
@@ -501,6 +499,10 @@ def lugre_friction(case: Case, motion: Motion, t_end: float) -> tuple[np.ndarray
 
 
 # --------------------------------------------------------------------------------------------- simulation
+FRICTION_IMPEDANCE = 0.99  # MuJoCo solimp (d0, dwidth) of the friction-loss constraints (see simulate_mujoco)
+FEEDFORWARD_SIGN_SPEED = 0.01  # rad/s: the MuJoCo controller's friction feed-forward reaches Fc·tanh(1) here
+
+
 @dataclass
 class Record:
     """One simulated log before its pathologies: sample times, true q, q̇ at them, the effort channel
