@@ -121,12 +121,12 @@ def stamp_warnings(notes: list[str]) -> list[str]:
     return [n for n in notes if any(word in n for word in REPAIR_WORDS)]
 
 
-def direction_problems(obs, names: list[str]) -> tuple[list[str], list[str]]:
-    """(errors, warnings): errors for joints that never move on the used rows of ``obs``,
+def direction_problems(obs, names: list[str]) -> tuple[dict[str, str], list[str]]:
+    """(errors, warnings): errors {joint: message} for joints that never move on the used rows of ``obs``,
     warnings for joints that move in one direction only, given the model's free parameter
     ``names``: then a constant offset and the Coulomb level (or the other branch of an asymmetric
     law) cannot be told apart, and the fit holds one of them (identifiability)."""
-    errors, warnings = [], []
+    errors, warnings = {}, []
     nd, nj = obs.n_samples, len(obs.joints)
     for j, joint in enumerate(obs.joints):
         prefix = f"{joint}/" if nj > 1 else ""
@@ -134,9 +134,9 @@ def direction_problems(obs, names: list[str]) -> tuple[list[str], list[str]]:
         v = obs.velocity[used, j]
         if not np.any(v):  # no used row, or none that moves (a noise-free log of a joint at rest)
             speed = obs.report.get("min_speed_rows", {}).get(joint, np.nan)
-            errors.append(f"{joint} never moves faster than its min speed {speed:.3g}: nothing to identify its "
-                          "friction from; record it moving (back and forth), lower --min-speed, or leave it out of "
-                          "the fitted joints (--joints without it; a robot model still uses its logged position)")
+            errors[joint] = (f"{joint} never moves faster than its min speed {speed:.3g}: nothing to identify its "
+                             "friction from; record it moving (back and forth), lower --min-speed, or leave it out of "
+                             "the fitted joints (--joints without it; a robot model still uses its logged position)")
             continue
         pos, neg = int(np.count_nonzero(v > 0)), int(np.count_nonzero(v < 0))
         minority = min(pos, neg)

@@ -134,10 +134,29 @@ def fit_request(series: Sources, request: IdentifyRequest, progress=None, keep: 
     return result
 
 
+class _TooSlow(Exception):
+    """Joints of a fit that never move faster than their min speed, other rows fitted: {joint: why}."""
+
+    def __init__(self, whys: dict[str, str]):
+        super().__init__(whys)
+        self.whys = whys
+
+
 def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep: dict | None = None, *,
                  settle: bool = True) -> tuple[IdentifyResult, object]:
     """(:func:`fit_request`'s result, the advice of its dip warning or None); ``settle``: follow that
-    advice (fit again at the rates it names) until it holds, and warn with the rates that hold."""
+    advice (fit again at the rates it names) until it holds, and warn with the rates that hold. A
+    joint that never moves faster than the min speed its velocity noise sets, beside others that
+    do, is planned again as unexcited (not fitted, named in a warning) and the whole fit redone."""
+    try:
+        return _fit_plan_request(series, request, progress, keep, settle=settle)
+    except _TooSlow as slow:
+        return _fit_plan_request(series, request, progress, keep, settle=settle, slow=slow.whys)
+
+
+def _fit_plan_request(series: Sources, request: IdentifyRequest, progress=None, keep: dict | None = None, *,
+                      settle: bool = True, slow: dict[str, str] | None = None) -> tuple[IdentifyResult, object]:
+    """:func:`_fit_request` with the joints ``slow`` left unfitted (:func:`plan_fit`)."""
     t0 = time.perf_counter()
     sys_ = request_system(request)
     settings = request.preprocessing.apply(sys_.preprocessing)
@@ -145,7 +164,7 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
     sources = request_sources(series, request)
     where = sources[0].source if len(sources) == 1 else ", ".join(s.source for s in sources)
     holds = Holds(dict(request.hold), request.hold_missing)
-    plan = plan_fit(sources, sys_, request.joints, holds)
+    plan = plan_fit(sources, sys_, request.joints, holds, slow=slow)
     rigid = known_rigid_body(plan.system) if request.known_rigid_body else None
     fixed_request = {**request.fixed, LINK_TORQUE: 1.0} if rigid else dict(request.fixed)
 
@@ -156,11 +175,12 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
     # (at the rule's cut-offs: at those the folds choose from the lagged effort, a lower cut-off stands in for part
     # of the lag); a dynamic law's judged by its own fit in fit_request (its friction is late at reversals alike)
     confirmed = sources if get_model(request.friction).is_dynamic else confirmed_effort_lags(
-        sources, fit_plan_of(plan), lambda srcs: fit_plan_of(plan_fit(srcs, sys_, request.joints, holds)), settings,
+        sources, fit_plan_of(plan),
+        lambda srcs: fit_plan_of(plan_fit(srcs, sys_, request.joints, holds, slow=slow)), settings,
         request.asymmetric, fixed_request)
     if confirmed is not sources:
         sources = confirmed
-        plan = plan_fit(sources, sys_, request.joints, holds)
+        plan = plan_fit(sources, sys_, request.joints, holds, slow=slow)
     sys_ = plan.system
     held: dict[str, float] = {}  # the directions the data do not resolve, held (identifiability)
     fit_plan = fit_plan_of(plan)
@@ -197,8 +217,12 @@ def _fit_request(series: Sources, request: IdentifyRequest, progress=None, keep:
         held.clear()
         model, fit_settings = exclude_stick_phases(rebuild(start), start)
         errors, warnings = diagnostics.direction_problems(model.obs, [model.names[i] for i in model.free_index])
+        if errors and slow is None and any(j not in errors for j in model.obs.joints):
+            speeds = model.obs.report.get("min_speed_rows", {})
+            raise _TooSlow({j: f"never faster than its min speed {speeds.get(j, np.nan):.3g} (a lower --min-speed or "
+                               "--cutoff fits it)" for j in errors})
         if errors:
-            raise InputError(f"{where}: " + "; ".join(errors))
+            raise InputError(f"{where}: " + "; ".join(errors.values()))
         resolved = identifiability(model, prior)
         if resolved.held:
             held.update(resolved.held)

@@ -12,7 +12,9 @@ joints it holds still, and the joints whose logged signals it cannot use.
   simulated arms of the accuracy corpus validated at 4.7 × the noise floor against 1.2 ×) — and holds
   it still at its logged (median) position only when it does not move at all (noise). Such a
   joint is named in a warning (:attr:`FitPlan.unexcited`). A joint swept in one source and
-  trembling in the others (joint-wise sweeps) is fitted where it is swept.
+  trembling in the others (joint-wise sweeps) is fitted where it is swept. A joint that a fit finds
+  never faster than its min speed (its velocity noise above its motion), beside joints that are, is
+  planned again the same way (``slow``).
 * **Held joints** (robot systems, :class:`Holds`): a model joint the source lacks stays still at a
   position (q̇ = q̈ = 0 in the regressor): ``hold`` names it with its position (a logged column of
   it is then not used), ``hold_missing`` holds every absent one at 0 (at the drive's
@@ -150,14 +152,15 @@ class FitPlan:
 
 def plan_fit(sources: list[JointSeries], system: System, rows: list[str] | tuple[str, ...] | None = None,
              holds: Holds | None = None, structure: dict[str, float] | None = None,
-             judge_effort: bool = True) -> FitPlan:
+             judge_effort: bool = True, slow: dict[str, str] | None = None) -> FitPlan:
     """The plan of a fit of ``system`` on ``sources`` (see the module doc): ``rows`` the data
     joints to fit (None: every data joint), ``holds`` the held joints (robot systems);
     ``structure``: the held joints the robot system is restricted to (default: those held in
     every source; a result's ``held_joints`` when its parameters are reloaded); ``judge_effort``:
     judge each joint's signals — hold the joints whose motion does not excite their columns, leave
     out those without a usable effort (False: fit every one of ``rows`` that moves, as a
-    cross-test of a result does).
+    cross-test of a result does); ``slow``: {data joint: why} joints that never move faster than their
+    min speed (found by a fit of this plan), not fitted either (unexcited: no friction slides on them).
 
     Raises InputError naming the source when a requested joint is in none of them, a source has
     no joint to fit that moves enough or has a usable effort, or a joint asked for by name is
@@ -179,7 +182,7 @@ def plan_fit(sources: list[JointSeries], system: System, rows: list[str] | tuple
         for j, value in zip(keep, r):
             scale[kinds.get(j, "revolute")] = max(scale.get(kinds.get(j, "revolute"), 0.0), float(value))
     excitation = (scale, kinds) if judge_effort else None
-    plans = [_source_plan(s, system, wanted, holds, robot, keep, r, excitation)
+    plans = [_source_plan(s, system, wanted, holds, robot, keep, r, excitation, slow or {})
              for s, keep, r in zip(sources, kept, ranges)]
     union = list(dict.fromkeys(j for sp in plans for j in sp.rows))
     if wanted is not None:
@@ -220,11 +223,12 @@ def _kept_joints(s: JointSeries, system: System, wanted: list[str] | None, holds
 
 
 def _source_plan(s: JointSeries, system: System, wanted: list[str] | None, holds: Holds, robot: bool,
-                 keep: list[str], ranges: np.ndarray, excitation: tuple[dict, dict] | None) -> SourcePlan:
+                 keep: list[str], ranges: np.ndarray, excitation: tuple[dict, dict] | None,
+                 slow: dict[str, str]) -> SourcePlan:
     """The plan of source ``s``: ``keep`` the joints the fit takes from it (:func:`_kept_joints`),
     ``ranges`` their joint-side ranges; ``excitation`` (the fit's motion scale by kind, the joints'
     kinds) judges which joints excite their columns, and their efforts (None: every joint of
-    ``keep`` used as it is, as a cross-test of a result does)."""
+    ``keep`` used as it is, as a cross-test of a result does); ``slow`` (:func:`plan_fit`) are unexcited."""
     mapped = dict(zip(s.joints, system.model_joints(list(s.joints))))
     candidates = [j for j in keep if wanted is None or j in wanted]
     if not candidates:
@@ -234,6 +238,7 @@ def _source_plan(s: JointSeries, system: System, wanted: list[str] | None, holds
     if excitation is not None:
         scale, kinds = excitation
         unexcited = unexcited_joints(series, keep, ranges, scale, kinds)
+        unexcited.update({j: why for j, why in slow.items() if j in candidates and j not in unexcited})
         if all(j in unexcited for j in candidates):
             _refuse_still(s.source, {j: unexcited[j] for j in candidates})
     fitted = [j for j in candidates if j not in unexcited]
