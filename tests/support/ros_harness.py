@@ -68,6 +68,24 @@ def node_env(domain: int) -> dict:
     return env
 
 
+_STARTED: list[NodeProcess] = []  # every node this run started: stop_leftover_nodes ends those a failure left
+
+
+def stop_leftover_nodes() -> None:
+    """Stop every node started so far that still runs (SIGTERM, then SIGKILL after 10 s): a fixture
+    that failed before its teardown must not leave a node answering the next module's requests on
+    the same domain, nor a process the run's caller waits for."""
+    for node in _STARTED:
+        if node.alive():
+            node.proc.terminate()
+            try:
+                node.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                node.proc.kill()
+                node.proc.wait(5)
+    _STARTED.clear()
+
+
 class NodeProcess:
     """``python -m frictionid_ros.node`` as a subprocess, output in files."""
 
@@ -78,6 +96,7 @@ class NodeProcess:
             lease = _LEASES.get(domain)
             self.proc = subprocess.Popen([sys.executable, "-m", "frictionid_ros.node", *args], env=node_env(domain),
                                          stdout=out, stderr=err, cwd=workdir, pass_fds=(lease.fd,) if lease else ())
+        _STARTED.append(self)
 
     def alive(self) -> bool:
         return self.proc.poll() is None
@@ -101,7 +120,11 @@ def start_node(workdir: Path, ros: Ros, params: Path, tag: str, *args: str, doma
     (at once with ``--lifecycle``: an unconfigured node offers nothing yet)."""
     proc = NodeProcess(workdir, ["--params-file", str(params), *args], tag, domain)
     if "--lifecycle" not in args:
-        ros.wait_service(proc)
+        try:
+            ros.wait_service(proc)
+        except BaseException:
+            proc.stop()
+            raise
     return proc
 
 
@@ -353,6 +376,7 @@ def ros():
     os.environ["ROS_DOMAIN_ID"] = str(DOMAIN)  # also passed to rclpy.init explicitly
     r = Ros()
     yield r
+    stop_leftover_nodes()  # the module's own fixtures stopped theirs before this teardown
     r.close()
     if old is None:
         os.environ.pop("ROS_DOMAIN_ID", None)

@@ -50,12 +50,14 @@ def setup(tmp_path_factory, ros):
     results_file: "{results}"
 """)
     node = start_node(workdir, ros, params, "payload")
-    series = logs.loaded
-    t0 = time.time_ns()
-    ros.publish_states(t0 + (series.t * NS).astype(int), series.position, effort=series.effort,
-                       names=tuple(series.joints), rate_hz=5000.0, wait=True)
-    yield node, workdir, params, logs, t0
-    node.stop()
+    try:
+        series = logs.loaded
+        t0 = time.time_ns()
+        ros.publish_states(t0 + (series.t * NS).astype(int), series.position, effort=series.effort,
+                           names=tuple(series.joints), rate_hz=5000.0, wait=True)
+        yield node, workdir, params, logs, t0
+    finally:
+        node.stop()
 
 
 def _window(t0: int) -> dict:
