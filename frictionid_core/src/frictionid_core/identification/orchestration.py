@@ -138,7 +138,7 @@ class _TooSlow(Exception):
     """Joints of a fit that never move faster than their min speed, other rows fitted: {joint: why}."""
 
     def __init__(self, whys: dict[str, str]):
-        super().__init__(whys)
+        super().__init__("; ".join(f"{j} {why}" for j, why in whys.items()))
         self.whys = whys
 
 
@@ -326,7 +326,7 @@ def dynamic_start(from_folds: tuple, from_rule, held: dict[str, float]) -> tuple
     try:
         rule = from_rule()
         scores["rule"] = all_rows_relerr_pct(model_metrics(rule[0], rule[1].x))
-    except FrictionIdError as exc:  # the rule's rows leave a column empty (a coarse encoder's min speed)
+    except (FrictionIdError, _TooSlow) as exc:  # the rule's rows leave a column empty (a coarse encoder's min speed)
         rule, failed = None, {"rule_failed": str(exc)}
     taken = "rule" if rule is not None and scores["rule"] < scores["folds"] else "folds"
     if taken == "folds":
