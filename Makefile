@@ -45,7 +45,7 @@ test: setup
 	$(VENV)/bin/pytest -q tests -m "not long"
 
 # The end-to-end runs of over ~15 s each (the payload loop, a whole TX40 replayed into the node, a stopped
-# worker, the EMPS report, streamed experiment positions: ~3 min), apart so make test stays under 10 min (~8 min on 2 cores).
+# worker, the EMPS report, streamed experiment positions: ~3 min), apart from make test (9–11 min on 2 cores, measured 2026-11-30).
 test-long: setup
 	$(VENV)/bin/pytest -q tests -m long
 
