@@ -95,10 +95,12 @@ class IdentifyService:
             "running_s": f"{time.monotonic() - running.t_start:.1f}" if running is not None else "", **values}
 
     @contextlib.contextmanager
-    def slot(self, background: JobControl | None = None):
+    def slot(self, background: JobControl | None = None, preempt: str | None = None):
         """Hold the one identification slot if it is free: yields True, or False when busy.
-        ``background``: the control of a job that yields the slot to a request (cancelled by it)."""
-        got = self._busy.acquire(blocking=False)
+        ``background``: the control of a job that yields the slot to a request (cancelled by it);
+        ``preempt``: take the slot from such a job (cancelled with this reason, :meth:`_preempt`)
+        rather than answer busy."""
+        got = self._busy.acquire(blocking=False) or (preempt is not None and self._preempt(preempt))
         try:
             if got:
                 self._background = background
@@ -142,13 +144,13 @@ class IdentifyService:
             self._running = None
             self._busy.release()
 
-    def _preempt(self) -> bool:
-        """Cancel a background job holding the slot and take the slot once it lets go (True), or
-        False: the slot holds a request's identification, or the job did not stop in time."""
+    def _preempt(self, reason: str = "preempted by a requested identification") -> bool:
+        """Cancel a background job holding the slot (``reason``) and take the slot once it lets go
+        (True), or False: the slot holds a request's identification, or the job did not stop in time."""
         background = self._background
         if background is None:
             return False
-        background.cancel("preempted by a requested identification")
+        background.cancel(reason)
         return self._busy.acquire(timeout=PREEMPT_WAIT_S)
 
     def _wait(self, work, control: JobControl, on_wait, done) -> Answer:

@@ -25,6 +25,8 @@ from frictionid_ros.identification.window import Selection
 from frictionid_ros.store import Results, read_results, split_identification
 from frictionid_ros.worker import Cancelled, Gate, JobControl
 
+LOAD_PREEMPTS = "preempted by a ~/load through the gate"  # the cancel reason of a re-identification a load stops
+
 
 def split(series, holdout: float):
     """(fit, held back): the older (1 − holdout) share of ``series`` and its newest ``holdout`` share."""
@@ -79,9 +81,11 @@ class Online:
     def offer(self, path) -> tuple[bool, str]:
         """``~/load`` through the gate: the file's parameters pass the safety screen, then are judged
         on the newest ``online_window_s·online_holdout`` of data and activated only if accepted.
-        Answered "busy" at once while an identification holds the worker."""
+        An online re-identification in the worker yields it (cancelled, as to a requested
+        identification: re-identifications that run back to back left a load no gap); answered "busy"
+        at once while a requested identification holds it."""
         cfg = self._settings()
-        with self._service.slot() as free:
+        with self._service.slot(preempt=LOAD_PREEMPTS) as free:
             if not free:
                 return False, f"{path}: not loaded: busy: an identification is running; try again later"
             try:

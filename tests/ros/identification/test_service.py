@@ -106,3 +106,37 @@ def test_wall_time_limit_stops_the_identification(tmp_path):
     answer = service.handle(Identify.Request(**HUGE))
     assert not answer.ok and answer.cancelled and active.results is before
     assert answer.message.startswith("stopped: over the wall-time limit max_wall_s = 0.5 s after"), answer.message
+
+
+def test_a_preempting_slot_takes_it_from_a_background_job_only(tmp_path):
+    """``slot(preempt=reason)`` (a ~/load through the gate) cancels a background job holding the slot
+    with that reason and holds the slot; a request's own identification is not cancelled: busy."""
+    from frictionid_ros.identification import parse_request
+    from frictionid_ros.worker import Cancelled
+
+    service, _ = service_with_parameters(tmp_path)
+    background, box = JobControl(), {}
+
+    def job():
+        with service.slot(background=background) as free:
+            assert free
+            try:
+                service.run_job(parse_request(Identify.Request(**HUGE), service._settings(), ["a", "b"]), background)
+            except Cancelled as exc:
+                box["cancelled"] = str(exc)
+
+    t = threading.Thread(target=job)
+    t.start()
+    wait_until(lambda: background.progress[0] >= 2, "two generations of the background job")
+    with service.slot(preempt="preempted by a load") as free:
+        assert free and service.busy
+    t.join(30)
+    assert background.reason == "preempted by a load" and "cancelled" in box and not service.busy
+    control = JobControl()
+    t = threading.Thread(target=lambda: box.setdefault("long", service.handle(Identify.Request(**HUGE), control)))
+    t.start()
+    wait_until(lambda: control.progress[0] >= 2, "two generations of the requested identification")
+    with service.slot(preempt="preempted by a load") as free:
+        assert not free and not control.cancelled
+    service.cancel_running("done")
+    t.join(30)
