@@ -66,14 +66,12 @@ def test_cancel_stops_the_identification_and_keeps_the_parameters(tmp_path):
     assert service.handle(Identify.Request()).ok  # not stuck busy
 
 
-def test_a_request_preempts_a_background_job_but_not_another_request(tmp_path):
-    """A background job in the slot (an online re-identification: ``slot(background=...)``) is
-    cancelled by a request, which then runs at once; a request's own identification is not: the
-    next request is answered "busy"."""
+def background_job(service: IdentifyService) -> tuple[JobControl, dict, threading.Thread]:
+    """A long job holding ``service``'s slot as an online re-identification does (``slot(background=
+    ...)``), two generations in: (its control, a box that gets "cancelled" with its message, its thread)."""
     from frictionid_ros.identification import parse_request
     from frictionid_ros.worker import Cancelled
 
-    service, _ = service_with_parameters(tmp_path)
     background, box = JobControl(), {}
 
     def job():
@@ -87,6 +85,15 @@ def test_a_request_preempts_a_background_job_but_not_another_request(tmp_path):
     t = threading.Thread(target=job)
     t.start()
     wait_until(lambda: background.progress[0] >= 2, "two generations of the background job")
+    return background, box, t
+
+
+def test_a_request_preempts_a_background_job_but_not_another_request(tmp_path):
+    """A background job in the slot (an online re-identification: ``slot(background=...)``) is
+    cancelled by a request, which then runs at once; a request's own identification is not: the
+    next request is answered "busy"."""
+    service, _ = service_with_parameters(tmp_path)
+    background, box, t = background_job(service)
     answer = service.handle(Identify.Request())
     t.join(30)
     assert answer.ok, answer.message
@@ -111,23 +118,8 @@ def test_wall_time_limit_stops_the_identification(tmp_path):
 def test_a_preempting_slot_takes_it_from_a_background_job_only(tmp_path):
     """``slot(preempt=reason)`` (a ~/load through the gate) cancels a background job holding the slot
     with that reason and holds the slot; a request's own identification is not cancelled: busy."""
-    from frictionid_ros.identification import parse_request
-    from frictionid_ros.worker import Cancelled
-
     service, _ = service_with_parameters(tmp_path)
-    background, box = JobControl(), {}
-
-    def job():
-        with service.slot(background=background) as free:
-            assert free
-            try:
-                service.run_job(parse_request(Identify.Request(**HUGE), service._settings(), ["a", "b"]), background)
-            except Cancelled as exc:
-                box["cancelled"] = str(exc)
-
-    t = threading.Thread(target=job)
-    t.start()
-    wait_until(lambda: background.progress[0] >= 2, "two generations of the background job")
+    background, box, t = background_job(service)
     with service.slot(preempt="preempted by a load") as free:
         assert free and service.busy
     t.join(30)
