@@ -100,7 +100,7 @@ class IdentifyService:
         ``background``: the control of a job that yields the slot to a request (cancelled by it);
         ``preempt``: take the slot from such a job (cancelled with this reason, :meth:`_preempt`)
         rather than answer busy."""
-        got = self._busy.acquire(blocking=False) or (preempt is not None and self._preempt(preempt))
+        got = self._take(preempt)
         try:
             if got:
                 self._background = background
@@ -133,7 +133,7 @@ class IdentifyService:
         thread while this one waits: stopped by a cancel, the wall-time limit or :attr:`stopping`
         (answered so); a FrictionIdError answered with its message; else ``done(its value)``
         answers. ``on_wait(control)`` as in :meth:`handle`."""
-        if not self._busy.acquire(blocking=False) and not self._preempt():
+        if not self._take("preempted by a requested identification"):
             running = self._running  # not recorded: the running one is the news
             since = f" (for {time.monotonic() - running.t_start:.1f} s)" if running is not None else ""
             return Answer(False, f"busy: an identification is already running{since}; try again later")
@@ -144,7 +144,11 @@ class IdentifyService:
             self._running = None
             self._busy.release()
 
-    def _preempt(self, reason: str = "preempted by a requested identification") -> bool:
+    def _take(self, preempt: str | None) -> bool:
+        """Take the slot if it is free, else (``preempt``: the cancel reason) from a background job."""
+        return self._busy.acquire(blocking=False) or (preempt is not None and self._preempt(preempt))
+
+    def _preempt(self, reason: str) -> bool:
         """Cancel a background job holding the slot (``reason``) and take the slot once it lets go
         (True), or False: the slot holds a request's identification, or the job did not stop in time."""
         background = self._background
