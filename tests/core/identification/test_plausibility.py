@@ -15,7 +15,14 @@ from frictionid_core.cli import main
 from frictionid_core.friction import FrictionModel
 from frictionid_core.identification import IdentifyRequest, SolverOptions, build_model, identify, validate
 from frictionid_core.identification.diagnostics import parameter_warnings
-from frictionid_core.identification.linear_case import FS_FACTOR, HOLDOUT_MARGIN, data_bounds, linear_special_case
+from frictionid_core.identification.linear_case import (
+    FS_FACTOR,
+    HOLDOUT_MARGIN,
+    LEVEL_FACTOR,
+    data_bounds,
+    linear_special_case,
+    with_data_bounds,
+)
 from frictionid_core.identification.uncertainty import hac_covariance
 from frictionid_core.io import save_csv
 from frictionid_core.timeseries import JointSeries
@@ -89,6 +96,23 @@ def test_the_data_bound_the_dip_speed_and_the_static_level():
     assert any(w.startswith("parameter(s) at a search bound: Fs (upper 1.2)") for w in r.warnings)
     lo, hi = r.velocity_range["j1"]
     assert lo <= r.params["vs"] <= hi
+
+
+def test_a_dynamic_laws_levels_stay_below_twice_the_largest_torque_of_their_joint():
+    """A LuGre fit's Fc and Fs ≤ LEVEL_FACTOR × the joint's largest |torque| on its used rows (a
+    level the joint never applied; the default cap of 100 is no bound for a wrist of 0.1 N·m), unless
+    the user's bounds say otherwise; a static law's levels keep their own bounds."""
+    s = law_series({"Fv": 2.0, "Fc": 1.0, "Fs": 1.6, "vs": 0.05, "delta": 2.0})
+    model = build_model(s, "friction-only", "lugre", False)
+    rows = model.obs.used
+    top = float(np.max(np.abs(model.obs.y[rows])))
+    assert 1.95 < top < 2.15  # Fv·0.5 + Fc at the top speed, and the noise
+    bounds = data_bounds(model)
+    assert bounds["Fc"] == bounds["Fs"] == (0.0, pytest.approx(LEVEL_FACTOR * top, rel=1e-12))
+    assert with_data_bounds(model).bounds()[1][model.names.index("Fs")] == pytest.approx(LEVEL_FACTOR * top, rel=1e-12)
+    given = with_data_bounds(build_model(s, "friction-only", "lugre", False, bounds={"Fs": (0.0, 50.0)}))
+    assert given.bounds()[1][given.names.index("Fs")] == 50.0
+    assert "Fc" not in data_bounds(build_model(s, "friction-only", "stribeck", False))
 
 
 def test_a_law_that_does_not_beat_coulomb_on_held_back_rows_returns_the_coulomb_case():

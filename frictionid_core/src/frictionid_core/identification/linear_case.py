@@ -1,6 +1,7 @@
 """A law against its linear special case (Coulomb): the Coulomb model nested in a law and its
 closed-form fit, the bounds the data ground from it (:func:`data_bounds`: vs within the used speeds,
-Fs within a factor of its Fc), the comparison on held-back rows and the fallback to it."""
+Fs within a factor of its Fc, a dynamic law's levels within a factor of the joint's largest torque),
+the comparison on held-back rows and the fallback to it."""
 
 from __future__ import annotations
 
@@ -17,6 +18,11 @@ from frictionid_core.model import IdentificationModel, parameter_kind
 FS_FACTOR = 3.0
 # … where that Fc is below this share of the joint's largest |torque|, FS_FACTOR × that share.
 FS_FLOOR_SHARE = 0.01
+# A dynamic law's sliding levels (Fc, Fs) ≤ LEVEL_FACTOR × its joint's largest |torque|: a level the
+# joint never applied is one it never overcame. A joint whose torques the fit hardly weighs (a wrist
+# beside a shoulder) otherwise drifts there: a panda wrist of 0.1 N·m fitted Fs = 82 N·m (its
+# bristles at rest 3500 rad deflected, a spring), which validated at 1e5 %.
+LEVEL_FACTOR = 2.0
 # Hold-out of the comparison with the linear special case: the instants split into HOLDOUT_BLOCKS
 # contiguous blocks, every HOLDOUT_EVERY-th held back (a quarter of the log, spread over it).
 HOLDOUT_BLOCKS = 20
@@ -63,7 +69,8 @@ def data_bounds(model: IdentificationModel) -> dict[str, tuple[float, float]]:
     range (:data:`~frictionid_core.friction.DEFAULT_BOUNDS`: a search over decades of speed needs
     a cap) where the two overlap; Fs ≤ FS_FACTOR × the Coulomb
     special case's Fc of its joint and branch (at least FS_FACTOR × FS_FLOOR_SHARE × the joint's
-    largest |torque|; not for a dynamic law, whose pre-sliding rows bias that Fc). {} for a linear law."""
+    largest |torque|; not for a dynamic law, whose pre-sliding rows bias that Fc); a dynamic law's
+    Fc and Fs ≤ LEVEL_FACTOR × the joint's largest |torque| on the used rows. {} for a linear law."""
     if model.is_linear:
         return {}
     obs = model.obs
@@ -88,6 +95,11 @@ def data_bounds(model: IdentificationModel) -> dict[str, tuple[float, float]]:
                 fc = float(x_special[special.names.index(prefix + "Fc" + name[2:])])
                 floor = FS_FLOOR_SHARE * float(np.max(np.abs(obs.y[rows]), initial=0.0))
                 out[prefix + name] = (0.0, FS_FACTOR * max(fc, floor, np.finfo(float).tiny))
+            elif base in ("Fc", "Fs") and model.friction.is_dynamic:
+                lo, hi = DEFAULT_BOUNDS[base]
+                top = LEVEL_FACTOR * float(np.max(np.abs(obs.y[rows][obs.used[rows]]), initial=0.0))
+                if lo < top < hi:
+                    out[prefix + name] = (lo, top)
     return out
 
 
