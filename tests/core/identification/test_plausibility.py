@@ -225,3 +225,26 @@ def test_robust_sigma_covers_the_truth_under_coloured_heteroscedastic_noise():
     assert 0.85 * n <= robust["a"] <= n and 0.85 * n <= robust["b"] <= n, hits
     assert white["b"] < 0.6 * n and white["a"] == n, hits  # b's σ too small, a's too large
     assert r.uncertainty["bandwidth_instants"] > 1
+
+
+def test_a_dip_is_followed_only_as_far_as_the_position_noise_allows():
+    """One joint on a 1 mrad encoder (J 0.5, Stribeck Fc 1, Fs 1.8, vs 0.004): the dip refit asks
+    for 200 Hz, where quantisation is 97 % of the filtered q̈ (the fit at 200 Hz had J 0.0002, Fc
+    2.4, Fv 0.83: 23 %). The cut-off stops where the noise allows (the noise warning's own limit),
+    J, Fv and Fc come out right, and the warning says the dip was not followed further and why."""
+    t = np.arange(30_000) * 1e-3
+    w = 2 * np.pi * 0.25
+    q = 0.6 * np.sin(w * t) + 0.1 * np.sin(3.1 * w * t)
+    qd = 0.6 * w * np.cos(w * t) + 0.1 * 3.1 * w * np.cos(3.1 * w * t)
+    qdd = -0.6 * w**2 * np.sin(w * t) - 0.1 * (3.1 * w) ** 2 * np.sin(3.1 * w * t)
+    law = FrictionModel("stribeck")
+    truth = {"Fv": 2.0, "Fc": 1.0, "Fs": 1.8, "vs": 0.004, "delta": 2.0}
+    noise = 0.01 * np.random.default_rng(0).standard_normal(t.size)
+    tau = 0.5 * qdd + law.torque([truth[n] for n in law.names], qd) + noise
+    s = JointSeries(t, ["a"], (np.round(q / 1e-3) * 1e-3)[:, None], tau[:, None], source="quantised")
+    r = identify(s, IdentifyRequest(system="joint", friction="stribeck"))
+    assert r.preprocessing["cutoff_hz"]["a"] < 25.0
+    assert r.params["J"] == pytest.approx(0.5, rel=0.03)
+    assert r.params["Fv"] == pytest.approx(2.0, rel=0.02) and r.params["Fc"] == pytest.approx(1.0, rel=0.02)
+    limited = [w for w in r.warnings if "but the position noise dominates q̈ above" in w]
+    assert len(limited) == 1 and "needs an analysis rate ≥ 1000 Hz and a cut-off ≥ 200 Hz" in limited[0], r.warnings

@@ -257,6 +257,9 @@ def _fit_plan_request(series: Sources, request: IdentifyRequest, progress=None, 
     if "dip_not_followed" in model.obs.report:
         warnings.append(f"{model.obs.report['dip_not_followed']}: fitted at the rates before; vs and δ may come out "
                         "biased")
+    if "dip_noise_limited" in model.obs.report:
+        warnings.append(f"{model.obs.report['dip_noise_limited']}: fitted at those cut-offs; vs and δ may come out "
+                        "biased (a lower position noise resolves the dip)")
     if res is not None:
         std, design = jacobian_std(model, x, model.held_at_box(x))
         cond = float(np.linalg.cond(design))
