@@ -26,7 +26,7 @@ from frictionid_core.identification.plan import Holds, plan_fit
 from frictionid_core.identification.result import IdentifyResult
 from frictionid_core.identification.settings import PreprocessingOverrides
 from frictionid_core.model import LOAD_NAME, IdentificationModel, metric_rows
-from frictionid_core.preprocess import Preprocessing, choose_preprocessing
+from frictionid_core.preprocess import Preprocessing
 from frictionid_core.systems import as_system, result_system
 from frictionid_core.timeseries import JointSeries
 
@@ -38,7 +38,6 @@ FIXED_WHY = "fixed in the identification"
 FOUND_WHY = "found by the identification (the robot's stick phases)"
 REVERSAL_WHY = "the identification's (rows near reversals left out)"
 CHOSEN_WHY = "the identification's, chosen by what they predict"
-SCALED_WHY = "scaled to these data's faster motion"
 
 
 def validation_settings(record: Mapping, series: JointSeries, overrides: PreprocessingOverrides | None = None,
@@ -54,8 +53,7 @@ def validation_settings(record: Mapping, series: JointSeries, overrides: Preproc
     ``dynamic_start``) are chosen again: the rule's, raised where the law predicts better, a choice
     :func:`model_from_result` makes again on these data; chosen by the folds, they are kept like a
     static law's (folds of a short validation log chose 10–100 Hz where the identification's 3–5 Hz
-    validated at 4 %, they at 61 %), scaled up where these data move faster
-    (:func:`faster_motion_cutoffs`).
+    validated at 4 %, they at 61 %).
 
     Returns the settings and which were ``rechosen``, ``kept`` (with ``kept_why``: {setting:
     reason}) and ``set``. A decimation chosen again drops the result's row thinning (set for its
@@ -82,11 +80,6 @@ def validation_settings(record: Mapping, series: JointSeries, overrides: Preproc
         chosen.remove("cutoff_hz")
         values.pop("cutoff_hz")
         why["cutoff_hz"] = CHOSEN_WHY
-        raised = faster_motion_cutoffs(settings.cutoff_hz, record.get("bandwidth_per_joint_hz") or {}, series)
-        if raised:
-            values["cutoff_hz"] = {**settings.cutoff_hz, **raised}
-            why["cutoff_hz"] = f"{CHOSEN_WHY}, {SCALED_WHY}: " + ", ".join(
-                f"{j} {settings.cutoff_hz[j]:.4g} → {hz:.4g} Hz" for j, hz in raised.items())
     if "min_speed" in chosen and ((record.get("cross_validation") or {}).get("min_speed") or {}).get("min_speed"):
         chosen.remove("min_speed")  # below it the data showed friction leaving its law: a property of the robot
         values.pop("min_speed")
@@ -95,31 +88,6 @@ def validation_settings(record: Mapping, series: JointSeries, overrides: Preproc
         values.update(thin=1, dip_scale=None)
     settings = replace(settings, **values, **given)
     return settings, {"rechosen": chosen, "kept": list(why), "kept_why": why, "set": sorted(given)}
-
-
-def faster_motion_cutoffs(kept, bandwidth: Mapping[str, float], series: JointSeries) -> dict[str, float]:
-    """{joint: cut-off [Hz]} for the joints whose motion in ``series`` is faster than in the
-    identification's data: its ``kept`` cut-off (the folds' choice, {joint: Hz}) times the ratio of
-    the motion bandwidths (these data's over the identification's ``bandwidth``, {joint: Hz}), at
-    most the rule's cut-off on these data. The folds' choice holds for motion like theirs: 1 Hz on a
-    joint that moved below 0.56 Hz, kept on a validation log moving up to 1.03 Hz, attenuated that
-    motion and validated at 35 % (at 1.8 Hz: 3.2 %). Slower motion keeps the cut-off."""
-    if not isinstance(kept, dict) or not bandwidth:
-        return {}
-    try:
-        rule, report = choose_preprocessing(series)
-    except FrictionIdError:  # no motion the rule can read (still data): the kept cut-offs stand
-        return {}
-    here = report.get("bandwidth_per_joint_hz") or {}
-    out = {}
-    for joint, hz in kept.items():
-        before, now, top = bandwidth.get(joint), here.get(joint), (rule.cutoff_hz or {}).get(joint)
-        if not (before and now and top) or not np.isfinite([before, now, top]).all() or now <= before:
-            continue
-        scaled = min(hz * now / before, top)
-        if scaled > hz:
-            out[joint] = float(scaled)
-    return out
 
 
 def model_from_result(series: Sources, result: IdentifyResult | Mapping, *, system: str | None = None,
