@@ -82,6 +82,7 @@ def data_bounds(model: IdentificationModel) -> dict[str, tuple[float, float]]:
         speed = np.abs(obs.velocity[obs.used[rows], j])
         speed = speed[speed > 0.0]
         prefix = f"{joint}/" if nj > 1 else ""
+        level_cap = LEVEL_FACTOR * float(np.max(np.abs(obs.y[rows][obs.used[rows]]), initial=0.0))
         for name in model.friction.names:
             base = name.removesuffix("_pos").removesuffix("_neg")
             if base in ("vs", "v0") and speed.size and speed.max() > speed.min():
@@ -97,9 +98,8 @@ def data_bounds(model: IdentificationModel) -> dict[str, tuple[float, float]]:
                 out[prefix + name] = (0.0, FS_FACTOR * max(fc, floor, np.finfo(float).tiny))
             elif base in ("Fc", "Fs") and model.friction.is_dynamic:
                 lo, hi = DEFAULT_BOUNDS[base]
-                top = LEVEL_FACTOR * float(np.max(np.abs(obs.y[rows][obs.used[rows]]), initial=0.0))
-                if lo < top < hi:
-                    out[prefix + name] = (lo, top)
+                if lo < level_cap < hi:
+                    out[prefix + name] = (lo, level_cap)
     return out
 
 
