@@ -198,7 +198,7 @@ def test_the_hac_covariance_is_the_bartlett_sum_of_the_scores():
 def test_robust_sigma_covers_the_truth_under_coloured_heteroscedastic_noise():
     """Two joints, one 20 × noisier, both with strongly coloured noise (AR(1), ρ = 0.995 per 1 kHz
     sample): over 30 logs 1.96 robust σ holds the truth about 95 % of the time; 1.96 white σ far
-    less (it pools one variance over both joints and takes the samples as independent)."""
+    less (each joint weighted by its own residual σ, it still takes the samples as independent)."""
     t = np.arange(8000) * 1e-3
     w = 2 * np.pi * np.array([0.4, 0.55])
     q = 0.4 * np.sin(w * t[:, None])
@@ -223,7 +223,7 @@ def test_robust_sigma_covers_the_truth_under_coloured_heteroscedastic_noise():
     n = runs * 2  # per joint
     robust, white = hits["std_robust"], hits["std"]
     assert 0.85 * n <= robust["a"] <= n and 0.85 * n <= robust["b"] <= n, hits
-    assert white["b"] < 0.6 * n and white["a"] == n, hits  # b's σ too small, a's too large
+    assert white["a"] < 0.6 * n and white["b"] < 0.6 * n, hits  # too small on both joints alike
     assert r.uncertainty["bandwidth_instants"] > 1
 
 

@@ -2,8 +2,9 @@
 URDF's values, fixed by the user), several logs in one fit (joint-wise sweeps), model joints the
 log lacks (held), joints without usable effort, gravity in the one-joint model.
 
-The robot is a small URDF written here: a continuous base pan joint and a two-finger gripper
-(the joints a log of the arm does not hold) around a gravity-loaded shoulder, an elbow and a wrist."""
+The robot is the little arm of :mod:`support.little_arm`: a continuous base pan joint and a
+two-finger gripper (the joints a log of the arm does not hold) around a gravity-loaded shoulder,
+an elbow and a wrist."""
 
 from __future__ import annotations
 
@@ -23,42 +24,7 @@ from frictionid_core.synthetic import synthesize
 from frictionid_core.systems import get_system, nominal_parameters
 from frictionid_core.timeseries import JointSeries
 from support.arm_logs import pendulum
-
-ARM = ["shoulder", "elbow", "wrist"]
-FRICTION = {"pan": (0.5, 0.3), "shoulder": (1.5, 0.8), "elbow": (1.0, 0.5), "wrist": (0.4, 0.2),
-            "finger_l": (0.0, 0.0), "finger_r": (0.0, 0.0)}  # (Fv, Fc)
-FINGER = 0.02  # m: where the fingers stay in the recordings
-
-
-def _link(name: str, mass: float, com: str, inertia: float) -> str:
-    return (f'<link name="{name}"><inertial><origin xyz="{com}"/><mass value="{mass}"/>'
-            f'<inertia ixx="{inertia}" iyy="{1.3 * inertia}" izz="{0.7 * inertia}" ixy="{0.05 * inertia}" ixz="0" '
-            f'iyz="{0.1 * inertia}"/>'
-            "</inertial></link>")
-
-
-def _joint(name: str, kind: str, parent: str, child: str, xyz: str, axis: str, limit: str = "") -> str:
-    return (f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
-            f'<origin xyz="{xyz}"/><axis xyz="{axis}"/>{limit}</joint>')
-
-
-URDF = "".join([
-    '<robot name="little_arm"><link name="base"/>',
-    _link("turret", 3.0, "0 0 0.1", 0.02), _link("upper", 2.0, "0.2 0 0", 0.03),
-    _link("fore", 1.0, "0.15 0 0.01", 0.01), _link("hand", 0.4, "0.05 0.01 0", 0.002),
-    _link("left", 0.05, "0.02 0 0", 1e-4), _link("right", 0.05, "0.02 0 0", 1e-4),
-    _joint("pan", "continuous", "base", "turret", "0 0 0.1", "0 0 1", '<limit effort="50" velocity="3"/>'),
-    _joint("shoulder", "revolute", "turret", "upper", "0 0 0.3", "0 1 0",
-           '<limit lower="-2" upper="2" effort="50" velocity="3"/>'),
-    _joint("elbow", "revolute", "upper", "fore", "0.4 0 0", "0 1 0",
-           '<limit lower="-2.5" upper="2.5" effort="30" velocity="3"/>'),
-    _joint("wrist", "revolute", "fore", "hand", "0.3 0 0", "1 0 0",
-           '<limit lower="-3" upper="3" effort="10" velocity="3"/>'),
-    _joint("finger_l", "prismatic", "hand", "left", "0.08 0.02 0", "0 1 0",
-           '<limit lower="0" upper="0.04" effort="5" velocity="0.1"/>'),
-    _joint("finger_r", "prismatic", "hand", "right", "0.08 -0.02 0", "0 -1 0",
-           '<limit lower="0" upper="0.04" effort="5" velocity="0.1"/>'),
-    "</robot>"])
+from support.little_arm import ARM, FINGER, FRICTION, URDF, joint_xml, link_xml
 
 
 @pytest.fixture(scope="module")
@@ -195,12 +161,13 @@ def test_the_held_position_enters_the_dynamics(arm_urdf):
 # ------------------------------------------------------------------------ identifiability
 LIFTER = "".join([
     '<robot name="lifter"><link name="base"/>',
-    _link("carriage", 5.0, "0 0 0.05", 0.05), _link("arm", 1.5, "0.2 0 0", 0.02), _link("tool", 0.3, "0.05 0 0", 0.001),
-    _joint("lift", "prismatic", "base", "carriage", "0 0 0.2", "0 0 1",
+    link_xml("carriage", 5.0, "0 0 0.05", 0.05), link_xml("arm", 1.5, "0.2 0 0", 0.02),
+    link_xml("tool", 0.3, "0.05 0 0", 0.001),
+    joint_xml("lift", "prismatic", "base", "carriage", "0 0 0.2", "0 0 1",
            '<limit lower="0" upper="0.6" effort="200" velocity="0.5"/>'),
-    _joint("elbow", "revolute", "carriage", "arm", "0 0 0.1", "0 1 0",
+    joint_xml("elbow", "revolute", "carriage", "arm", "0 0 0.1", "0 1 0",
            '<limit lower="-2.5" upper="2.5" effort="30" velocity="3"/>'),
-    _joint("wrist", "revolute", "arm", "tool", "0.4 0 0", "1 0 0",
+    joint_xml("wrist", "revolute", "arm", "tool", "0.4 0 0", "1 0 0",
            '<limit lower="-3" upper="3" effort="10" velocity="3"/>'),
     "</robot>"])
 LIFT_SPEED = 0.03  # m/s, upwards the whole log

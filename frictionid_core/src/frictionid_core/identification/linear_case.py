@@ -77,12 +77,13 @@ def data_bounds(model: IdentificationModel) -> dict[str, tuple[float, float]]:
     nd, nj = obs.n_samples, len(obs.joints)
     special = x_special = None
     out = {}
+    y = obs.unweighted().y  # torques in N·m or N
     for j, joint in enumerate(obs.joints):
         rows = slice(j * nd, (j + 1) * nd)
         speed = np.abs(obs.velocity[obs.used[rows], j])
         speed = speed[speed > 0.0]
         prefix = f"{joint}/" if nj > 1 else ""
-        level_cap = LEVEL_FACTOR * float(np.max(np.abs(obs.y[rows][obs.used[rows]]), initial=0.0))
+        level_cap = LEVEL_FACTOR * float(np.max(np.abs(y[rows][obs.used[rows]]), initial=0.0))
         for name in model.friction.names:
             base = name.removesuffix("_pos").removesuffix("_neg")
             if base in ("vs", "v0") and speed.size and speed.max() > speed.min():
@@ -94,7 +95,7 @@ def data_bounds(model: IdentificationModel) -> dict[str, tuple[float, float]]:
                 if special is None:
                     special, x_special = linear_special_case(model)
                 fc = float(x_special[special.names.index(prefix + "Fc" + name[2:])])
-                floor = FS_FLOOR_SHARE * float(np.max(np.abs(obs.y[rows]), initial=0.0))
+                floor = FS_FLOOR_SHARE * float(np.max(np.abs(y[rows]), initial=0.0))
                 out[prefix + name] = (0.0, FS_FACTOR * max(fc, floor, np.finfo(float).tiny))
             elif base in ("Fc", "Fs") and model.friction.is_dynamic:
                 lo, hi = DEFAULT_BOUNDS[base]

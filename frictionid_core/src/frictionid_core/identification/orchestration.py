@@ -25,6 +25,7 @@ from frictionid_core.identification.effort_lag import (
 )
 from frictionid_core.identification.effort_sign import checked_effort_sign
 from frictionid_core.identification.identifiability import identifiability
+from frictionid_core.identification.joint_weights import unweighted_model, weighted_model
 from frictionid_core.identification.law_choice import AUTO, identify_auto
 from frictionid_core.identification.linear_case import holdout_comparison, linear_fallback, with_data_bounds
 from frictionid_core.identification.load_dependent_fit import fit_with_load
@@ -208,8 +209,8 @@ def _fit_plan_request(series: Sources, request: IdentifyRequest, progress=None, 
 
     prior = nominal_parameters(sys_) if request.prior == "urdf" and rigid is None else None
 
-    def fit(m: IdentificationModel, previous: Fit | None = None) -> Fit:
-        return (fit_dynamic if m.friction.is_dynamic else fit_static)(m, solver, progress, previous)
+    def fit(m: IdentificationModel, previous: Fit | None = None) -> Fit:  # weighted least squares over the joints
+        return (fit_dynamic if m.friction.is_dynamic else fit_static)(weighted_model(m), solver, progress, previous)
 
     def fit_from(start) -> tuple:
         """The fit from the settings ``start``: (model, fit, its settings, identifiability, warnings,
@@ -260,12 +261,14 @@ def _fit_plan_request(series: Sources, request: IdentifyRequest, progress=None, 
     if "dip_noise_limited" in model.obs.report:
         warnings.append(f"{model.obs.report['dip_noise_limited']}: fitted at those cut-offs; vs and δ may come out "
                         "biased (a lower position noise resolves the dip)")
+    model = weighted_model(model)  # σ, the comparisons and the consistent fit weigh the joints as the fit did
     if res is not None:
         std, design = jacobian_std(model, x, model.held_at_box(x))
         cond = float(np.linalg.cond(design))
     holdout = None
     if not model.is_linear and solver.warm_start and not model.friction.is_dynamic and not request.load_dependent:
-        model, x, std, cond, holdout = against_linear_case(model, at_rule_rates, x, (std, cond), solver, warnings)
+        model, x, std, cond, holdout = against_linear_case(model, weighted_model(at_rule_rates), x, (std, cond),
+                                                           solver, warnings)
     closed_form = res is None or solver.varpro or "returned" in (holdout or {})  # the linear part: the box holds it
     at_bound = fit_at_bound(model, x, {**std, **dict.fromkeys(held, float("nan"))}, closed_form)
     std = {**sigma_with_held(model, x, std, set(at_bound)), **dict.fromkeys(held, float("nan"))}
@@ -278,7 +281,7 @@ def _fit_plan_request(series: Sources, request: IdentifyRequest, progress=None, 
         scale = calibration_scale(std, std_robust, model.obs.rigid_names)  # the data inform as the calibrated σ say
         x, consistency, standard = consistent_parameters(model, x, sys_, request, released, scale)
     metrics = model_metrics(model, x)
-    metrics["cost"] = float(model.batch_cost(x[None])[0])
+    metrics["cost"] = float(unweighted_model(model).batch_cost(x[None])[0])
     metrics["cond"] = cond
     check_fit(model, x, metrics, where)
     notes = [*(note for s in sources for note in s.notes), *model.obs.notes, *plan.notes()]

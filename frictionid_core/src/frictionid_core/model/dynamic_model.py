@@ -43,6 +43,8 @@ class DynamicIdentificationModel(IdentificationModel):
         scale = obs.used.reshape(nj, obs.n_samples).astype(float)
         if obs.weight is not None:
             scale = scale * obs.weight[None, :]
+        if obs.joint_weight is not None:
+            scale = scale * obs.joint_weight[:, None]
         self._row_scale = scale
         self._travel = None
         if obs.path is not None:  # a reset starts at rest below the joint's rest speed (its velocity noise)

@@ -96,6 +96,8 @@ class IdentificationModel:
                     mask = np.sign(v) * (v > 0 if tag == "pos" else v < 0)
                     if obs.weight is not None:
                         mask = mask * obs.weight
+                    if obs.joint_weight is not None:
+                        mask = mask * obs.joint_weight[j]
                 else:  # the decimated sign column (weighted like the others): the dip's sign step
                     mask = scol  # anti-aliased as the effort's is
                 dip_id = None
@@ -284,7 +286,8 @@ class IdentificationModel:
         for j in range(len(self.obs.joints)):
             lo[r + j * nf : r + (j + 1) * nf], hi[r + j * nf : r + (j + 1) * nf] = flo, fhi
         kinds = np.array([n.rsplit("/", 1)[-1] for n in self.names])
-        scale = float(np.max(np.abs(self.obs.y))) if self.obs.y.size else 1.0
+        y = self.obs.y if self.obs.joint_weight is None else self.obs.unweighted().y
+        scale = float(np.max(np.abs(y))) if y.size else 1.0
         lo[kinds == "offset"], hi[kinds == "offset"] = -0.5 * scale, 0.5 * scale
         lo[kinds == LOAD_NAME], hi[kinds == LOAD_NAME] = LOAD_BOUNDS
         for i, (low, high) in self.grounded_bounds.items():

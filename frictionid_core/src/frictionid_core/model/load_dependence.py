@@ -23,10 +23,12 @@ def load_names(joints: list[str]) -> list[str]:
 
 
 def rigid_torque(obs, rigid: np.ndarray) -> np.ndarray:
-    """τ_rigid (J·Nd,) of rigid-body parameters ``rigid`` (R,) on the rows of ``obs`` (unweighted)."""
+    """τ_rigid (J·Nd,) of rigid-body parameters ``rigid`` (R,) on the rows of ``obs`` (unweighted: in N·m or N)."""
     tau = obs.rigid @ np.asarray(rigid, dtype=float)
     if obs.weight is not None:
         tau = tau / np.tile(np.where(obs.weight > 0, obs.weight, 1.0), len(obs.joints))
+    if obs.joint_weight is not None:
+        tau = tau / np.repeat(obs.joint_weight, obs.n_samples)
     return tau
 
 

@@ -72,6 +72,10 @@ class Observation:
             law's states (:mod:`frictionid_core.preprocess.travel`): the distance travelled along
             its denoised filtered position, and the net displacement (0 at the first instant);
             None: the states take the travel from the velocity.
+        joint_weight: (J,) the weight of each row joint in a weighted least-squares fit
+            (:meth:`joint_weighted`): ``y``, ``rigid`` and ``columns`` of joint j hold its rows
+            times ``joint_weight[j]``; ``sampled`` and ``full`` stay unweighted (what metrics
+            compare, in N·m or N). None: every joint 1.
     """
 
     joints: list[str]
@@ -93,6 +97,7 @@ class Observation:
     moving: np.ndarray | None = None
     path: np.ndarray | None = None
     shift: np.ndarray | None = None
+    joint_weight: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.used is None:
@@ -106,8 +111,28 @@ class Observation:
     @property
     def metric(self) -> Observation:
         """The observation fit metrics are taken on: the sampled one (recorded effort), or this
-        one under ``metric="filtered"`` (the decimated filtered effort of the EMPS benchmark)."""
-        return self if self.preprocessing.metric == "filtered" or self.sampled is None else self.sampled
+        one (unweighted) under ``metric="filtered"`` (the decimated filtered effort of the EMPS
+        benchmark)."""
+        return self.unweighted() if self.preprocessing.metric == "filtered" or self.sampled is None else self.sampled
+
+    def joint_weighted(self, weight: np.ndarray | None) -> Observation:
+        """This observation with the rows of joint j (``y``, ``rigid``, ``columns``) weighted by
+        ``weight[j]`` (J,) instead of its present weight; None: unweighted."""
+        now = np.ones(len(self.joints)) if self.joint_weight is None else self.joint_weight
+        new = np.ones(len(self.joints)) if weight is None else np.asarray(weight, dtype=float)
+        if new.shape != now.shape or not np.all(np.isfinite(new) & (new > 0)):
+            raise FrictionIdError(f"joint weights must be {now.size} positive finite numbers, got {new}")
+        if np.array_equal(new, now):
+            return self
+        factor = new / now
+        rows = np.repeat(factor, self.n_samples)
+        return replace(self, y=self.y * rows, rigid=self.rigid * rows[:, None],
+                       columns=[{k: v * f for k, v in c.items()} for c, f in zip(self.columns, factor)],
+                       joint_weight=None if weight is None else new)
+
+    def unweighted(self) -> Observation:
+        """This observation without joint weights (:meth:`joint_weighted` None)."""
+        return self if self.joint_weight is None else self.joint_weighted(None)
 
     @property
     def torque_joints(self) -> list[str]:
