@@ -1,9 +1,10 @@
 """The effort's own lag the loader found, judged by what it predicts.
 
 The loader's scan (:mod:`frictionid_core.preprocess.lag`) regresses each effort on a generic model
-of the motion at every shift and keeps the best shift the whole log and a half of it agree on as a
-candidate (:func:`~frictionid_core.preprocess.effort_lag_candidate`); it moves no effort itself: where
-that model misses (a Stribeck dip, an arm's inertial coupling) a true lag still leaves most of the
+of the motion at every shift and keeps the best shift the whole log and a half of it agree on (or
+both halves, where the whole does not) as a candidate
+(:func:`~frictionid_core.preprocess.effort_lag_candidate`); it moves no effort itself: where that
+model misses (a Stribeck dip, an arm's inertial coupling) a true lag still leaves most of the
 residual (0.96–0.99 on simulated logs lagged 2–8 ms), and a dynamic friction law fakes one (a LuGre
 joint's friction, late at each reversal, left 0.49 of the residual shifted by 9.6 ms, in both halves:
 its fits then validated at 1.2–2.7 × the noise floor on six corpus cases).
@@ -78,7 +79,7 @@ def confirmed_effort_lags(sources: list[JointSeries], logged_plan: FitPlan,
         return sources  # none better, or better ever further: a shift that stands in for a misfit
     out = list(sources)
     for i, (lag, ratio) in found.items():
-        why = (f"the log and a half of it find {lag * 1e3:.3g} ms (a fit of the effort to the motion alone leaves "
+        why = (f"the log or each half of it finds {lag * 1e3:.3g} ms (a fit of the effort to the motion alone leaves "
                f"{ratio:.2g} × its residual once shifted), and the system's model predicts the effort best shifted by "
                f"{share:g} × that (blocked cross-validation: {as_logged.relerr_pct:.3g} % as logged, "
                + ", ".join(f"{s:g} × {v:.3g} %" for s, v in scored.items()) + ")")
