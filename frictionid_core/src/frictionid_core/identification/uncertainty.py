@@ -2,7 +2,8 @@
 coloured and heteroscedastic residuals (``std_robust``, docs/cli.md#uncertainty).
 
 Both linearise the estimating equations Jᵀe = 0 at the solution (J: the residual Jacobian over
-the free parameters, H = JᵀJ). The white-noise σ assumes independent residuals of one variance:
+the free parameters, H = JᵀJ; with several joints, of the rows each weighted by its joint's σ:
+:mod:`.joint_weights`). The white-noise σ assumes independent residuals of one variance:
 cov = s²·H⁻¹. The robust one is the heteroscedasticity-and-autocorrelation-consistent (HAC)
 sandwich cov = H⁻¹·S·H⁻¹ of Newey and West: S sums the products of the scores g_t = Σ_j J_jt·e_jt
 of each instant t (every joint's row at that instant, so joints may share a disturbance) with
