@@ -1,5 +1,5 @@
 """Weighted least squares over the joints: each joint's rows weighted by its own residual σ, so a
-wrist of 0.7 N·m counts beside a shoulder of 11 N·m (the little arm of test_unseen_arms)."""
+wrist of 0.7 N·m counts beside a shoulder of 11 N·m (the little arm of tests/support/little_arm.py)."""
 
 from __future__ import annotations
 
