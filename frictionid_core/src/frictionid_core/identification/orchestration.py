@@ -209,8 +209,15 @@ def _fit_plan_request(series: Sources, request: IdentifyRequest, progress=None, 
 
     prior = nominal_parameters(sys_) if request.prior == "urdf" and rigid is None else None
 
+    last: list = [None, None]  # the model last weighed and its joint-weighted model: the fit's, weighed once
+
+    def weigh(m: IdentificationModel) -> IdentificationModel:
+        if last[0] is not m:
+            last[:] = [m, weighted_model(m)]
+        return last[1]
+
     def fit(m: IdentificationModel, previous: Fit | None = None) -> Fit:  # weighted least squares over the joints
-        return (fit_dynamic if m.friction.is_dynamic else fit_static)(weighted_model(m), solver, progress, previous)
+        return (fit_dynamic if m.friction.is_dynamic else fit_static)(weigh(m), solver, progress, previous)
 
     def fit_from(start) -> tuple:
         """The fit from the settings ``start``: (model, fit, its settings, identifiability, warnings,
@@ -261,14 +268,14 @@ def _fit_plan_request(series: Sources, request: IdentifyRequest, progress=None, 
     if "dip_noise_limited" in model.obs.report:
         warnings.append(f"{model.obs.report['dip_noise_limited']}: fitted at those cut-offs; vs and δ may come out "
                         "biased (a lower position noise resolves the dip)")
-    model = weighted_model(model)  # σ, the comparisons and the consistent fit weigh the joints as the fit did
+    model = weigh(model)  # σ, the comparisons and the consistent fit weigh the joints as the fit did
     if res is not None:
         std, design = jacobian_std(model, x, model.held_at_box(x))
         cond = float(np.linalg.cond(design))
     holdout = None
     if not model.is_linear and solver.warm_start and not model.friction.is_dynamic and not request.load_dependent:
-        model, x, std, cond, holdout = against_linear_case(model, weighted_model(at_rule_rates), x, (std, cond),
-                                                           solver, warnings)
+        model, x, std, cond, holdout = against_linear_case(model, weigh(at_rule_rates), x, (std, cond), solver,
+                                                           warnings)
     closed_form = res is None or solver.varpro or "returned" in (holdout or {})  # the linear part: the box holds it
     at_bound = fit_at_bound(model, x, {**std, **dict.fromkeys(held, float("nan"))}, closed_form)
     std = {**sigma_with_held(model, x, std, set(at_bound)), **dict.fromkeys(held, float("nan"))}

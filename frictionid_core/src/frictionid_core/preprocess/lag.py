@@ -252,7 +252,7 @@ def _effort_scan(grid: _Grid, threshold: float) -> tuple[float, float, bool] | N
     lag, ratio = whole
     if ratio >= 1.0 or abs(lag) < MIN_LAG_S:
         return None
-    tolerance = max(LAG_TOLERANCE_PERIODS * grid.step, LAG_TOLERANCE_SHARE * abs(lag))
+    tolerance = _tolerance(lag, grid.step)
     halves = [_scan(grid, a, b, search) for a, b in ((0, n // 2), (n // 2, n))]
     agree = [h is not None and abs(h[0] - lag) <= tolerance for h in halves]
     if not any(agree):
@@ -260,8 +260,7 @@ def _effort_scan(grid: _Grid, threshold: float) -> tuple[float, float, bool] | N
             return None
         (first, r1), (second, r2) = halves
         both = 0.5 * (first + second)
-        if abs(first - second) > max(LAG_TOLERANCE_PERIODS * grid.step, LAG_TOLERANCE_SHARE * abs(both)) \
-                or abs(both) < MIN_LAG_S or max(r1, r2) >= 1.0:
+        if abs(first - second) > _tolerance(both, grid.step) or abs(both) < MIN_LAG_S or max(r1, r2) >= 1.0:
             return None
         return both, float(np.sqrt(r1 * r2)), False  # the halves agree, the whole not: a candidate only
     return lag, ratio, all(agree) and ratio <= EFFORT_SCAN_RATIO and abs(lag) >= threshold
