@@ -299,7 +299,7 @@ def run_case(sub_seed: int, overrides: dict, quick: bool, keep: str | None, time
         rec["unresolved"] = (result.get("identifiability") or {}).get("unresolved") or []
         pre = result.get("preprocessing") or {}
         rec["preprocessing"] = {k: pre.get(k) for k in ("cutoff_hz", "decimate", "min_speed", "stick_speed",
-                                                        "trim_start_s", "trim_end_s") if k in pre}
+                                                        "trim_start_s", "trim_end_s", "cross_validation") if k in pre}
         rec["friction_returned"] = result.get("friction")
     if validation is not None:
         m = validation.get("metrics", {})

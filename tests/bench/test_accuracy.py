@@ -153,6 +153,27 @@ def test_a_lugre_fit_of_micro_motions_starts_where_the_law_predicts_best(tmp_pat
         assert abs(case["params"][name]["err_pct"]) < 10.0, name
 
 
+def test_the_cutoffs_of_a_stribeck_arm_are_judged_with_its_low_speed_friction(tmp_path):
+    """A full-length corpus case (a Z1 at 117 Hz, Stribeck friction with dips of 1.7–2.4 × Fc, Fourier motion
+    below 0.94 Hz, 13-bit encoders): the folds judged the cut-offs with Coulomb friction alone, whose misfit
+    of the dips (9.3 % against a 2.1 % floor) outweighed what a cut-off changes; the shoulder preferred 1 Hz
+    alone, and its effort validated at 32 % [17.7 % overall]. With each joint's low-speed curve in the folds'
+    model they score 3.1 % at 4.6 Hz [1.11 × the floor; every joint within 12 %], and the joints' own choices
+    together (3.7 %) stand only where they predict every row better than the candidate they came from."""
+    case = one_case(tmp_path, 1358434431)
+    assert case["labels"]["law"] == "stribeck" and case["labels"]["noise"] == "quantised"
+    cv = case["preprocessing"]["cross_validation"]
+    assert cv["dips"] and min(c["cv_relerr_pct"] for c in cv["candidates"]) < 2.5 * case["floor_pct"]
+    composed = cv.get("composed")
+    if composed is not None:
+        whole = [c for c in cv["candidates"] if c["cutoff_hz"] != composed["cutoff_hz"]]
+        best = min(c["cv_relerr_pct"] for c in whole)
+        assert composed["taken"] == (cv["cutoff_hz"] == composed["cutoff_hz"])
+        assert not composed["taken"] or composed["cv_relerr_pct"] < best + 1e-9
+    assert case["floor_ratio"] < 1.2
+    assert max(case["val_per_joint"].values()) < 15.0
+
+
 @pytest.mark.long
 def test_an_effort_lag_each_half_of_the_log_finds_is_judged_by_the_systems_model(tmp_path):
     """A full-length corpus case (a Panda at 2405 Hz, MuJoCo friction, trapezoid moves, the effort logged

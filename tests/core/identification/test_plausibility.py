@@ -227,11 +227,13 @@ def test_robust_sigma_covers_the_truth_under_coloured_heteroscedastic_noise():
     assert r.uncertainty["bandwidth_instants"] > 1
 
 
-def test_a_dip_is_followed_only_as_far_as_the_position_noise_allows():
-    """One joint on a 1 mrad encoder (J 0.5, Stribeck Fc 1, Fs 1.8, vs 0.004): the dip refit asks
-    for 200 Hz, where quantisation is 97 % of the filtered q̈ (the fit at 200 Hz had J 0.0002, Fc
-    2.4, Fv 0.83: 23 %). The cut-off stops where the noise allows (the noise warning's own limit),
-    J, Fv and Fc come out right, and the warning says the dip was not followed further and why."""
+def test_a_dip_on_a_coarse_encoder_is_judged_by_the_folds_not_followed_into_the_noise():
+    """One joint on a 1 mrad encoder (J 0.5, Stribeck Fc 1, Fs 1.8, vs 0.004): the dip asks for a
+    200 Hz cut-off, where quantisation is 97 % of the filtered q̈ (the fit at 200 Hz had J 0.0002,
+    Fc 2.4, Fv 0.83: 23 %); followed only as far as the noise allowed (21 Hz), J, Fv, Fc came out
+    within 2 %. The folds, with the joint's low-speed friction curve in their model, choose 2 Hz
+    and judge the dip by what it predicts: the cut-off is not raised nor advised higher, and every
+    parameter comes out right [J, Fv, Fc within 0.02 %, Fs 2 %, vs 2.5 %]."""
     t = np.arange(30_000) * 1e-3
     w = 2 * np.pi * 0.25
     q = 0.6 * np.sin(w * t) + 0.1 * np.sin(3.1 * w * t)
@@ -243,8 +245,10 @@ def test_a_dip_is_followed_only_as_far_as_the_position_noise_allows():
     tau = 0.5 * qdd + law.torque([truth[n] for n in law.names], qd) + noise
     s = JointSeries(t, ["a"], (np.round(q / 1e-3) * 1e-3)[:, None], tau[:, None], source="quantised")
     r = identify(s, IdentifyRequest(system="joint", friction="stribeck"))
-    assert r.preprocessing["cutoff_hz"]["a"] < 25.0
-    assert r.params["J"] == pytest.approx(0.5, rel=0.03)
-    assert r.params["Fv"] == pytest.approx(2.0, rel=0.02) and r.params["Fc"] == pytest.approx(1.0, rel=0.02)
-    limited = [w for w in r.warnings if "but the position noise dominates q̈ above" in w]
-    assert len(limited) == 1 and "needs an analysis rate ≥ 1000 Hz and a cut-off ≥ 200 Hz" in limited[0], r.warnings
+    assert r.preprocessing["cross_validation"]["dips"]
+    assert r.preprocessing["cutoff_hz"]["a"] == pytest.approx(r.preprocessing["cross_validation"]["cutoff_hz"]["a"])
+    assert r.preprocessing["cutoff_hz"]["a"] < 10.0
+    assert r.params["J"] == pytest.approx(0.5, rel=0.005)
+    assert r.params["Fv"] == pytest.approx(2.0, rel=0.005) and r.params["Fc"] == pytest.approx(1.0, rel=0.005)
+    assert r.params["Fs"] == pytest.approx(1.8, rel=0.05) and r.params["vs"] == pytest.approx(0.004, rel=0.1)
+    assert not [w for w in r.warnings if "use --decimate" in w or "position noise dominates" in w], r.warnings

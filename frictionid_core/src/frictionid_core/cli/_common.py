@@ -248,6 +248,12 @@ def choice_line(p: dict) -> str | None:
                        f"{fmt(c['cv_relerr_pct'], 3)} %" for k, c in enumerate(cv["candidates"]))
     line = (f"cut-off chosen by {cv['folds']}-fold blocked cross-validation (each part's torque predicted from "
             f"the others): {cutoff_text(cv['cutoff_hz'])} Hz; candidates by highest cut-off, error: {scores}")
+    composed = cv.get("composed")
+    if composed and composed.get("cv_relerr_pct") is not None:
+        line += (f"; each joint's own best together ({cutoff_text(composed['cutoff_hz'])} Hz) "
+                 f"{fmt(composed['cv_relerr_pct'], 3)} %{'' if composed['taken'] else ', not taken'}")
+    if cv.get("dips"):
+        line += "; the folds' model has each joint's low-speed friction curve"
     speed = cv.get("min_speed") or {}
     if speed.get("min_speed"):
         names = ["rule"] + [f"{fmt(100 * share, 3)} % of top speed" for share in speed["shares_of_top_speed"]]

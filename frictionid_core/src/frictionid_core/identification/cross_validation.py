@@ -19,8 +19,16 @@ search stopping on rising errors stopped, while 10 Hz validates at 2.5 %), so no
 by the ones above it. (Scoring every candidate costs twice as many on a 5 kHz log; a real 7-DOF
 arm's joint sweep, 84 % at the rule's 199 Hz, 86 % at 100, 40 % at 46.4, 38 % at 21.5, 151 % at
 10 Hz, is found from 100 Hz only when 100 Hz beats the rule's.) Every joint takes the candidate
-that predicts its own effort best (:func:`choose_by_cross_validation`); the cut-offs of a joint do
-not change another's filtered signals, only the columns of the rows that see its motion.
+that predicts its own effort best (:func:`choose_by_cross_validation`), and that choice stands only
+where, scored as one candidate, it predicts every row better than the candidate it was made from:
+a joint's cut-off changes the columns of every row that sees its motion (a Z1 at 117 Hz whose
+shoulder preferred 1 Hz alone: 32 % on a second log).
+
+For a static law with a dip (Stribeck) the folds' model may have each joint's low-speed friction
+curve too (:func:`dip_basis`): with Coulomb friction alone the misfit of the dip outweighs what a
+cut-off changes, and the choice follows the misfit (that Z1: cross-validated 9.3 % against a 2.1 % floor,
+1 Hz chosen for joints whose motion reaches 0.9 Hz; with the curve 3.1 % at 4.6 Hz, 2.3 % on the
+second log).
 """
 
 from __future__ import annotations
@@ -56,6 +64,10 @@ MIN_SPEED_SHARES = (0.01, 0.02, 0.05)
 # A joint's min speed changes only where the folds' fits predict its effort at all (error below this,
 # %): a fold whose rigid body extrapolates (a 7-DOF arm's, condition 2e7: 1000 %) tells nothing of it.
 INFORMATIVE_PCT = 100.0
+# Speed scales of the folds' low-speed friction basis (shares of a joint's top speed) for a law
+# with a dip: Stribeck dips of vs 0.5–20 % of the top speed fall within them.
+DIP_SCALE_SHARES = (0.01, 0.03, 0.1)
+DIP_SHAPES = (1.0, 2.0)  # … each as e^(−|q̇|/s) and e^(−(q̇/s)²)
 
 
 @dataclass(frozen=True)
@@ -134,23 +146,50 @@ def resolved_settings(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str
 
 def cross_validated_error(observations: list[Observation], asymmetric: bool = False,
                           fixed: dict[str, float] | None = None,
-                          scored: list[Observation] | None = None) -> CvScore:
+                          scored: list[Observation] | None = None, dips: bool = False) -> CvScore:
     """Each observation predicted by the Coulomb model fitted on the others (least squares of least
     norm on their summed normal equations, ``fixed`` parameters held at their values): the relative
     error (%) of the predictions of the recorded effort at the analysis instants, over all of
     them, per row joint and overall. ``scored``: the same folds with the rows to predict (default:
-    those each fits)."""
+    those each fits). ``dips``: the better predicting of that model and one with each joint's
+    low-speed friction curve too (:func:`dip_basis`), as a law with a dip (Stribeck) fits it,
+    fitted on the rows it predicts (the recorded effort at the analysis instants: the decimated
+    rows' anti-alias filter smooths a dip crossed within a few samples, which a curve of the
+    decimated velocity does not follow). Folds too short to pin the curve down (a 2.5 s log:
+    seconds of one sweep each) extrapolate it (2200 %), and the Coulomb model stands in."""
+    if dips:
+        return min(cross_validated_error(observations, asymmetric, fixed, scored),
+                   _cross_validated_error(observations, asymmetric, fixed, scored, dips=True),
+                   key=lambda score: score.relerr_pct)
+    return _cross_validated_error(observations, asymmetric, fixed, scored)
+
+
+def _cross_validated_error(observations: list[Observation], asymmetric: bool = False,
+                           fixed: dict[str, float] | None = None,
+                           scored: list[Observation] | None = None, dips: bool = False) -> CvScore:
+    """:func:`cross_validated_error` of one model: with the low-speed curve where ``dips``."""
     law = get_model("coulomb", asymmetric)
     joints = observations[0].joints
+    if dips:  # fitted on the rows it predicts: a dip evaluated at the analysis instants, as the effort is sampled
+        observations, scored = [o.metric for o in observations], [o.metric for o in scored or observations]
+    scales = dip_scales(observations) if dips else None
     parts, held = [], None
     for obs, target in zip(observations, scored or observations):
         model = IdentificationModel(obs, law, fixed=dict(fixed or {}))
         metric = target.metric
         on = model if metric is obs else IdentificationModel(metric, law, fixed=dict(fixed or {}))
-        parts.append((*model.normal_equations, on.design(), metric.y, metric.used))
+        G, b, Xm = *model.normal_equations, on.design()
+        extra = 0
+        if scales is not None:
+            X, E = model.design(), dip_basis(obs, scales)
+            G = np.block([[G, X.T @ E], [E.T @ X, E.T @ E]])
+            b = np.concatenate([b, E.T @ obs.y])
+            Xm = np.hstack([Xm, dip_basis(metric, scales)])
+            extra = E.shape[1]
+        parts.append((G, b, Xm, metric.y, metric.used))
         if held is None:
-            held = np.array([i in model.fixed_values for i in model.linear_index])
-            values = np.array([model.fixed_values.get(i, 0.0) for i in model.linear_index])
+            held = np.array([i in model.fixed_values for i in model.linear_index] + [False] * extra)
+            values = np.array([model.fixed_values.get(i, 0.0) for i in model.linear_index] + [0.0] * extra)
     free = ~held
     G, b = sum(p[0] for p in parts), sum(p[1] for p in parts)
     err, ref = np.zeros(len(joints)), np.zeros(len(joints))
@@ -164,6 +203,32 @@ def cross_validated_error(observations: list[Observation], asymmetric: bool = Fa
     per_joint = {j: float(100 * np.sqrt(e / r)) if r > 0 else float("nan") for j, e, r in zip(joints, err, ref)}
     total = float(100 * np.sqrt(err.sum() / ref.sum())) if ref.sum() > 0 else float("nan")
     return CvScore(total, per_joint)
+
+
+def dip_scales(observations: list[Observation]) -> np.ndarray:
+    """(J, K) the speed scales of :func:`dip_basis`: DIP_SCALE_SHARES of each row joint's top speed
+    (99th percentile of |q̇| over the used rows of all ``observations``; 1 where it never moves)."""
+    joints = observations[0].joints
+    speeds = np.concatenate([np.abs(o.velocity) * o.used.reshape(len(joints), -1).T for o in observations])
+    top = np.array([np.percentile(s[s > 0], 99) if (s > 0).any() else 1.0 for s in speeds.T])
+    return np.outer(top, DIP_SCALE_SHARES)
+
+
+def dip_basis(obs: Observation, scales: np.ndarray) -> np.ndarray:
+    """(J·Nd, J·K·S) columns sign(q̇_j)·exp(−(|q̇_j|/s_jk)^p) on joint j's rows (its used ones, times
+    the row weights of a thinned observation), one per speed scale s_jk of ``scales`` (J, K) and
+    shape p of DIP_SHAPES (S): a linear basis of the low-speed friction curve, for a fold's closed
+    form."""
+    nd, (n_joints, k) = obs.n_samples, scales.shape
+    width = k * len(DIP_SHAPES)
+    out = np.zeros((n_joints * nd, n_joints * width))
+    used = obs.used.reshape(n_joints, nd)
+    weight = np.ones(nd) if obs.weight is None else obs.weight
+    for j in range(n_joints):
+        ratio = np.abs(obs.velocity[:, j])[:, None] / scales[j][None, :]
+        block = np.sign(obs.velocity[:, j])[:, None] * np.hstack([np.exp(-ratio**p) for p in DIP_SHAPES])
+        out[j * nd:(j + 1) * nd, j * width:(j + 1) * width] = block * (used[j] * weight)[:, None]
+    return out
 
 
 def _least_norm(G: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -206,31 +271,34 @@ def rule_cutoffs_of(plan: FitPlan, requested: Preprocessing) -> dict[str, float]
 
 
 def score_at(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str, float], asymmetric: bool = False,
-             fixed: dict[str, float] | None = None) -> CvScore | None:
+             fixed: dict[str, float] | None = None, dips: bool = False) -> CvScore | None:
     """The cross-validated error of ``plan`` at ``cutoffs``; None when the folds cannot be made."""
     try:
         return cross_validated_error(fold_observations(plan, resolved_settings(plan, requested, cutoffs)),
-                                     asymmetric, fixed)
+                                     asymmetric, fixed, dips=dips)
     except (TooFewSamples, FrictionIdError):
         return None
 
 
 def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetric: bool = False,
-                               fixed: dict[str, float] | None = None, keep: dict | None = None
-                               ) -> tuple[dict[str, float] | None, dict]:
+                               fixed: dict[str, float] | None = None, keep: dict | None = None,
+                               dips: bool = False) -> tuple[dict[str, float] | None, dict]:
     """({data joint: cut-off} chosen by cross-validation, the record of the choice), or (None,
     record) when the data are too short for the folds. ``requested``: the pre-processing asked for
     (its cut-off None: chosen here).
 
     The candidate that predicts every row best is taken where it beats the rule's by BETTER_SHARE;
     then each joint whose own effort is a row takes the candidate that predicts that effort best
-    (rows that are motors of a coupled drive take the overall choice). ``keep["folds"]`` receives
-    the fold observations of the chosen cut-offs where they are one candidate's."""
+    (rows that are motors of a coupled drive take the overall choice), and those choices together
+    are scored as one more candidate, kept only where it predicts every row better than the
+    candidate they were made from (``record["composed"]``). ``keep["folds"]`` receives
+    the fold observations of the chosen cut-offs where they are one candidate's. ``dips``: the
+    folds' model has each joint's low-speed friction curve (the law fitted has a dip)."""
     try:
         rule_cutoffs = rule_cutoffs_of(plan, requested)
     except FrictionIdError as exc:  # the identification says why, in its own words
         return None, {"folds": FOLDS, "skipped": str(exc)}
-    record = {"folds": FOLDS, "rule_cutoff_hz": rule_cutoffs, "candidates": []}
+    record = {"folds": FOLDS, "rule_cutoff_hz": rule_cutoffs, "candidates": [], "dips": dips}
     candidates = cutoff_candidates(rule_cutoffs)
     scored: dict[int, CvScore | None] = {}  # by index in candidates; None: could not be scored
     folds: dict[int, list[Observation]] = {}
@@ -240,7 +308,7 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
             try:
                 settings = resolved_settings(plan, requested, candidates[i])
                 folds[i] = fold_observations(plan, settings)
-                scored[i] = cross_validated_error(folds[i], asymmetric, fixed)
+                scored[i] = cross_validated_error(folds[i], asymmetric, fixed, dips=dips)
             except (TooFewSamples, FrictionIdError) as exc:
                 scored[i] = None
                 record.setdefault("failed", {})[f"{max(candidates[i].values()):.4g}"] = str(exc)
@@ -265,11 +333,19 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
                             for c, sc in scores]
     rule_score = scores[0][1]
     best_cutoffs, best = min(scores, key=lambda s: s[1].relerr_pct)
-    chosen = dict(best_cutoffs if best.relerr_pct < BETTER_SHARE * rule_score.relerr_pct else rule_cutoffs)
+    whole = dict(best_cutoffs if best.relerr_pct < BETTER_SHARE * rule_score.relerr_pct else rule_cutoffs)
+    chosen = dict(whole)
     for j in (j for j in rule_score.per_joint if j in chosen):  # a joint's own effort: its own choice
         own_cutoffs, own = min(scores, key=lambda s: s[1].per_joint[j])
         if own.per_joint[j] < BETTER_SHARE * rule_score.per_joint[j]:
             chosen[j] = own_cutoffs[j]
+    if chosen not in candidates:  # the joints' own choices together: a candidate of its own, taken if it predicts
+        candidates.append(chosen)  # better than the one they were made from (a joint's torque sees the others')
+        composed = score(len(candidates) - 1)
+        taken = composed is not None and composed.relerr_pct < scored[candidates.index(whole)].relerr_pct
+        record["composed"] = {"cutoff_hz": chosen, "cv_relerr_pct": None if composed is None else composed.relerr_pct,
+                              "per_joint": None if composed is None else composed.per_joint, "taken": taken}
+        chosen = chosen if taken else whole
     record["cutoff_hz"] = chosen
     if keep is not None:
         keep["folds"] = next((folds[i] for i, c in enumerate(candidates) if c == chosen and i in folds), None)
