@@ -61,9 +61,8 @@ BETTER_SHARE = 0.98
 # Min speeds tried beside the rule's (MIN_SPEED_SIGMAS σ of the velocity noise): these shares of each
 # joint's top speed (99th percentile of its filtered |q̇|).
 MIN_SPEED_SHARES = (0.01, 0.02, 0.05)
-# A cut-off or a joint's min speed changes only where the folds' fits predict the effort at all (error
-# below this, %; above it a fit predicts worse than no torque): a fold whose rigid body extrapolates (a
-# 7-DOF arm's, condition 2e7: 1000 %) tells nothing of it.
+# A joint's min speed changes only where the folds' fits predict its effort at all (error below this,
+# %): a fold whose rigid body extrapolates (a 7-DOF arm's, condition 2e7: 1000 %) tells nothing of it.
 INFORMATIVE_PCT = 100.0
 # Speed scales of the folds' low-speed friction basis (shares of a joint's top speed) for a law
 # with a dip: Stribeck dips of vs 0.5–20 % of the top speed fall within them.
@@ -290,10 +289,8 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
     record) when the data are too short for the folds. ``requested``: the pre-processing asked for
     (its cut-off None: chosen here).
 
-    The candidate that predicts every row best is taken where it beats the rule's by BETTER_SHARE
-    and predicts at all (error below INFORMATIVE_PCT: a UR10 whose folds' rigid body extrapolates,
-    8000 % and more at every cut-off, keeps the rule's, ``record["uninformative"]``); then each
-    joint whose own effort is a row takes the candidate that predicts that effort best (where it predicts at all)
+    The candidate that predicts every row best is taken where it beats the rule's by BETTER_SHARE;
+    then each joint whose own effort is a row takes the candidate that predicts that effort best
     (rows that are motors of a coupled drive take the overall choice), and those choices together
     are scored as one more candidate, kept only where it predicts every row better than the
     candidate they were made from (``record["composed"]``). ``keep["folds"]`` receives
@@ -338,14 +335,11 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
                              "curve": sc.curve} for c, sc in scores]
     rule_score = scores[0][1]
     best_cutoffs, best = min(scores, key=lambda s: s[1].relerr_pct)
-    if not best.relerr_pct < INFORMATIVE_PCT:  # the folds predict worse than no torque at all: they tell nothing
-        record["uninformative"] = True
-    better = best.relerr_pct < BETTER_SHARE * rule_score.relerr_pct and best.relerr_pct < INFORMATIVE_PCT
-    whole = dict(best_cutoffs if better else rule_cutoffs)
+    whole = dict(best_cutoffs if best.relerr_pct < BETTER_SHARE * rule_score.relerr_pct else rule_cutoffs)
     chosen = dict(whole)
     for j in (j for j in rule_score.per_joint if j in chosen):  # a joint's own effort: its own choice
         own_cutoffs, own = min(scores, key=lambda s: s[1].per_joint[j])
-        if own.per_joint[j] < BETTER_SHARE * rule_score.per_joint[j] and own.per_joint[j] < INFORMATIVE_PCT:
+        if own.per_joint[j] < BETTER_SHARE * rule_score.per_joint[j]:
             chosen[j] = own_cutoffs[j]
     if chosen not in candidates:  # the joints' own choices together: a candidate of its own, taken if it predicts
         candidates.append(chosen)  # better than the one they were made from (a joint's torque sees the others')
