@@ -253,7 +253,7 @@ def choice_line(p: dict) -> str | None:
         line += (f"; each joint's own best together ({cutoff_text(composed['cutoff_hz'])} Hz) "
                  f"{fmt(composed['cv_relerr_pct'], 3)} %{'' if composed['taken'] else ', not taken'}")
     if cv.get("dips"):
-        line += "; the folds' model has each joint's low-speed friction curve"
+        line += "; the folds' models include each joint's low-speed friction curve"
     speed = cv.get("min_speed") or {}
     if speed.get("min_speed"):
         names = ["rule"] + [f"{fmt(100 * share, 3)} % of top speed" for share in speed["shares_of_top_speed"]]

@@ -273,11 +273,11 @@ def rule_cutoffs_of(plan: FitPlan, requested: Preprocessing) -> dict[str, float]
 
 
 def score_at(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str, float], asymmetric: bool = False,
-             fixed: dict[str, float] | None = None, dips: bool = False) -> CvScore | None:
+             fixed: dict[str, float] | None = None) -> CvScore | None:
     """The cross-validated error of ``plan`` at ``cutoffs``; None when the folds cannot be made."""
     try:
         return cross_validated_error(fold_observations(plan, resolved_settings(plan, requested, cutoffs)),
-                                     asymmetric, fixed, dips=dips)
+                                     asymmetric, fixed)
     except (TooFewSamples, FrictionIdError):
         return None
 
@@ -294,8 +294,9 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
     (rows that are motors of a coupled drive take the overall choice), and those choices together
     are scored as one more candidate, kept only where it predicts every row better than the
     candidate they were made from (``record["composed"]``). ``keep["folds"]`` receives
-    the fold observations of the chosen cut-offs where they are one candidate's. ``dips``: the
-    folds' model has each joint's low-speed friction curve (the law fitted has a dip)."""
+    the fold observations of the chosen cut-offs where they are one candidate's. ``dips``: each
+    candidate is scored by the better of the Coulomb model and one with each joint's low-speed
+    friction curve (:func:`cross_validated_error`; the law fitted has a dip)."""
     try:
         rule_cutoffs = rule_cutoffs_of(plan, requested)
     except FrictionIdError as exc:  # the identification says why, in its own words
