@@ -198,9 +198,11 @@ def dip_advice(model: IdentificationModel, x: np.ndarray) -> DipAdvice | None:
     coarse for it; None when they are fine. A fit at too coarse rates overestimates vs, so a fit at
     these rates may need finer ones still: :func:`settled_dip_advice` follows the advice until it
     holds."""
-    if model.friction.is_dynamic or "dip_not_followed" in model.obs.report or judged_cutoffs(model):
+    if model.friction.is_dynamic or "dip_not_followed" in model.obs.report:
         return None
     n, needs, why, _ = model_dip_needs(model, x)
+    if judged_cutoffs(model):  # the cut-offs the folds chose stand; a decimation the user set may still be too coarse
+        needs = {}
     pre = model.obs.preprocessing
     if n >= pre.decimate and not cutoff_shortfall(pre.cutoff_hz, needs):
         return None
