@@ -173,7 +173,7 @@ def dip_changes(model: IdentificationModel, x: np.ndarray, caps: dict[str, float
 def judged_cutoffs(model: IdentificationModel) -> bool:
     """True when the folds chose the cut-offs of ``model`` with a model that has each joint's
     low-speed friction curve among theirs (``cross_validation.dips``): judged by what they predict
-    of the dips, neither raised nor advised. (Where the Coulomb model predicted best, the dip did
+    of the dips, neither raised nor advised higher. (Where the Coulomb model predicted best, the dip did
     not show at those rates: a 1 mrad encoder's joint with vs 0.004 rad/s, 2 Hz chosen, raised to
     the 18 Hz the position noise allows: Fs −42 %; kept: Fs +2 %, vs −2.5 %.)"""
     return bool((model.obs.report.get("cross_validation") or {}).get("dips"))
