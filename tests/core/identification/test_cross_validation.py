@@ -158,7 +158,7 @@ def stribeck_joint(seed: int, seconds: float = 24.0, fs: float = 500.0) -> Joint
 def test_a_law_with_a_dip_is_cross_validated_with_the_low_speed_friction_curve():
     """The folds' Coulomb model misses a Stribeck dip by far more than the effort's noise; with each
     joint's low-speed curve (sign(q̇)·e^(−(|q̇|/s)^p), three speed scales, p = 1, 2) it predicts within
-    2.5 × the noise floor [1.7 ×], so what a cut-off changes decides the choice, not the misfit. A
+    2.5 × the noise floor [1.8 ×; Coulomb 33 ×], so what a cut-off changes decides the choice, not the misfit. A
     Coulomb fit keeps the Coulomb folds."""
     est, request = stribeck_joint(2), IdentifyRequest(system="joint")
     system = request_system(request)
