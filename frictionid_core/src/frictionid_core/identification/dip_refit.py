@@ -146,7 +146,7 @@ def dip_changes(model: IdentificationModel, x: np.ndarray, caps: dict[str, float
     adds rows (and seconds and GBs on long logs). A cut-off the folds chose with each joint's
     low-speed friction curve among their models (``cross_validation.dips``) is not raised: they judged
     it by what it predicts of the dips (a Panda at 4.1 kHz with 12-bit encoders, cut-offs raised from 10 to
-    21.5–31.6 Hz for two joints' dips: 4.1 % on a second log; kept: 1.8 %, a 1.33 % floor, the
+    21.5–31.6 Hz for two joints' dips: 4.1 % on a second log; kept: 1.8 %, a 1.3 % floor, the
     least-squares baseline 2.3 %). A dynamic law keeps the rule's rates: its states
     travel with the filtered position, which a raised cut-off fills with noise (and q̈ with it)."""
     if model.friction.is_dynamic:
