@@ -207,13 +207,19 @@ def _cross_validated_error(observations: list[Observation], asymmetric: bool = F
     return CvScore(total, per_joint, dips)
 
 
-def dip_scales(observations: list[Observation]) -> np.ndarray:
-    """(J, K) the speed scales of :func:`dip_basis`: DIP_SCALE_SHARES of each row joint's top speed
-    (99th percentile of |q̇| over the used rows of all ``observations``; 1 where it never moves)."""
+def top_speeds(observations: list[Observation]) -> np.ndarray:
+    """(J,) each row joint's top speed: the 99th percentile of |q̇| over the used rows of all
+    ``observations`` (0 where it never moves)."""
     joints = observations[0].joints
     speeds = np.concatenate([np.abs(o.velocity) * o.used.reshape(len(joints), -1).T for o in observations])
-    top = np.array([np.percentile(s[s > 0], 99) if (s > 0).any() else 1.0 for s in speeds.T])
-    return np.outer(top, DIP_SCALE_SHARES)
+    return np.array([np.percentile(s[s > 0], 99) if (s > 0).any() else 0.0 for s in speeds.T])
+
+
+def dip_scales(observations: list[Observation]) -> np.ndarray:
+    """(J, K) the speed scales of :func:`dip_basis`: DIP_SCALE_SHARES of each row joint's top speed
+    (:func:`top_speeds`; 1 where it never moves)."""
+    top = top_speeds(observations)
+    return np.outer(np.where(top > 0, top, 1.0), DIP_SCALE_SHARES)
 
 
 def dip_basis(obs: Observation, scales: np.ndarray) -> np.ndarray:
@@ -386,9 +392,7 @@ def choose_min_speed(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str,
     if not set(joints) <= set(rule):  # rows named otherwise than the rule's joints (a drive's motors)
         record["skipped"] = "rows named otherwise than the log's joints"
         return None, record
-    speeds = np.concatenate([np.abs(o.velocity) * o.used.reshape(len(joints), -1).T for o in observations])
-    top = {j: float(np.percentile(speeds[speeds[:, k] > 0, k], 99)) if (speeds[:, k] > 0).any() else 0.0
-           for k, j in enumerate(joints)}
+    top = dict(zip(joints, map(float, top_speeds(observations))))
     candidates = [{j: rule[j] for j in joints}] + [{j: share * top[j] for j in joints} for share in MIN_SPEED_SHARES]
     highest = {j: max(c[j] for c in candidates) for j in joints}
     scored = [_faster(o, highest) for o in observations]
