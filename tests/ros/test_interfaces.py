@@ -31,7 +31,7 @@ with warnings.catch_warnings():
             "run `make setup` (tools/build_interfaces.sh <venv>)"
         ) from exc
 
-from support.ros_harness import DOMAIN
+from support.ros_harness import DOMAIN, close_spinning
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning:lark")
 
@@ -235,12 +235,4 @@ def test_identify_service_round_trip():
         sres = save.call(ParametersFile.Request(path=""), timeout_sec=60.0)
         assert sres is not None and sres.success and sres.path == "/abs/default.json"
     finally:
-        # the spin thread leaves before its nodes and context go (under load a 5 s wait left it spinning on
-        # destroyed nodes, and the pytest process ended with status 1 and no report, one run in two)
-        executor.shutdown(timeout_sec=60.0)
-        thread.join(timeout=60.0)
-        if not thread.is_alive():
-            server.destroy_node()
-            client_node.destroy_node()
-            rclpy.shutdown(context=ctx)
-    assert not thread.is_alive()
+        close_spinning(ctx, executor, thread, [server, client_node])

@@ -9,7 +9,7 @@ import warnings
 
 import pytest
 
-from support.ros_harness import DOMAIN
+from support.ros_harness import private_domain
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
@@ -21,6 +21,9 @@ from frictionid_core import FrictionIdError
 from frictionid_ros.parameters import PARAMETERS, changed_config, declare_parameters
 
 pytestmark = [pytest.mark.ros, pytest.mark.filterwarnings("ignore::DeprecationWarning")]
+# a domain of its own, away from the nodes named frictionid the other tests start (an id above 232 made
+# Fast DDS end the pytest process with status 1: "Calculated port number is too high")
+NODES_DOMAIN = private_domain()
 
 
 @pytest.fixture
@@ -31,7 +34,7 @@ def make_node():
 
     def make(**overrides):
         ctx = rclpy.Context()
-        rclpy.init(context=ctx, domain_id=DOMAIN + 40)
+        rclpy.init(context=ctx, domain_id=NODES_DOMAIN)
         node = rclpy.create_node("frictionid", context=ctx, start_parameter_services=False,
                                  parameter_overrides=[Parameter(k, value=v) for k, v in overrides.items()])
         made.append((node, ctx))

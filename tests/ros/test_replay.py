@@ -29,7 +29,7 @@ with warnings.catch_warnings():
 
 from frictionid_core.io import load, write_joint_state_bag
 from frictionid_ros import replay
-from support.ros_harness import private_domain
+from support.ros_harness import close_spinning, private_domain
 from support.waiting import wait_until
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
@@ -170,7 +170,4 @@ def test_cli_replay_publishes_to_another_process():
         assert np.array_equal(np.diff(stamps), np.diff(recorded))  # the recording's spacing is kept
     finally:
         stop.set()
-        th.join(2)
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.shutdown(context=ctx)
+        close_spinning(ctx, executor, th, [node])

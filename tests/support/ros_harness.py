@@ -25,12 +25,13 @@ with warnings.catch_warnings():
     from frictionid_interfaces.action import Identify as IdentifyAction
     from frictionid_interfaces.msg import IdentifiedParameters
     from frictionid_interfaces.srv import Identify
-    from rclpy.action import ActionClient
     from rclpy.executors import MultiThreadedExecutor
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
     from std_srvs.srv import Trigger
+
+    from frictionid_ros.runtime.action_client import ActionClient
 
 from frictionid_ros.runtime import DomainLease, reserve_domain
 from support.waiting import wait_until
@@ -45,6 +46,18 @@ LATCHED = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=Relia
 
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"  # the rclpy contexts of this process too
 _LEASES: dict[int, DomainLease] = {}
+
+
+def close_spinning(ctx, executor, thread: threading.Thread, nodes, timeout: float = 60.0) -> None:
+    """Shut ``executor`` down and wait for its spin ``thread`` to leave, then destroy ``nodes`` and shut
+    ``ctx`` down; they stay alive when the thread has not left within ``timeout`` s (asserted). A thread
+    still spinning on destroyed nodes ended the pytest process with status 1 and no report."""
+    executor.shutdown(timeout_sec=timeout)
+    thread.join(timeout)
+    assert not thread.is_alive(), f"the spin thread did not leave within {timeout:g} s"
+    for node in nodes:
+        node.destroy_node()
+    rclpy.shutdown(context=ctx)
 
 
 def private_domain() -> int:
@@ -182,11 +195,7 @@ class Ros:
 
     def close(self):
         self._stop.set()
-        self.thread.join(5.0)
-        self.executor.shutdown(timeout_sec=5.0)
-        self.thread.join(5.0)
-        self.node.destroy_node()
-        rclpy.shutdown(context=self.ctx)
+        close_spinning(self.ctx, self.executor, self.thread, [self.node])
 
     def call(self, srv_type, name: str, req, timeout: float = 60.0):
         """call_async + wait with a timeout: a test never hangs on a dead node."""

@@ -161,7 +161,8 @@ def send_goal(client: Client, goal, fault, procs: Processes, timeout: float = 90
     """Send ``goal`` to ``~/run_experiment``; ``fault(feedback)`` is called with every feedback. Returns
     the result message."""
     from frictionid_interfaces.action import RunExperiment
-    from rclpy.action import ActionClient
+
+    from frictionid_ros.runtime.action_client import ActionClient
 
     action = ActionClient(client.node, RunExperiment, "/frictionid/run_experiment")
     deadline = time.monotonic() + 120.0

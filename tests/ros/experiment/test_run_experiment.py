@@ -20,8 +20,9 @@ with warnings.catch_warnings():
     from action_msgs.msg import GoalStatus
     from frictionid_interfaces.action import RunExperiment
     from rcl_interfaces.srv import SetParameters
-    from rclpy.action import ActionClient
     from rclpy.parameter import Parameter
+
+    from frictionid_ros.runtime.action_client import ActionClient
 
 import frictionid_core as fid
 from frictionid_core.loop import default_trajectory, hidden_friction, load_robot

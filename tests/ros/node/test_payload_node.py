@@ -16,7 +16,8 @@ with warnings.catch_warnings():
     from frictionid_interfaces.action import IdentifyPayload as PayloadAction
     from frictionid_interfaces.srv import IdentifyPayload
     from geometry_msgs.msg import Inertia
-    from rclpy.action import ActionClient
+
+    from frictionid_ros.runtime.action_client import ActionClient
 
 from frictionid_core.identification import IdentifyRequest, identify
 from frictionid_ros.store import Results, split_identification, write_results
