@@ -1,9 +1,10 @@
 """What a process of this package runs on: real-time scheduling (:mod:`.realtime`), a ROS domain of
 its own (:mod:`.ros_domain`) and, for the nodes, rclpy's executors, signals and orderly shutdown
-(:mod:`.runner`).
+(:mod:`.runner`); an action client whose goal future completes (:mod:`.action_client`).
 
-This face imports no ROS and so leaves out :mod:`.runner` (rclpy): the parameters and ``frictionid
-loop``'s command line import it without ROS; the nodes import ``frictionid_ros.runtime.runner``."""
+This face imports no ROS and so leaves out :mod:`.runner` and :mod:`.action_client` (rclpy): the
+parameters and ``frictionid loop``'s command line import it without ROS; the nodes import
+``frictionid_ros.runtime.runner``, a client of an action ``frictionid_ros.runtime.action_client``."""
 
 from frictionid_ros.runtime.realtime import (
     AUTO_PRIORITY,
