@@ -50,8 +50,8 @@ _LEASES: dict[int, DomainLease] = {}
 
 def close_spinning(ctx, executor, thread: threading.Thread, nodes, timeout: float = 60.0) -> None:
     """Shut ``executor`` down and wait for its spin ``thread`` to leave, then destroy ``nodes`` and shut
-    ``ctx`` down; they stay alive when the thread has not left within ``timeout`` s (asserted). A thread
-    still spinning on destroyed nodes ended the pytest process with status 1 and no report."""
+    ``ctx`` down; they stay alive when the thread has not left within ``timeout`` s (asserted): a thread
+    spinning on destroyed nodes would use their freed handles."""
     executor.shutdown(timeout_sec=timeout)
     thread.join(timeout)
     assert not thread.is_alive(), f"the spin thread did not leave within {timeout:g} s"

@@ -4,13 +4,13 @@ returns (real rclpy, an action server on the test run's private domain)."""
 from __future__ import annotations
 
 import threading
-import time
 import uuid
 import warnings
 
 import pytest
 
 from support.ros_harness import DOMAIN, close_spinning
+from support.waiting import wait_until
 
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", DeprecationWarning)  # lark, via rosidl
@@ -25,19 +25,24 @@ from frictionid_ros.runtime.action_client import ActionClient
 pytestmark = [pytest.mark.ros, pytest.mark.filterwarnings("ignore::DeprecationWarning")]
 
 
-class SlowDict(dict):
-    """A dict whose item assignment takes 50 ms: it holds ``send_goal_async`` after the goal went out,
-    long enough for the server's answer to be taken by the executor."""
+class AfterTheAnswer(dict):
+    """The client's feedback callbacks, registered only once no goal request is pending: assigned after
+    the goal went out (as rclpy 9.1.2 does), the assignment waits until the executor has taken the
+    server's answer, so the answer always comes inside ``send_goal_async``."""
+
+    def __init__(self, client):
+        super().__init__()
+        self.client = client
 
     def __setitem__(self, key, value):
-        time.sleep(0.05)
+        wait_until(lambda: not self.client._pending_goal_requests, "the goal's answer taken")
         super().__setitem__(key, value)
 
 
 @pytest.fixture
 def action_pair():
-    """(make_client, node): a trivial RunExperiment server and a client node spun by a multi-threaded
-    executor; ``make_client(cls)`` is an action client of class ``cls`` on the client node."""
+    """``make_client(cls)``: an action client of class ``cls`` on a node spun, with a trivial RunExperiment
+    server, by a multi-threaded executor; its feedback callbacks are :class:`AfterTheAnswer`."""
     ctx = rclpy.Context()
     rclpy.init(context=ctx, domain_id=DOMAIN)
     ns = "/fid_action_" + uuid.uuid4().hex[:8]
@@ -59,7 +64,7 @@ def action_pair():
     def make_client(cls):
         client = cls(client_node, RunExperiment, ns + "/run")
         assert client.wait_for_server(timeout_sec=60.0), "action server not discovered"
-        client._feedback_callbacks = SlowDict()
+        client._feedback_callbacks = AfterTheAnswer(client)
         return client
 
     try:
