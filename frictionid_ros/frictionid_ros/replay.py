@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from frictionid_core import FrictionIdError, InputError
+from frictionid_ros.runtime import check_domain_id
 
 NS = 1_000_000_000
 DESCRIPTION = ("Publish a bag's JointState (and effort) topic with rclpy, re-stamped to now "
@@ -268,6 +269,7 @@ def handler(args) -> int:
         raise FrictionIdError(f"--rate must be >= 0, got {args.rate}")
     stream = load_stream(args.bag, topic=args.topic, effort_topic=args.effort_topic, duration=args.duration,
                          publish_topic=args.publish_topic, publish_effort_topic=args.publish_effort_topic)
+    check_domain_id()
     import rclpy
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 

@@ -14,7 +14,7 @@ from frictionid_ros.runtime.realtime import (
     realtime_priority,
     schedule_this_thread,
 )
-from frictionid_ros.runtime.ros_domain import DomainLease, lock_file, reserve_domain
+from frictionid_ros.runtime.ros_domain import DomainLease, check_domain_id, lock_file, reserve_domain
 
-__all__ = ["AUTO_PRIORITY", "DomainLease", "fifo_threads", "fifo_this_thread", "lock_file", "parse_priority",
-           "realtime_priority", "reserve_domain", "schedule_this_thread"]
+__all__ = ["AUTO_PRIORITY", "DomainLease", "check_domain_id", "fifo_threads", "fifo_this_thread", "lock_file",
+           "parse_priority", "realtime_priority", "reserve_domain", "schedule_this_thread"]

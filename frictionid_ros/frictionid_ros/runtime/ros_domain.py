@@ -17,7 +17,8 @@ from pathlib import Path
 
 from frictionid_core import FrictionIdError
 
-DOMAIN_IDS = range(1, 201)  # 0 is every other ROS process's default; Fast DDS ports allow ≤ 232
+HIGHEST_DOMAIN = 232  # Fast DDS: a higher domain's ports overflow (it ends the process when a node is made)
+DOMAIN_IDS = range(1, 201)  # 0 is every other ROS process's default
 LOCK_DIR = Path(tempfile.gettempdir())
 
 
@@ -52,6 +53,15 @@ def _open(path: Path) -> int | None:
         return os.open(path, os.O_RDONLY | os.O_CREAT, 0o666)
     except PermissionError:
         return None
+
+
+def check_domain_id(environ=os.environ) -> None:
+    """FrictionIdError when ``ROS_DOMAIN_ID`` in ``environ`` is a domain Fast DDS cannot open (above
+    HIGHEST_DOMAIN): Fast DDS would end the process with status 1 when its first node is made."""
+    value = environ.get("ROS_DOMAIN_ID", "").strip()
+    if value.isdigit() and int(value) > HIGHEST_DOMAIN:
+        raise FrictionIdError(f"ROS_DOMAIN_ID {value} is above {HIGHEST_DOMAIN}, the highest domain Fast DDS "
+                              f"opens ports for: choose 0..101 or 215..232 (clear of Linux's ephemeral ports)")
 
 
 def reserve_domain() -> DomainLease:

@@ -16,6 +16,7 @@ with warnings.catch_warnings():
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, SingleThreadedExecutor
 
 from frictionid_core import FrictionIdError
+from frictionid_ros.runtime.ros_domain import check_domain_id
 
 GIL_SWITCH_INTERVAL = 0.0005  # [s]
 SERVICE_THREADS = 9  # identify (service and action), cancel, reset, save, load, online, lifecycle, diagnostics,
@@ -134,8 +135,9 @@ def run(node_class, argv: list[str] | None = None) -> int:
     argv = list(sys.argv if argv is None else argv)
     try:
         ros_argv, lifecycle = parse_argv(argv)
+        check_domain_id()
         rclpy.init(args=ros_argv)
-    except FrictionIdError as exc:  # a missing --params-file
+    except FrictionIdError as exc:  # a missing --params-file, a domain Fast DDS cannot open
         print(f"frictionid_node: error: {exc}", file=sys.stderr)
         return 2
     except Exception as exc:  # e.g. an unreadable --params-file given after --ros-args
