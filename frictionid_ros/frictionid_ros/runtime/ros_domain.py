@@ -60,8 +60,8 @@ def check_domain_id(environ=os.environ) -> None:
     HIGHEST_DOMAIN): Fast DDS would end the process with status 1 when its first node is made."""
     value = environ.get("ROS_DOMAIN_ID", "").strip()
     if value.isdigit() and int(value) > HIGHEST_DOMAIN:
-        raise FrictionIdError(f"ROS_DOMAIN_ID {value} is above {HIGHEST_DOMAIN}, the highest domain Fast DDS "
-                              f"opens ports for: choose 0..101 or 215..232 (clear of Linux's ephemeral ports)")
+        raise FrictionIdError(f"ROS_DOMAIN_ID {value} is above {HIGHEST_DOMAIN}, the highest domain Fast DDS opens "
+                              f"ports for: choose 0..101 or 215..{HIGHEST_DOMAIN} (clear of Linux's ephemeral ports)")
 
 
 def reserve_domain() -> DomainLease:
