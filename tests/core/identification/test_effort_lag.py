@@ -111,10 +111,10 @@ def lugre_joint_lagged(lag: float, seed: int) -> tuple[JointSeries, dict]:
 
 def test_a_dynamic_law_takes_the_share_of_the_motions_lag_its_own_fit_predicts_best():
     """The effort 15 ms late: the motion's regression, which the law's lateness at each reversal
-    misleads, reads 59.6 ms (confirmed); the LuGre fit predicts every row at 7.34 % as logged, 21.6 %
-    shifted by that, 5.8 % by half of it and best by a quarter [14.9 ms]: taken, every parameter
-    within 0.2 % but σ1 (−5.9 %), validation at the floor [0.525 % against 0.527 %]. Judging the
-    motion's lag alone left the effort as logged (validation 7 %)."""
+    misleads, reads 59.6 ms (confirmed); the LuGre fit predicts every row at 7.34 % as logged, best
+    shifted by a quarter of it [14.9 ms], worse by half (5.8 %; by all of it 21.6 %): taken, every
+    parameter within 0.2 % but σ1 (−5.9 %), validation at the floor [0.525 % against 0.527 %]. Judging
+    the motion's lag alone left the effort as logged (validation 7 %)."""
     est, truth = lugre_joint_lagged(0.015, 3)
     lag, _, confirmed = effort_lag_candidate(est)
     assert confirmed and lag > 0.04

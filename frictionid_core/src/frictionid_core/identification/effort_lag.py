@@ -47,9 +47,10 @@ from frictionid_core.timeseries import JointSeries
 # misjudge it: a 6 ms lag of an arm on constant-velocity plateaus read as 3.2 ms in each half). A best
 # shift at the last share is none: the error falling ever further with the shift is a misfit it offsets.
 SHARES = (0.5, 1.0, 1.5, 2.0, 3.0)
-# A dynamic law's own fit judges the candidate's lag times these (the motion's regression, which the
-# law's lateness at each reversal misleads, reads a lag too long) …
-LAW_SHARES = (1.0, 0.5, 0.25)
+# A dynamic law's own fit judges the candidate's lag times these, in turn while its error falls (the
+# motion's regression, which the law's lateness at each reversal misleads, reads a lag too long; the
+# error along the shares had one minimum on every corpus case) …
+LAW_SHARES = (0.25, 0.5, 1.0)
 MIN_JUDGED_LAG_S = 2e-3  # … each at least this long (a shorter one is none: the loader's MIN_LAG_S)
 # … for the candidates the motion confirms and the lags that leave at most this share of the residual shifted
 LAW_JUDGED_RATIO = 0.95
@@ -114,21 +115,23 @@ def _motion_evidence(lag: float, ratio: float) -> str:
 def law_judged_effort_lags(sources: list[JointSeries], fit: Callable[[list[JointSeries]], IdentifyResult]
                            ) -> tuple[IdentifyResult, list[JointSeries]]:
     """(A dynamic law's fit (``fit(sources)``) of ``sources`` as logged, or with their effort lag
-    candidates removed at the share of LAW_SHARES the law predicts best (its error on every row; the
-    same parameters either way) where that beats as logged, the warning saying which and why; the
-    sources of the fit taken). Its friction follows each reversal late as a lagged effort does, so the
-    motion's regression also finds a lag that is the law's own (a LuGre joint without one: 9.6 ms,
-    0.49 of the residual), and misjudges a true one it finds beside it (a LuGre joint lagged 17.7 ms read
-    as 62.3 ms, 12 ms as 20.5 ms unconfirmed: each fitted at 1.3–1.4 × the noise floor as logged, at the
-    floor with the lag removed). Judged: the candidates the motion confirms and those that leave at
-    most LAW_JUDGED_RATIO of the residual shifted, if lags (each share costs a fit)."""
+    candidates removed at the share of LAW_SHARES the law predicts best (its error on every row, the
+    same parameters either way; the shares tried in turn while it falls) where that beats as logged,
+    the warning saying which and why; the sources of the fit taken). Its friction follows each reversal late
+    as a lagged effort does, so the motion's regression also finds a lag that is the law's own (a LuGre
+    joint without one: 9.6 ms, 0.49 of the residual), and misjudges a true one it finds beside it (a LuGre
+    joint lagged 17.7 ms read as 62.3 ms, 12 ms as 20.5 ms unconfirmed: each fitted at 1.3–1.4 × the noise
+    floor as logged, at the floor with the lag removed). Judged: the candidates the motion confirms and
+    those that leave at most LAW_JUDGED_RATIO of the residual shifted, if lags (each share costs a fit)."""
     found = {i: c[0] for i, s in enumerate(sources) if (c := effort_lag_candidate(s)) is not None
              and (c[2] or (c[0] > 0 and c[1] <= LAW_JUDGED_RATIO))}
     as_logged = fit(sources)
     if not found:
         return as_logged, sources
+    logged_pct = all_rows_relerr_pct(as_logged.metrics)
     trials: dict[float, tuple[IdentifyResult, list[JointSeries], dict[int, str]]] = {}
-    for share in LAW_SHARES:
+    errors: dict[float, float] = {}
+    for share in LAW_SHARES:  # the shortest shift first, on while the error falls
         if min(map(abs, found.values())) * share < MIN_JUDGED_LAG_S:
             continue
         moved, notes = list(sources), {}
@@ -136,8 +139,9 @@ def law_judged_effort_lags(sources: list[JointSeries], fit: Callable[[list[Joint
             moved[i], notes[i] = shift_effort(sources[i], lag * share, "")
             moved[i].notes.append(notes[i])
         trials[share] = (fit(moved), moved, notes)
-    logged_pct = all_rows_relerr_pct(as_logged.metrics)
-    errors = {share: all_rows_relerr_pct(t[0].metrics) for share, t in trials.items()}
+        errors[share] = all_rows_relerr_pct(trials[share][0].metrics)
+        if errors[share] >= min([logged_pct, *errors.values()][:-1]):
+            break
     figures = f"{logged_pct:.3g} % as logged, " + ", ".join(
         f"{_found_lag_ms(found, share)} ms {v:.3g} %" for share, v in errors.items())
     best = min(errors, key=errors.get, default=None)
