@@ -18,9 +18,9 @@ is taken as found (:func:`motion_confirmed_lags`); only a lag is judged by the f
 logging driver stamps the effort late; a lead found this weakly was a misfit the shift offsets (a
 one-joint Stribeck log with coloured noise and no lag: −14 ms "predicted" 68 → 30 % by the folds'
 Coulomb model, and validated at 34 % against 19 % as logged). A dynamic law's friction follows each
-reversal late as a lagged effort does: its own fit judges a candidate, as logged against shifted by
-LAW_SHARES of it (:func:`law_judged_effort_lags`: a LuGre joint's false 9.6 ms left, a 5.5 ms lag of a
-Jaco2 taken), and a candidate too weak to judge is said and left (:func:`unjudged_effort_lags`). ``validate`` reads
+reversal late as a lagged effort does: its own fit judges a confirmed candidate, as logged against
+shifted (:func:`law_judged_effort_lags`: a LuGre joint's false 9.6 ms left, a 5.5 ms lag of a Jaco2
+taken), and an unconfirmed one is said and left (:func:`unjudged_effort_lags`). ``validate`` reads
 a result's effort lag again where its log's loader removed none (:func:`with_result_effort_lag`): a
 lag of the logging, as a drive's signs, belongs to the robot.
 """
@@ -47,13 +47,6 @@ from frictionid_core.timeseries import JointSeries
 # misjudge it: a 6 ms lag of an arm on constant-velocity plateaus read as 3.2 ms in each half). A best
 # shift at the last share is none: the error falling ever further with the shift is a misfit it offsets.
 SHARES = (0.5, 1.0, 1.5, 2.0, 3.0)
-# A dynamic law's own fit judges the candidate's lag times these, in turn while its error falls (the
-# motion's regression, which the law's lateness at each reversal misleads, reads a lag too long; the
-# error along the shares had one minimum on every corpus case) …
-LAW_SHARES = (0.25, 0.5, 1.0)
-MIN_JUDGED_LAG_S = 2e-3  # … each at least this long (a shorter one is none: the loader's MIN_LAG_S)
-# … for the candidates the motion confirms and the lags that leave at most this share of the residual shifted
-LAW_JUDGED_RATIO = 0.95
 
 
 def confirmed_effort_lags(sources: list[JointSeries], logged_plan: FitPlan,
@@ -114,73 +107,31 @@ def _motion_evidence(lag: float, ratio: float) -> str:
 
 def law_judged_effort_lags(sources: list[JointSeries], fit: Callable[[list[JointSeries]], IdentifyResult]
                            ) -> tuple[IdentifyResult, list[JointSeries]]:
-    """(A dynamic law's fit (``fit(sources)``) of ``sources`` as logged, or with their effort lag
-    candidates removed at the share of LAW_SHARES the law predicts best (its error on every row, the
-    same parameters either way; the shares tried in turn while it falls) where that beats as logged,
-    the warning saying which and why; the sources of the fit taken). Its friction follows each reversal late
-    as a lagged effort does, so the motion's regression also finds a lag that is the law's own (a LuGre
-    joint without one: 9.6 ms, 0.49 of the residual), and misjudges a true one it finds beside it (a LuGre
-    joint lagged 17.7 ms read as 62.3 ms, 12 ms as 20.5 ms unconfirmed: each fitted at 1.3–1.4 × the noise
-    floor as logged, at the floor with the lag removed). Judged: the candidates the motion confirms and
-    those that leave at most LAW_JUDGED_RATIO of the residual shifted, if lags (each share costs a fit)."""
-    found = {i: c[0] for i, s in enumerate(sources) if (c := effort_lag_candidate(s)) is not None
-             and (c[2] or (c[0] > 0 and c[1] <= LAW_JUDGED_RATIO))}
-    as_logged = fit(sources)
-    if not found:
-        return as_logged, sources
-    logged_pct = all_rows_relerr_pct(as_logged.metrics)
-    trials: dict[float, tuple[IdentifyResult, list[JointSeries], dict[int, str]]] = {}
-    errors: dict[float, float] = {}
-    for share in LAW_SHARES:  # the shortest shift first, on while the error falls
-        if min(map(abs, found.values())) * share < MIN_JUDGED_LAG_S:
-            continue
-        moved, notes = list(sources), {}
-        for i, lag in found.items():
-            moved[i], notes[i] = shift_effort(sources[i], lag * share, "")
-            moved[i].notes.append(notes[i])
-        trials[share] = (fit(moved), moved, notes)
-        errors[share] = all_rows_relerr_pct(trials[share][0].metrics)
-        if errors[share] >= min([logged_pct, *errors.values()][:-1]):
-            break
-    figures = f"{logged_pct:.3g} % as logged, " + ", ".join(
-        f"{_found_lag_ms(found, share)} ms {v:.3g} %" for share, v in errors.items())
-    best = min(errors, key=errors.get, default=None)
-    judged_unconfirmed = {s.source for i, s in enumerate(sources)
-                          if i in found and not effort_lag_candidate(s)[2]}
-    if best is not None and errors[best] < logged_pct:
-        result, moved, notes = trials[best]
-        finals = {notes[i]: shift_effort(sources[i], found[i] * best,
-                                         f"{_candidate_evidence(sources[i])}; the law's fit predicts every row best "
-                                         f"so ({figures})")[1] for i in found}
-        return replace(result, warnings=[finals.get(w, w) for w in result.warnings]), moved
+    """(A dynamic law's fit (``fit(sources)``) of ``sources`` as logged, or with the effort lags the
+    motion confirms removed where the law predicts the effort better so (its error on every row; the
+    same parameters either way), the warning saying which and why; the sources of the fit taken). Its
+    friction follows each reversal late as a lagged effort does, so the motion's regression also
+    confirms a lag that is the law's own (a LuGre joint without one: 9.6 ms, 0.49 of the residual)."""
+    shifted = motion_confirmed_lags(sources)
+    if all(s is o for s, o in zip(shifted, sources)):
+        return fit(sources), sources
+    as_logged, moved = fit(sources), fit(shifted)
+    logged_pct, moved_pct = (all_rows_relerr_pct(r.metrics) for r in (as_logged, moved))
+    figures = f"{logged_pct:.3g} % as logged, {moved_pct:.3g} % shifted"
+    if moved_pct < logged_pct:
+        notes = {s.notes[-1] for s, o in zip(shifted, sources) if s is not o}
+        judged = f"the law's fit predicts every row better so ({figures})"
+        return replace(moved, warnings=[f"{w}; {judged}" if w in notes else w for w in moved.warnings]), shifted
     said = [f"{s.source}: channel lag? the effort lags the position by {c[0] * 1e3:.3g} ms to the motion alone "
-            f"({_candidate_evidence(s)}), but the law's fit predicts every row best as logged ({figures}): left "
+            f"({_motion_evidence(*c[:2])}), but the law's fit predicts every row better as logged ({figures}): left "
             "as logged (the law's own lateness at each reversal)"
-            for i, s in enumerate(sources) if i in found and (c := effort_lag_candidate(s)) is not None]
-    kept = [w for w in as_logged.warnings
-            if not any(w.startswith(f"{src}: channel lag? the effort may") for src in judged_unconfirmed)]
-    return replace(as_logged, warnings=[*kept, *said]), sources
-
-
-def _found_lag_ms(found: dict[int, float], share: float) -> str:
-    """The lags ``found`` (s, by source) times ``share``, in ms: one figure, or the range over the sources."""
-    lags = sorted({round(v * share * 1e3, 3) for v in found.values()})
-    return f"{lags[0]:.3g}" if len(lags) == 1 else f"{lags[0]:.3g}…{lags[-1]:.3g}"
-
-
-def _candidate_evidence(series: JointSeries) -> str:
-    """What the motion's regression says of ``series``'s effort lag candidate."""
-    lag, ratio, confirmed = effort_lag_candidate(series)
-    if confirmed:
-        return _motion_evidence(lag, ratio)
-    return (f"a fit of it to the motion alone leaves {ratio:.2g} × its residual once shifted by {lag * 1e3:.3g} ms "
-            "(not confirmed by each half of the log)")
+            for s in sources if (c := effort_lag_candidate(s)) is not None and c[2]]
+    return replace(as_logged, warnings=[*as_logged.warnings, *said]), sources
 
 
 def unjudged_effort_lags(sources: list[JointSeries]) -> list[str]:
     """The warnings of the effort lag candidates of ``sources`` a dynamic law's fit leaves as logged
-    (those the motion does not confirm; :func:`law_judged_effort_lags` replaces the warning of those it
-    judges)."""
+    (those the motion does not confirm: :func:`law_judged_effort_lags` judges the others)."""
     out = []
     for series in sources:
         candidate = effort_lag_candidate(series)
