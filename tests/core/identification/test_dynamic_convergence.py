@@ -88,6 +88,23 @@ def test_a_lugre_joint_at_200_hz_reaches_the_noise_floor():
 
 
 @pytest.mark.slow
+def test_a_lugre_joint_leaving_rest_at_the_trim_reaches_the_noise_floor():
+    """bench/dynamic_laws.py's seed 2265 (motion seeds 37945, 7978; 200 Hz): the trim (0.575 s) ends as
+    the joint leaves rest, where the states' sliding start is wrong for 0.2 s. That bent J and the dip
+    (J −0.78 %, vs +4.4 %; validation 1.65 σ against the truth's 1.18 σ). With the rows before each
+    first reversal left out of cost and metrics: every parameter within 0.2 %, validation 1.05 σ."""
+    truth = {"Fv": 0.70911, "Fc": 1.22979, "Fs": 1.71183, "vs": 0.0198596, "sigma0": 2113.33, "sigma1": 54.0449}
+    est, known = dynamic_log("lugre", truth, seed=37945, rate=200.0, inertia=0.57213, top_speed=0.41819)
+    val, _ = dynamic_log("lugre", truth, seed=7978, rate=200.0, inertia=0.57213, top_speed=0.41819)
+    fit = fid.identify(est, fid.IdentifyRequest(system="joint", friction="lugre"))
+    err = errors(fit.params, truth)
+    assert all(abs(err[k]) < LIMITS[k] for k in LIMITS), err
+    assert fit.params["J"] == pytest.approx(0.57213, rel=0.005)
+    metrics = fid.validate(val, fit)
+    assert metrics["all_rows"]["rmse"] < 1.3 * known["torque_noise"]
+
+
+@pytest.mark.slow
 def test_the_issue_lugre_joint_at_1_khz_reaches_the_noise_floor():
     """The issue's truth (J 0.8, Fc 6, Fs 8.5, vs 0.05, Fv 2.5, σ0 2e4, σ1 150; 0.5 % noise): it
     fitted at 5.1 % (moving rows) and 12.7 % (every row) against a 0.50 % floor. Measured now:

@@ -37,12 +37,12 @@ _LAZY = {
     **dict.fromkeys((
         "all_models", "elements_of", "FrictionModel", "get_model", "smooth_sign",
     ), "frictionid_core.friction.model"),
-    **dict.fromkeys(("joint_state_rows", "StateFriction"), "frictionid_core.friction.states"),
+    **dict.fromkeys(("joint_state_rows", "resets", "StateFriction"), "frictionid_core.friction.states"),
 }
 
 __all__ = ["DEFAULT_BOUNDS", "FRICTIONS", "FrictionLaw", "FrictionModel", "LAWS", "LUGRE_DELTA", "SOURCE_DIGEST",
            "STATIC_FRICTIONS", "StateFriction", "UNITS", "all_models", "dip_ends", "dip_sums", "elements_of",
            "get_model", "joint_state_rows", "kernels", "law_parts", "members_friction", "parameter_base",
-           "smooth_sign"]
+           "resets", "smooth_sign"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

@@ -9,7 +9,9 @@ functions of :mod:`~frictionid_core.friction.laws` under numpy.
 Initial states. A series starts — and restarts after a gap of its stamps (:func:`resets`) —
 with each element at its sliding value for the velocity of that sample (sign(v)·g/(n·k_i), 0 at
 rest): exact when the motion was steady before (burnt in), and forgotten after a travel of a
-few break-away deflections (g/(n·k_i): micrometres to millimetres).
+few break-away deflections (g/(n·k_i): micrometres to millimetres). Until each joint's first
+reversal the start is a guess: an observation leaves those rows out of the fit and the metrics
+while the states run through them (:func:`~frictionid_core.systems.system.burn_in_rows`).
 """
 
 from __future__ import annotations

@@ -19,12 +19,12 @@ _LAZY = {
         "known_rigid_body", "KnownRigidBody", "LINK_TORQUE", "nominal_parameters", "restricted_system",
     ), "frictionid_core.systems.robot"),
     **dict.fromkeys((
-        "exclude_rows", "observe", "parse_joint_map", "reversal_rows", "RobotInfo", "System",
+        "burn_in_rows", "exclude_rows", "observe", "parse_joint_map", "reversal_rows", "RobotInfo", "System",
     ), "frictionid_core.systems.system"),
 }
 
 __all__ = ["FIXED_SYSTEMS", "KnownRigidBody", "LINK_TORQUE", "RobotInfo", "SYSTEM_NAMES", "System", "URDF_PREFIX",
-           "as_system", "exclude_rows", "get_system", "known_rigid_body", "nominal_parameters", "observe",
-           "parse_joint_map", "restricted_system", "result_system", "reversal_rows"]
+           "as_system", "burn_in_rows", "exclude_rows", "get_system", "known_rigid_body", "nominal_parameters",
+           "observe", "parse_joint_map", "restricted_system", "result_system", "reversal_rows"]
 
 __getattr__, __dir__ = lazy.lazy_names(__name__, _LAZY)

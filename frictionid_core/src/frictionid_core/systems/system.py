@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from frictionid_core.errors import InputError
+from frictionid_core.friction import resets
 from frictionid_core.model import Observation, build_observation, concat_observations, keep_all_rows
 from frictionid_core.preprocess import (
     BRIEF_PERIODS,
@@ -40,6 +41,9 @@ if TYPE_CHECKING:
 
 # Values per chunk of the standard regressor (samples × joints × parameters: a few tens of MB).
 _REGRESSOR_CHUNK_VALUES = 4_000_000
+# A dynamic law's burn-in (:func:`burn_in_rows`) is skipped where it would take more than this
+# share of its stretch's rows.
+BURN_IN_SHARE = 0.1
 
 
 @dataclass(frozen=True)
@@ -263,6 +267,7 @@ def _observe_segments(series: JointSeries, segments: list[JointSeries], system: 
                                      for j in report["brief_motion_rows"]},
                   resampled_reversal_rows={j: sum(r["resampled_reversal_rows"][j] for r in over)
                                            for j in report["resampled_reversal_rows"]},
+                  burn_in_rows={j: sum(r["burn_in_rows"][j] for r in over) for j in report["burn_in_rows"]},
                   resampled_interval_s=max(r["resampled_interval_s"] for r in over),
                   reversal_acceleration={j: max(r["reversal_acceleration"][j] or 0.0 for r in over)
                                          for j in report["reversal_acceleration"]},
@@ -360,6 +365,13 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
     for o in (obs, obs.sampled):
         if o is not None:  # the sampled rows are instants of the fit's (all of them, or one in ``thin``)
             exclude_rows(o, slow if o is obs else slow[np.searchsorted(obs.t, o.t)])
+    burn_in = np.zeros_like(slow)
+    if all_rows:  # a dynamic law's states run through its burn-in, which neither cost nor metrics count
+        burn_in = burn_in_rows(obs.full.velocity, obs.full.t, rest_speed)
+        for o in (obs.full, obs.full.sampled):
+            if o is not None:
+                exclude_rows(o, burn_in if o is obs.full else burn_in[np.searchsorted(obs.t, o.t)],
+                             keep_velocity=True)
     report["min_speed_rows"] = dict(zip(row_names, map(float, min_speed)))
     report["rest_speed_rows"] = dict(zip(row_names, map(float, rest_speed)))
     report["slow_rows_excluded"] = dict(zip(row_names, map(int, slow.sum(axis=0))))  # stick rows included
@@ -367,6 +379,7 @@ def _observe_gapless(series: JointSeries, system: System, settings: Preprocessin
     report["reversal_rows"] = dict(zip(row_names, map(int, reversal.sum(axis=0))))
     report["brief_motion_rows"] = dict(zip(row_names, map(int, brief.sum(axis=0))))
     report["resampled_reversal_rows"] = dict(zip(row_names, map(int, smeared.sum(axis=0))))
+    report["burn_in_rows"] = dict(zip(row_names, map(int, burn_in.sum(axis=0))))
     report["fit_rows"] = int(obs.y.size)  # every joint's rows (thinned: see Preprocessing.thin)
     return obs
 
@@ -439,9 +452,31 @@ def resampled_reversal_rows(obs: Observation, interval_s: float) -> np.ndarray:
     return out
 
 
-def exclude_rows(obs: Observation, rows: np.ndarray) -> None:
-    """Leave out the rows where ``rows`` (Nd, J) is True: zero their torque, every column and
-    the velocity (they then add nothing to any least-squares cost) and mark them unused.
+def burn_in_rows(velocity: np.ndarray, t: np.ndarray, rest_speed: np.ndarray) -> np.ndarray:
+    """(Nd, J) a dynamic law's burn-in on rows of velocities (Nd, J) at times ``t`` (Nd,), s: each
+    joint's rows from a restart of the states (:func:`~frictionid_core.friction.states.resets`) to
+    its first reversal, the first row faster than its ``rest_speed`` (J,) against the way it first
+    moved. The states start at their sliding value or at rest, a guess of a history the log does
+    not hold; after a reversal they are the motion's. None where the reversal takes more than
+    BURN_IN_SHARE of the stretch's rows (the guess is then the better evidence)."""
+    out = np.zeros(velocity.shape, dtype=bool)
+    starts = np.flatnonzero(resets(t))
+    for a, b in zip(starts, np.append(starts[1:], t.size)):
+        way = np.sign(velocity[a:b]) * (np.abs(velocity[a:b]) > rest_speed)  # (n, J): -1, 0, +1
+        for j in range(velocity.shape[1]):
+            moved = np.flatnonzero(way[:, j])
+            if moved.size == 0:
+                continue
+            back = np.flatnonzero(way[:, j] == -way[moved[0], j])
+            if back.size and back[0] <= BURN_IN_SHARE * (b - a):
+                out[a : a + back[0], j] = True
+    return out
+
+
+def exclude_rows(obs: Observation, rows: np.ndarray, keep_velocity: bool = False) -> None:
+    """Leave out the rows where ``rows`` (Nd, J) is True: zero their torque, every column and,
+    unless ``keep_velocity`` (a dynamic law's states run through them), the velocity (they then
+    add nothing to any least-squares cost) and mark them unused.
 
     Rows slower than the min speed go: near standstill and reversals the sign of a noisy
     velocity is unreliable, and one wrong sign is a 2·Fc outlier."""
@@ -454,6 +489,7 @@ def exclude_rows(obs: Observation, rows: np.ndarray) -> None:
         obs.y[index] = 0.0
         obs.rigid[index] = 0.0
         obs.used[index] = False
-        obs.velocity[slow, j] = 0.0
+        if not keep_velocity:
+            obs.velocity[slow, j] = 0.0
         for col in obs.columns[j].values():
             col[slow] = 0.0
