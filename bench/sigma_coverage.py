@@ -267,9 +267,11 @@ def main(argv=None) -> int:
                                                                             "synthetic")
     p.add_argument("--quick", action="store_true", help="one seed per family")
     p.add_argument("--mujoco-offsets", type=int_list, default=MUJOCO_OFFSETS,
-                   help="comma-separated seed offsets of the mujoco family's logs (default 0,3,6)")
+                   help="comma-separated seed offsets of the mujoco family's logs (default "
+                        f"{','.join(map(str, MUJOCO_OFFSETS))})")
     p.add_argument("--variant-seeds", type=int_list, default=VARIANT_SEEDS,
-                   help="comma-separated excitation seeds of the variants family (default 31,41)")
+                   help="comma-separated excitation seeds of the variants family (default "
+                        f"{','.join(map(str, VARIANT_SEEDS))})")
     p.add_argument("--label", help="results as bench/results/sigma_coverage_LABEL.{txt,json}")
     args = p.parse_args(argv)
     families = args.families.split(",")
