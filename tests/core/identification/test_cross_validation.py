@@ -14,8 +14,7 @@ from frictionid_core.cli import main
 from frictionid_core.identification import IdentifyRequest, PreprocessingOverrides
 from frictionid_core.identification.cross_validation import (
     FOLDS,
-    MAX_PIECES_PER_FOLD,
-    MIN_PIECE_S,
+    LAYOUTS,
     cross_validated_error,
     fold_observations,
     folds_of,
@@ -75,18 +74,21 @@ def test_a_given_cutoff_is_not_cross_validated(fitted):
     assert "cross_validation" not in r.preprocessing and r.preprocessing["cutoff_hz"] == {"j": 5.0}
 
 
-@pytest.mark.parametrize(("seconds", "per_fold"), [(20.0, 1), (25.0, 2), (200.0, MAX_PIECES_PER_FOLD)])
-def test_folds_interleave_pieces_that_cover_the_source_once(seconds, per_fold):
-    """Pieces of at least MIN_PIECE_S, dealt to the folds in turn: each fold spans the log."""
+@pytest.mark.parametrize(("layout", "seconds", "per_fold"), [
+    (LAYOUTS[0], 20.0, 1), (LAYOUTS[0], 25.0, 2), (LAYOUTS[0], 200.0, LAYOUTS[0][1]),
+    (LAYOUTS[1], 5.0, 1), (LAYOUTS[1], 6.5, 2), (LAYOUTS[1], 200.0, LAYOUTS[1][1])])
+def test_folds_interleave_pieces_that_cover_the_source_once(layout, seconds, per_fold):
+    """Pieces of at least the layout's duration, at most its count per fold, dealt to the folds in
+    turn: each fold spans the log."""
     est = vibrating_joint(0, seconds=seconds, fs=200.0)
     plan = plan_fit([est], request_system(IdentifyRequest(system="joint")))
-    folds = folds_of(plan)
+    folds = folds_of(plan, layout=layout)
     assert len(folds) == FOLDS and all(len(f.sources) == per_fold for f in folds)
     pieces = sorted((sp.series for f in folds for sp in f.sources), key=lambda s: s.t[0])
     assert sum(len(p) for p in pieces) == len(est)
     for a, b in zip(pieces[:-1], pieces[1:]):
         assert a.t[-1] < b.t[0]
-    assert all(p.t[-1] - p.t[0] >= MIN_PIECE_S - 0.01 for p in pieces)
+    assert all(p.t[-1] - p.t[0] >= layout[0] - 0.01 for p in pieces)
     for k, fold in enumerate(folds):  # piece i goes to fold i mod FOLDS
         assert [sp.series.t[0] for sp in fold.sources] == [p.t[0] for p in pieces[k::FOLDS]]
 

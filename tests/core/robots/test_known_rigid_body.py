@@ -72,7 +72,9 @@ def test_known_rigid_body_is_the_fit_with_every_base_parameter_but_the_rotors_fi
     fixed = identify(tx40_bag, IdentifyRequest(system="tx40", fixed={n: nominal[n] for n in held.held()}))
     for name, value in fixed.params.items():
         assert known.params[name] == pytest.approx(value, rel=1e-7, abs=1e-9), name
-    assert known.metrics["cost"] == pytest.approx(fixed.metrics["cost"], rel=1e-9)
+    # the two fits subtract the held links' torque in other orders: their costs agree to round-off
+    # (1.05e-9 relative on one machine's BLAS, at the code before and after 2-layout folds alike)
+    assert known.metrics["cost"] == pytest.approx(fixed.metrics["cost"], rel=1e-8)
 
 
 def test_known_rigid_body_on_the_command_line(tx40_bag, tmp_path, capsys):

@@ -6,7 +6,8 @@ another's samples), with the settings of a candidate resolved once on the whole 
 model (the system's rigid body, viscous and Coulomb friction, offsets: the closed form, its sign
 constraints kept) is fitted on all folds but one and predicts the recorded effort of the one left
 out, at its analysis instants; the candidate's score is the relative error of those predictions
-over every fold, per row joint and overall (:func:`cross_validated_error`).
+over every fold, per row joint and overall (:func:`cross_validated_error`), the lower of two
+layouts of the pieces, long and short (:func:`layout_score`).
 
 Candidates (:func:`cutoff_candidates`): the rule's per-joint cut-offs
 (:func:`frictionid_core.preprocess.choose_preprocessing`) and the same capped at each value of a
@@ -47,8 +48,9 @@ from frictionid_core.preprocess import MIN_SPEED_SHARE, Preprocessing, TooFewSam
 from frictionid_core.timeseries import JointSeries, sample_period
 
 FOLDS = 2  # folds of each source: each predicted from the others, as a later log is
-MIN_PIECE_S = 5.0  # a fold's pieces last at least this long (filters settle, motions repeat) …
-MAX_PIECES_PER_FOLD = 2  # … and are at most this many per source (each fold then spans both halves)
+# The two ways a source is cut into pieces (see folds_of), each (seconds a piece lasts at least, pieces
+# per fold at most): long pieces, whose filters settle, and short ones, whose folds span every motion.
+LAYOUTS = ((5.0, 2), (1.5, 15))
 # Cut-offs tried below the rule's: this many per decade (a ratio of 2.15), down to MIN_GRID_CUTOFF_HZ.
 GRID_PER_DECADE = 3
 MIN_GRID_CUTOFF_HZ = 0.5
@@ -80,18 +82,18 @@ class CvScore:
     curve: bool = False
 
 
-def folds_of(plan: FitPlan, folds: int = FOLDS) -> list[FitPlan]:
+def folds_of(plan: FitPlan, folds: int = FOLDS, layout: tuple[float, int] = LAYOUTS[0]) -> list[FitPlan]:
     """``plan`` with each source cut into contiguous pieces of equal duration, dealt to ``folds``
     folds in turn (piece i to fold i mod folds; :func:`pieces_per_fold` of them each): one plan per
     fold, its sources the pieces it holds. Interleaved, every fold spans the log's excitations (a
     Fourier part before micro-motions, one joint's sweep after another's), so no fold's fit must
-    predict motion it never saw."""
+    predict motion it never saw (the finer ``layout``, the closer; :func:`layout_score`)."""
     out = []
     for k in range(folds):
         sources = []
         for sp in plan.sources:
             elapsed = _elapsed(sp.series)
-            n = folds * pieces_per_fold(elapsed[-1])
+            n = folds * pieces_per_fold(elapsed[-1], layout)
             edges = np.searchsorted(elapsed, np.arange(n + 1) * elapsed[-1] / n)  # on an edge: the later piece
             edges[-1] = elapsed.size
             sources += [replace(sp, series=sp.series.slice(edges[i], edges[i + 1])) for i in range(k, n, folds)]
@@ -109,20 +111,56 @@ def _elapsed(series: JointSeries) -> np.ndarray:
     return elapsed
 
 
-def pieces_per_fold(span_s: float) -> int:
-    """Pieces of a source of ``span_s`` seconds per fold: as many as keep each at least MIN_PIECE_S
-    long, at most MAX_PIECES_PER_FOLD (at least 1)."""
-    return int(min(MAX_PIECES_PER_FOLD, max(1, span_s // (FOLDS * MIN_PIECE_S))))
+def pieces_per_fold(span_s: float, layout: tuple[float, int] = LAYOUTS[0]) -> int:
+    """Pieces of a source of ``span_s`` seconds per fold under ``layout`` (seconds, count): as many as
+    keep each at least that long, at most that many (at least 1)."""
+    shortest, most = layout
+    return int(min(most, max(1, span_s // (FOLDS * shortest))))
 
 
-def fold_observations(plan: FitPlan, settings: Preprocessing, folds: int = FOLDS) -> list[Observation]:
+def fold_observations(plan: FitPlan, settings: Preprocessing, folds: int = FOLDS,
+                      layout: tuple[float, int] = LAYOUTS[0]) -> list[Observation]:
     """The observation of each fold of ``plan`` (:func:`folds_of`; its sources stacked as an
     identification stacks them) under the resolved ``settings``, its trims at most a tenth of the
     shortest piece; TooFewSamples when a piece is too short."""
-    pieces = folds_of(plan, folds)
+    pieces = folds_of(plan, folds, layout)
     span = min(sp.series.t[-1] - sp.series.t[0] for piece in pieces for sp in piece.sources)
     trims = {n: min(getattr(settings, n), 0.1 * span) for n in ("trim_start_s", "trim_end_s")}
     return [observe_plan(piece, replace(settings, **trims)) for piece in pieces]
+
+
+def layout_score(plan: FitPlan, settings: Preprocessing, asymmetric: bool = False,
+                 fixed: dict[str, float] | None = None, dips: bool = False
+                 ) -> tuple[CvScore, list[Observation], tuple[float, int]]:
+    """(the lower cross-validated error of ``plan`` under the resolved ``settings`` over LAYOUTS,
+    the fold observations that gave it, their layout); the layouts that cut the sources alike
+    scored once.
+
+    Each layout's error overstates what the settings predict, for a reason of its own: a fold of
+    long pieces holds other motions than the other (constant-velocity plateaus at other speeds), its
+    rigid body is extrapolated, and the errors rank cut-offs by chance (a UR5 on plateaus at 109 Hz,
+    22 s: four pieces of 5.6 s predicted at 37–52 %, 48 % at 10 Hz where the whole log's fit errs by
+    8.7 %, and chose 21.8 Hz: 23 % on a second log; 14 pieces of 1.6 s predict at 9.4 % at 10 Hz and
+    choose it: 6.0 %, least squares 6.3 %); in short pieces a low cut-off's filter edges take a larger
+    share (a joint swept at 0.25–0.7 Hz whose best cut-off is 2.2 Hz: 4.6 Hz chosen). The lower is
+    the nearer. TooFewSamples or FrictionIdError (the first layout's) when no layout can be scored."""
+    best, failure, seen = None, None, []
+    for layout in LAYOUTS:
+        cuts = [pieces_per_fold(_elapsed(sp.series)[-1], layout) for sp in plan.sources]
+        if cuts in seen:
+            continue
+        seen.append(cuts)
+        try:
+            observations = fold_observations(plan, settings, layout=layout)
+            score = cross_validated_error(observations, asymmetric, fixed, dips=dips)
+        except (TooFewSamples, FrictionIdError) as exc:
+            failure = failure or exc
+            continue
+        if best is None or score.relerr_pct < best[0].relerr_pct:
+            best = (score, observations, layout)
+    if best is None:
+        raise failure
+    return best
 
 
 def resolved_settings(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str, float]) -> Preprocessing:
@@ -282,8 +320,7 @@ def score_at(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str, float],
              fixed: dict[str, float] | None = None) -> CvScore | None:
     """The cross-validated error of ``plan`` at ``cutoffs``; None when the folds cannot be made."""
     try:
-        return cross_validated_error(fold_observations(plan, resolved_settings(plan, requested, cutoffs)),
-                                     asymmetric, fixed)
+        return layout_score(plan, resolved_settings(plan, requested, cutoffs), asymmetric, fixed)[0]
     except (TooFewSamples, FrictionIdError):
         return None
 
@@ -300,7 +337,8 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
     (rows that are motors of a coupled drive take the overall choice), and those choices together
     are scored as one more candidate, kept only where it predicts every row better than the
     candidate they were made from (``record["composed"]``). ``keep["folds"]`` receives
-    the fold observations of the chosen cut-offs where they are one candidate's. ``dips``: each
+    the fold observations of the chosen cut-offs where they are one candidate's in the long layout
+    (:func:`choose_min_speed` judges on those). ``dips``: each
     candidate is scored by the better of the Coulomb model and one with each joint's low-speed
     friction curve (:func:`cross_validated_error`; the law fitted has a dip)."""
     try:
@@ -310,14 +348,14 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
     record = {"folds": FOLDS, "rule_cutoff_hz": rule_cutoffs, "candidates": [], "dips": dips}
     candidates = cutoff_candidates(rule_cutoffs)
     scored: dict[int, CvScore | None] = {}  # by index in candidates; None: could not be scored
-    folds: dict[int, list[Observation]] = {}
+    folds: dict[int, tuple[list[Observation], tuple[float, int]]] = {}  # observations and their layout
 
     def score(i: int) -> CvScore | None:
         if i not in scored:
             try:
                 settings = resolved_settings(plan, requested, candidates[i])
-                folds[i] = fold_observations(plan, settings)
-                scored[i] = cross_validated_error(folds[i], asymmetric, fixed, dips=dips)
+                scored[i], observations, layout = layout_score(plan, settings, asymmetric, fixed, dips)
+                folds[i] = (observations, layout)
             except (TooFewSamples, FrictionIdError) as exc:
                 scored[i] = None
                 record.setdefault("failed", {})[f"{max(candidates[i].values()):.4g}"] = str(exc)
@@ -357,7 +395,8 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
         chosen = chosen if taken else whole
     record["cutoff_hz"] = chosen
     if keep is not None:
-        keep["folds"] = next((folds[i] for i, c in enumerate(candidates) if c == chosen and i in folds), None)
+        keep["folds"] = next((folds[i][0] for i, c in enumerate(candidates)
+                              if c == chosen and i in folds and folds[i][1] == LAYOUTS[0]), None)
     return chosen, record
 
 
@@ -373,8 +412,12 @@ def choose_min_speed(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str,
     keeps the rows of its candidate; every candidate predicts the same rows (those faster than the
     highest candidate), so a candidate cannot win by leaving out the rows it gets wrong. A joint
     takes the candidate that predicts its effort best where it beats the rule's by BETTER_SHARE and
-    the rule's error is below INFORMATIVE_PCT; the joints that are not rows keep the rule's.
-    ``observations``: the folds at ``cutoffs`` where :func:`choose_by_cross_validation` kept them."""
+    the rule's error is below INFORMATIVE_PCT; the joints that are not rows keep the rule's. The folds
+    are the long layout's (LAYOUTS[0]): short pieces of a slow sweep fall in step with its period
+    (a 0.15 Hz sweep in pieces of 1.7 s: each fold holds the same quarter periods), and so do the
+    rows a min speed leaves out (a Stribeck joint's Coulomb fit: its fit error 1.9 → 3.2 %, Fv 1.78
+    → 1.66 with the min speed those folds chose). ``observations``: the folds at ``cutoffs`` where
+    :func:`choose_by_cross_validation` kept them."""
     record: dict = {"shares_of_top_speed": list(MIN_SPEED_SHARES)}
     try:
         if observations is None:

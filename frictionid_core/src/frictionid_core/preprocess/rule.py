@@ -61,6 +61,7 @@ by 6 % at decimation by 60); on the EMPS benchmark they give its figures to ever
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import replace
 
 import numpy as np
@@ -239,16 +240,32 @@ def clean_acceleration_cutoff(q: np.ndarray, fs: float, n0: np.ndarray, order: i
     f, P = signal.periodogram(q, fs, window="hann", detrend=linear_detrend, axis=0)
     weight = (fs * np.sin(2 * np.pi * f / fs)) ** (2 * differences)
     df = f[1] - f[0]
-    grid = np.geomspace(MIN_CUTOFF_BINS * fs / q.shape[0], MAX_CUTOFF_SHARE * fs, CUTOFF_GRID)
+    grid = fs * _clean_grid(q.shape[0])
     total = ((1.0 / (1.0 + (f[None, :] / grid[:, None]) ** (2 * order))) ** 2 * weight) @ P * df  # (grid, J)
-    fine = np.linspace(0.0, fs / 2, _GRID)[1:]
-    noise_gain = np.trapezoid((fs * np.sin(2 * np.pi * fine / fs)) ** (2 * differences)
-                              * butterworth_power(fine[None, :], fs, grid[:, None], order) ** 2, fine, axis=1)
+    noise_gain = fs ** (2 * differences + 1) * _unit_noise_gain(q.shape[0], order, differences)
     ok = n0[None, :] * noise_gain[:, None] <= QDD_NOISE_SHARE_LIMIT * total  # (grid, J)
     out = np.full(q.shape[1], np.nan)
     for k in range(grid.size):  # the highest cut-off of the grid that keeps the noise share
         out[ok[k]] = grid[k]
     return out
+
+
+def _clean_grid(n: int) -> np.ndarray:
+    """The cut-offs :func:`clean_acceleration_cutoff` tries on a log of ``n`` samples, in units of its rate."""
+    return np.geomspace(MIN_CUTOFF_BINS / n, MAX_CUTOFF_SHARE, CUTOFF_GRID)
+
+
+@functools.lru_cache(maxsize=64)
+def _unit_noise_gain(n: int, order: int, differences: int) -> np.ndarray:
+    """(CUTOFF_GRID,) the variance white noise of unit density keeps after the forward–backward
+    Butterworth at each cut-off of :func:`_clean_grid` and ``differences`` central differences, at a
+    rate of 1 (fs^(2·differences + 1) times it at fs): the same for every log of ``n`` samples (the
+    pieces of the cross-validation's folds), so computed once."""
+    u = np.linspace(0.0, 0.5, _GRID)[1:]
+    gain = np.trapezoid(np.sin(2 * np.pi * u) ** (2 * differences)
+                        * butterworth_power(u[None, :], 1.0, _clean_grid(n)[:, None], order) ** 2, u, axis=1)
+    gain.flags.writeable = False
+    return gain
 
 
 # ---------------------------------------------------------------------- the rule
