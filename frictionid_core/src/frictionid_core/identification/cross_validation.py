@@ -142,7 +142,7 @@ def layout_score(plan: FitPlan, settings: Preprocessing, asymmetric: bool = Fals
     22 s: four pieces of 5.6 s predicted at 37–52 %, 48 % at 10 Hz where the whole log's fit errs by
     8.7 %, and chose 21.8 Hz: 23 % on a second log; 14 pieces of 1.6 s predict at 9.4 % at 10 Hz and
     choose it: 6.0 %, least squares 6.3 %); in short pieces a low cut-off's filter edges take a larger
-    share (a joint swept at 0.25–0.7 Hz whose best cut-off is 2.2 Hz: 4.6 Hz chosen). The lower is
+    share (a joint swept at 0.25–0.7 Hz whose best cut-off is 2.2 Hz: the rule's 7.5 Hz kept). The lower is
     the nearer. TooFewSamples or FrictionIdError (the first layout's) when no layout can be scored."""
     best, failure, seen = None, None, []
     for layout in LAYOUTS:
