@@ -131,10 +131,9 @@ def fold_observations(plan: FitPlan, settings: Preprocessing, folds: int = FOLDS
 
 def layout_score(plan: FitPlan, settings: Preprocessing, asymmetric: bool = False,
                  fixed: dict[str, float] | None = None, dips: bool = False
-                 ) -> tuple[CvScore, list[Observation], tuple[float, int]]:
+                 ) -> tuple[CvScore, dict[tuple[float, int], list[Observation]]]:
     """(the lower cross-validated error of ``plan`` under the resolved ``settings`` over LAYOUTS,
-    the fold observations that gave it, their layout); the layouts that cut the sources alike
-    scored once.
+    {layout: its fold observations}); the layouts that cut the sources alike scored once.
 
     Each layout's error overstates what the settings predict, for a reason of its own: a fold of
     long pieces holds other motions than the other (constant-velocity plateaus at other speeds), its
@@ -144,23 +143,23 @@ def layout_score(plan: FitPlan, settings: Preprocessing, asymmetric: bool = Fals
     choose it: 6.0 %, least squares 6.3 %); in short pieces a low cut-off's filter edges take a larger
     share (a joint swept at 0.25–0.7 Hz whose best cut-off is 2.2 Hz: the rule's 7.5 Hz kept). The lower is
     the nearer. TooFewSamples or FrictionIdError (the first layout's) when no layout can be scored."""
-    best, failure, seen = None, None, []
+    best, failure, seen, observed = None, None, [], {}
     for layout in LAYOUTS:
         cuts = [pieces_per_fold(_elapsed(sp.series)[-1], layout) for sp in plan.sources]
         if cuts in seen:
             continue
         seen.append(cuts)
         try:
-            observations = fold_observations(plan, settings, layout=layout)
-            score = cross_validated_error(observations, asymmetric, fixed, dips=dips)
+            observed[layout] = fold_observations(plan, settings, layout=layout)
+            score = cross_validated_error(observed[layout], asymmetric, fixed, dips=dips)
         except (TooFewSamples, FrictionIdError) as exc:
             failure = failure or exc
             continue
-        if best is None or score.relerr_pct < best[0].relerr_pct:
-            best = (score, observations, layout)
+        if best is None or score.relerr_pct < best.relerr_pct:
+            best = score
     if best is None:
         raise failure
-    return best
+    return best, observed
 
 
 def resolved_settings(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str, float]) -> Preprocessing:
@@ -337,7 +336,7 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
     (rows that are motors of a coupled drive take the overall choice), and those choices together
     are scored as one more candidate, kept only where it predicts every row better than the
     candidate they were made from (``record["composed"]``). ``keep["folds"]`` receives
-    the fold observations of the chosen cut-offs where they are one candidate's in the long layout
+    the long layout's fold observations of the chosen cut-offs where they are one candidate's
     (:func:`choose_min_speed` judges on those). ``dips``: each
     candidate is scored by the better of the Coulomb model and one with each joint's low-speed
     friction curve (:func:`cross_validated_error`; the law fitted has a dip)."""
@@ -348,14 +347,14 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
     record = {"folds": FOLDS, "rule_cutoff_hz": rule_cutoffs, "candidates": [], "dips": dips}
     candidates = cutoff_candidates(rule_cutoffs)
     scored: dict[int, CvScore | None] = {}  # by index in candidates; None: could not be scored
-    folds: dict[int, tuple[list[Observation], tuple[float, int]]] = {}  # observations and their layout
+    folds: dict[int, list[Observation] | None] = {}  # the long layout's, for choose_min_speed
 
     def score(i: int) -> CvScore | None:
         if i not in scored:
             try:
                 settings = resolved_settings(plan, requested, candidates[i])
-                scored[i], observations, layout = layout_score(plan, settings, asymmetric, fixed, dips)
-                folds[i] = (observations, layout)
+                scored[i], observed = layout_score(plan, settings, asymmetric, fixed, dips)
+                folds[i] = observed.get(LAYOUTS[0])
             except (TooFewSamples, FrictionIdError) as exc:
                 scored[i] = None
                 record.setdefault("failed", {})[f"{max(candidates[i].values()):.4g}"] = str(exc)
@@ -395,8 +394,7 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
         chosen = chosen if taken else whole
     record["cutoff_hz"] = chosen
     if keep is not None:
-        keep["folds"] = next((folds[i][0] for i, c in enumerate(candidates)
-                              if c == chosen and i in folds and folds[i][1] == LAYOUTS[0]), None)
+        keep["folds"] = next((folds[i] for i, c in enumerate(candidates) if c == chosen and i in folds), None)
     return chosen, record
 
 
