@@ -72,6 +72,23 @@ def test_regressor_times_parameters_is_rnea_with_armature(tx40):
     np.testing.assert_allclose(Y @ tx40.parameters(), tau, atol=1e-10)
 
 
+def test_the_rows_of_a_moving_chain_lock_the_joints_held_still():
+    """A TIAGo (continuous wheels, head, gripper): with its torso and arm moving and every other joint
+    held at one position, their rows come from the model with the others locked into their parents,
+    and equal the whole model's to round-off; a joint held still whose row is asked for stays moving."""
+    robot = load_urdf(example_robot_data_dir() / "tiago_description/robots/tiago.urdf")
+    chain = [robot.joints.index(j) for j in ["torso_lift_joint", *(f"arm_{k}_joint" for k in range(1, 8))]]
+    q, qd, qdd = random_samples(robot, 40, seed=5)
+    others = [k for k in range(robot.nv) if k not in chain]
+    q[:, others], qd[:, others], qdd[:, others] = q[0, others], 0.0, 0.0
+    whole = robot.regressor(q, qd, qdd)
+    assert robot.nv > 3 * len(chain) and np.abs(whole[:, chain]).max() > 1.0
+    np.testing.assert_allclose(robot.regressor(q, qd, qdd, rows=chain), whole[:, chain], rtol=0, atol=1e-11)
+    assert len(robot.__dict__["_locked_models"]) == 1
+    rows = [*chain, others[3]]  # a still joint's own row: its torque holding the others
+    np.testing.assert_allclose(robot.regressor(q, qd, qdd, rows=rows), whole[:, rows], rtol=0, atol=1e-11)
+
+
 def test_base_parameters_reproduce_the_torque(tx40):
     base = robot_base_parameters(tx40)
     assert base.rank == 40

@@ -130,23 +130,91 @@ class RobotModel:
         M = pin.crba(self.model, self._data, self.configuration(np.asarray(q, dtype=float)))
         return np.triu(M) + np.triu(M, 1).T
 
-    def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        """Standard-parameter regressor for samples (N, nv) → (N, nv, 10·nb + nv).
+    def regressor(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, rows: list[int] | None = None
+                  ) -> np.ndarray:
+        """Standard-parameter regressor for samples (N, nv) → (N, nv, 10·nb + nv), or with ``rows``
+        (joint indices, velocity order) those rows alone (N, len(rows), 10·nb + nv).
 
         τ_k = Y_k · :meth:`parameters` (Pinocchio's joint torque regressor plus one q̈_j column
-        per rotor inertia).
+        per rotor inertia). Joints outside ``rows`` held still over every sample (one position,
+        q̇ = q̈ = 0: a URDF's joints the log lacks) are locked into their parents' bodies, and
+        Pinocchio computes the moving chain alone (:meth:`_locked`: a 48-joint TIAGo whose arm
+        moves, 129 → 5 µs a sample); the columns are the same up to round-off.
         """
         pin = _pin()
         q, qd, qdd = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (q, qd, qdd))
         n, nv = qd.shape
         nb = self.model.njoints - 1
+        wanted = list(range(nv)) if rows is None else list(rows)
+        still = ~(qd.any(axis=0) | qdd.any(axis=0) | (q != q[:1]).any(axis=0))
+        still[wanted] = False
+        if still.any() and n > 1 and self._lockable:
+            m, d, vidx, T = self._locked(tuple(np.flatnonzero(still)), tuple(q[0, still]))
+            nb_r = m.njoints - 1
+            Y = np.zeros((n, m.nv, 10 * nb_r + m.nv))
+            qr, qdr, qddr = q[:, vidx], qd[:, vidx], qdd[:, vidx]
+            if m.nq != m.nv:  # continuous joints: (cos, sin) configurations
+                qr = np.array([pin.integrate(m, pin.neutral(m), x) for x in qr])
+            for k in range(n):
+                Y[k, :, : 10 * nb_r] = pin.computeJointTorqueRegressor(m, d, qr[k], qdr[k], qddr[k])
+            Y[:, np.arange(m.nv), 10 * nb_r + np.arange(m.nv)] = qddr
+            at = {int(v): r for r, v in enumerate(vidx)}
+            Y = Y[:, [at[j] for j in wanted], :]
+            out = np.zeros((n, len(wanted), 10 * nb + nv))
+            for cols, source, A in T:  # block-sparse: each body's columns from the one it moved into
+                out[..., cols] = Y[..., source] if A is None else Y[..., source] @ A
+            return out
         out = np.zeros((n, nv, 10 * nb + nv))
         m, d = self.model, self._data
         for k in range(n):
             out[k, :, : 10 * nb] = pin.computeJointTorqueRegressor(m, d, self.configuration(q[k]), qd[k], qdd[k])
         idx = np.arange(nv)
         out[:, idx, 10 * nb + idx] = qdd
-        return out
+        return out if rows is None else out[:, wanted, :]
+
+    @property
+    def _lockable(self) -> bool:
+        """True when every joint has its frame (a URDF model's; Pinocchio's reduction needs them)."""
+        if "_frames_of_joints" not in self.__dict__:
+            pin = _pin()
+            self.__dict__["_frames_of_joints"] = all(
+                self.model.existFrame(name, pin.FrameType.JOINT) for name in self.model.names[1:])
+        return self.__dict__["_frames_of_joints"]
+
+    def _locked(self, locked: tuple[int, ...], at: tuple[float, ...]):
+        """(the Pinocchio model with the joints ``locked`` (velocity indices) fixed at coordinates
+        ``at``, its data, the velocity indices (in this model) of its joints, T): T lists, per
+        column block of this model's standard parameters, (its columns, the reduced model's columns
+        it is made of, A: None for the same parameters, or :func:`moved_parameters` of a locked
+        body moved into the moving body it hangs from; a body hanging from the base is left out:
+        its columns are 0). Cached."""
+        key = (locked, at)
+        cache = self.__dict__.setdefault("_locked_models", {})
+        if key not in cache:
+            pin = _pin()
+            full, nb, nv = self.model, self.model.njoints - 1, self.model.nv
+            ids = [i for i in range(1, full.njoints) if full.joints[i].idx_v in locked]
+            q_ref = np.zeros(nv)
+            q_ref[list(locked)] = at
+            reduced = pin.buildReducedModel(full, ids, self.configuration(q_ref))
+            nb_r = reduced.njoints - 1
+            T, vidx = [], np.zeros(reduced.nv, dtype=int)
+            for i in range(1, full.njoints):
+                name, cols = full.names[i], slice(10 * (i - 1), 10 * i)
+                if i in ids:
+                    frame = reduced.frames[reduced.getFrameId(name, pin.FrameType.FIXED_JOINT)]
+                    if frame.parentJoint > 0:
+                        j = frame.parentJoint
+                        T.append((cols, slice(10 * (j - 1), 10 * j), moved_parameters(frame.placement)))
+                    continue
+                r = reduced.getJointId(name)
+                vr, v = reduced.joints[r].idx_v, full.joints[i].idx_v
+                T += [(cols, slice(10 * (r - 1), 10 * r), None), (10 * nb + v, 10 * nb_r + vr, None)]
+                vidx[vr] = v
+            if len(cache) >= 8:
+                cache.pop(next(iter(cache)))
+            cache[key] = (reduced, reduced.createData(), vidx, T)
+        return cache[key]
 
     def check_limits(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, t: np.ndarray | None = None,
                      what: str = "trajectory", tol: float = 1e-9) -> None:
@@ -169,6 +237,30 @@ class RobotModel:
                     problems.append(f"joint '{j}' {kind} {worst:.6g} outside {lim} (first at t = {t[i]:.6g} s)")
         if problems:
             raise InputError(f"{what} violates the limits of {self.name}: " + "; ".join(dict.fromkeys(problems)))
+
+
+def moved_parameters(placement) -> np.ndarray:
+    """(10, 10) A with π' = A·π: a body's standard parameters π (BODY_PARAMS: mass, first moments,
+    inertia about the frame origin) in a frame whose pose in another is ``placement``
+    (pinocchio.SE3: x' = R·x + p) → the same body's in that other frame:
+    m' = m, h' = R·h + m·p, I' = R·I·Rᵀ − [R·h]×[p]× − [p]×[R·h]× − m·[p]×[p]×."""
+    R, p = np.asarray(placement.rotation), np.asarray(placement.translation)
+    P = _skew(p)
+    out = np.empty((10, 10))
+    for k, e in enumerate(np.eye(10)):
+        m, h = e[0], e[1:4]
+        xx, xy, yy, xz, yz, zz = e[4:]
+        inertia = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+        H = _skew(R @ h)
+        moved = R @ inertia @ R.T - H @ P - P @ H - m * P @ P
+        out[:, k] = [m, *(R @ h + m * p), moved[0, 0], moved[0, 1], moved[1, 1], moved[0, 2], moved[1, 2],
+                     moved[2, 2]]
+    return out
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    """[v]×: the matrix of v × ·."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def from_pinocchio(pmodel, name: str, source: str = "",

@@ -84,7 +84,12 @@ class RobotInfo:
         chunk = max(64, _REGRESSOR_CHUNK_VALUES // (self.model.nv * len(self.base.names)))
         for k0 in range(0, n, chunk):
             k1 = min(n, k0 + chunk)
-            Y = reduce((self.rows or self.model).regressor(qm[k0:k1], qdm[k0:k1], qddm[k0:k1]))
+            if self.rows is None:  # the fit rows alone: joints held still elsewhere are locked (faster)
+                Y = reduce(self.model.regressor(qm[k0:k1], qdm[k0:k1], qddm[k0:k1], rows=blocks))
+                for b in range(len(blocks)):
+                    out[b * n + k0 : b * n + k1] = Y[:, b, :]
+                continue
+            Y = reduce(self.rows.regressor(qm[k0:k1], qdm[k0:k1], qddm[k0:k1]))
             for b, m in enumerate(blocks):
                 out[b * n + k0 : b * n + k1] = Y[:, m, :]
         return out
