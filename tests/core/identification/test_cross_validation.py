@@ -16,6 +16,7 @@ from frictionid_core.identification.cross_validation import (
     FOLDS,
     LAYOUTS,
     cross_validated_error,
+    cutoff_candidates,
     fold_observations,
     folds_of,
     resolved_settings,
@@ -72,6 +73,21 @@ def test_a_given_cutoff_is_not_cross_validated(fitted):
     est, _ = fitted
     r = fid.identify(est, IdentifyRequest(system="joint", preprocessing=PreprocessingOverrides(cutoff_hz=5.0)))
     assert "cross_validation" not in r.preprocessing and r.preprocessing["cutoff_hz"] == {"j": 5.0}
+
+
+def test_candidates_run_from_the_rule_raised_to_the_rule_then_capped():
+    """The rule's cut-offs raised to each grid value above their lowest up to the ceiling (highest
+    first), the rule's, then the rule's capped at each grid value below their highest; none raised
+    without a ceiling."""
+    rule = {"a": 3.5, "b": 7.8}
+    candidates, at = cutoff_candidates(rule, 0.2 * 56.0)
+    assert candidates[at] == rule
+    assert [v for c in candidates[:at] for v in (c["a"], c["b"])] == pytest.approx([10.0, 10.0, 4.6416, 7.8], rel=1e-4)
+    capped = candidates[at + 1:]
+    assert [c["b"] for c in capped] == pytest.approx([4.6416, 2.1544, 1.0], rel=1e-4)
+    assert all(c["a"] == min(3.5, c["b"]) for c in capped)
+    assert cutoff_candidates(rule, None) == ([rule, *capped], 0)
+    assert cutoff_candidates({"a": 30.0}, 11.2)[1] == 0  # the rule above the ceiling: nothing raised
 
 
 @pytest.mark.parametrize(("layout", "seconds", "per_fold"), [

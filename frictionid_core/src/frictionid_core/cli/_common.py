@@ -244,10 +244,20 @@ def choice_line(p: dict) -> str | None:
         return None
     if cv.get("cutoff_hz") is None:
         return f"cut-off: the rule's, not cross-validated ({cv.get('skipped', 'too little data')})"
-    scores = ", ".join(f"{'rule ' if k == 0 else '≤ '}{fmt(max(c['cutoff_hz'].values()), 3)} Hz "
-                       f"{fmt(c['cv_relerr_pct'], 3)} %" for k, c in enumerate(cv["candidates"]))
+    rule_low = min(cv["candidates"][0]["cutoff_hz"].values())  # the rule's comes first
+
+    def label(k: int, cutoffs: dict[str, float]) -> str:
+        """The rule's by its highest cut-off, the others by the cap on the rule's (≤) or the floor under them (≥)."""
+        if k == 0:
+            return f"rule {fmt(max(cutoffs.values()), 3)}"
+        low = min(cutoffs.values())
+        return f"≥ {fmt(low, 3)}" if low > rule_low else f"≤ {fmt(max(cutoffs.values()), 3)}"
+
+    scores = ", ".join(f"{label(k, c['cutoff_hz'])} Hz {fmt(c['cv_relerr_pct'], 3)} %"
+                       for k, c in enumerate(cv["candidates"]))
     line = (f"cut-off chosen by {cv['folds']}-fold blocked cross-validation (each part's torque predicted from "
-            f"the others): {cutoff_text(cv['cutoff_hz'])} Hz; candidates by highest cut-off, error: {scores}")
+            f"the others): {cutoff_text(cv['cutoff_hz'])} Hz; candidates (the rule's, capped ≤, raised ≥), "
+            f"error: {scores}")
     composed = cv.get("composed")
     if composed and composed.get("cv_relerr_pct") is not None:
         line += (f"; each joint's own best together ({cutoff_text(composed['cutoff_hz'])} Hz) "

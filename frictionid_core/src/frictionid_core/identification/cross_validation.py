@@ -10,20 +10,27 @@ over every fold, per row joint and overall (:func:`cross_validated_error`), the 
 layouts of the pieces, long and short (:func:`layout_score`).
 
 Candidates (:func:`cutoff_candidates`): the rule's per-joint cut-offs
-(:func:`frictionid_core.preprocess.choose_preprocessing`) and the same capped at each value of a
-fixed logarithmic grid below its highest one (the decimation, trims and min speed follow each
-candidate's cut-offs as the rule sets them). They are searched coarse to fine: the rule's and the
-caps at each decade (1000, 100, 10, 1 Hz) first, then the grid's neighbours of the best while they
-predict better — the errors of the highest cut-offs are not monotonic (a 12-bit encoder at 4.3 kHz,
-read by the rule as 1.6 kHz of motion: 104, 73, 102, 109 % from its 859 Hz down to 100 Hz, where a
-search stopping on rising errors stopped, while 10 Hz validates at 2.5 %), so no decade is ruled out
-by the ones above it. (Scoring every candidate costs twice as many on a 5 kHz log; a real 7-DOF
-arm's joint sweep, 84 % at the rule's 199 Hz, 86 % at 100, 40 % at 46.4, 38 % at 21.5, 151 % at
-10 Hz, is found from 100 Hz only when 100 Hz beats the rule's.) Every joint takes the candidate
-that predicts its own effort best (:func:`choose_by_cross_validation`), and that choice stands only
-where, scored as one candidate, it predicts every row better than the candidate it was made from:
-a joint's cut-off changes the columns of every row that sees its motion (a Z1 at 117 Hz whose
-shoulder preferred 1 Hz alone: 32 % on a second log).
+(:func:`frictionid_core.preprocess.choose_preprocessing`), the same capped at each value of a
+fixed logarithmic grid below its highest one, and the same raised to each value of the grid above
+its lowest one, up to the rule's own ceiling (0.2 × the sample rate; not for a dynamic law, whose
+fit raises its cut-offs itself: :mod:`.dynamic_rates`). The decimation, trims and min speed follow
+each candidate's cut-offs as the rule sets them. The rule's noise bound can sit below the motion: a
+UR5 at 56 Hz whose rule took 3.5–7.8 Hz validated at 3.5 % against 2.05 % for least squares at
+10 Hz (raised to 10 Hz: 2.14 %); quantised Jaco2 logs at 65 and 451 Hz at 39 and 19 % (raised: 24 and
+7.0 %, least squares 23 and 12 %). They are searched coarse to fine: the rule's and the caps at each
+decade (1000, 100, 10, 1 Hz), the raised at each decade upwards while each predicts better than the
+one below (a 5 kHz log's 1000 Hz is costly), then the grid's neighbours of the best while they predict
+better (the raised ones only where a decade's beat the rule's). The errors of the caps are not
+monotonic (a 12-bit encoder at 4.3 kHz, read by the rule as 1.6 kHz of motion: 104, 73, 102, 109 %
+from its 859 Hz down to 100 Hz, where a search stopping on rising errors stopped, while 10 Hz
+validates at 2.5 %), so no decade below the rule is ruled out by the ones above it. (Scoring every
+candidate costs twice as many on a 5 kHz log; a real 7-DOF arm's joint sweep, 84 % at the rule's
+199 Hz, 86 % at 100, 40 % at 46.4, 38 % at 21.5, 151 % at 10 Hz, is found from 100 Hz only when
+100 Hz beats the rule's.) Every joint takes the candidate that predicts its own effort best
+(:func:`choose_by_cross_validation`), and that choice stands only where, scored as one candidate, it
+predicts every row better than the candidate it was made from: a joint's cut-off changes the columns
+of every row that sees its motion (a Z1 at 117 Hz whose shoulder preferred 1 Hz alone: 32 % on a
+second log).
 
 For a static law with a dip (Stribeck) the folds' model may have each joint's low-speed friction
 curve too (:func:`dip_basis`): with Coulomb friction alone the misfit of the dip outweighs what a
@@ -44,14 +51,22 @@ from frictionid_core.identification.model_building import observe_plan, on_sourc
 from frictionid_core.identification.plan import FitPlan
 from frictionid_core.identification.stick import without_rows
 from frictionid_core.model import IdentificationModel, Observation
-from frictionid_core.preprocess import MIN_SPEED_SHARE, Preprocessing, TooFewSamples, choose_preprocessing
+from frictionid_core.preprocess import (
+    MAX_CUTOFF_SHARE,
+    MIN_SPEED_SHARE,
+    Preprocessing,
+    TooFewSamples,
+    choose_preprocessing,
+)
 from frictionid_core.timeseries import JointSeries, sample_period
 
 FOLDS = 2  # folds of each source: each predicted from the others, as a later log is
 # The two ways a source is cut into pieces (see folds_of), each (seconds a piece lasts at least, pieces
 # per fold at most): long pieces, whose filters settle, and short ones, whose folds span every motion.
 LAYOUTS = ((5.0, 2), (1.5, 15))
-# Cut-offs tried below the rule's: this many per decade (a ratio of 2.15), down to MIN_GRID_CUTOFF_HZ.
+# Cut-offs tried beside the rule's: this many per decade (a ratio of 2.15), down to MIN_GRID_CUTOFF_HZ
+# and up to the rule's own ceiling, MAX_CUTOFF_SHARE × the sample rate (its noise bound is a guess the
+# folds judge).
 GRID_PER_DECADE = 3
 MIN_GRID_CUTOFF_HZ = 0.5
 # A fold's fit leaves out the directions of its design (unit-scaled columns) whose singular value is
@@ -285,18 +300,26 @@ def _least_norm(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(G / np.outer(scale, scale), b / scale, rcond=RESOLVED_SHARE**2)[0] / scale
 
 
-def cutoff_candidates(rule_cutoffs: dict[str, float]) -> list[dict[str, float]]:
-    """The rule's cut-offs, then the same capped at each value of the grid below their highest."""
-    high = max(rule_cutoffs.values())
+def cutoff_candidates(rule_cutoffs: dict[str, float], ceiling_hz: float | None
+                      ) -> tuple[list[dict[str, float]], int]:
+    """(the candidates from the highest cut-offs to the lowest, the index of the rule's): the rule's
+    cut-offs raised to each value of the grid above their lowest up to ``ceiling_hz`` (None: not
+    raised), the rule's, then the rule's capped at each value of the grid below their highest."""
+    high, low = max(rule_cutoffs.values()), min(rule_cutoffs.values())
+    top = high if ceiling_hz is None else max(high, ceiling_hz)
     grid = 10.0 ** (np.arange(np.floor(np.log10(MIN_GRID_CUTOFF_HZ) * GRID_PER_DECADE),
-                              np.ceil(np.log10(high) * GRID_PER_DECADE)) / GRID_PER_DECADE)
-    caps = [float(g) for g in grid if MIN_GRID_CUTOFF_HZ <= g < high]
-    out = [dict(rule_cutoffs)]
-    for cap in sorted(caps, reverse=True):
+                              np.floor(np.log10(top) * GRID_PER_DECADE + 1e-9) + 1) / GRID_PER_DECADE)
+    raised: list[dict[str, float]] = []
+    for floor in (float(g) for g in grid if low * (1 + 1e-9) < g <= top and ceiling_hz is not None):
+        lifted = {j: max(c, floor) for j, c in rule_cutoffs.items()}
+        if lifted not in raised:
+            raised.insert(0, lifted)
+    out = [*raised, dict(rule_cutoffs)]
+    for cap in (float(g) for g in grid[::-1] if MIN_GRID_CUTOFF_HZ <= g < high):
         capped = {j: min(c, cap) for j, c in rule_cutoffs.items()}
         if capped not in out:
             out.append(capped)
-    return out
+    return out, len(raised)
 
 
 def _at_decade(cap_hz: float) -> bool:
@@ -326,7 +349,7 @@ def score_at(plan: FitPlan, requested: Preprocessing, cutoffs: dict[str, float],
 
 def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetric: bool = False,
                                fixed: dict[str, float] | None = None, keep: dict | None = None,
-                               dips: bool = False) -> tuple[dict[str, float] | None, dict]:
+                               dips: bool = False, raised: bool = True) -> tuple[dict[str, float] | None, dict]:
     """({data joint: cut-off} chosen by cross-validation, the record of the choice), or (None,
     record) when the data are too short for the folds. ``requested``: the pre-processing asked for
     (its cut-off None: chosen here).
@@ -339,13 +362,16 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
     the long layout's fold observations of the chosen cut-offs where they are one candidate's
     (:func:`choose_min_speed` judges on those). ``dips``: each
     candidate is scored by the better of the Coulomb model and one with each joint's low-speed
-    friction curve (:func:`cross_validated_error`; the law fitted has a dip)."""
+    friction curve (:func:`cross_validated_error`; the law fitted has a dip). ``raised``: the rule's
+    cut-offs raised are candidates too (a dynamic law's fit raises them itself, judged by the law:
+    :mod:`.dynamic_rates`)."""
     try:
         rule_cutoffs = rule_cutoffs_of(plan, requested)
     except FrictionIdError as exc:  # the identification says why, in its own words
         return None, {"folds": FOLDS, "skipped": str(exc)}
     record = {"folds": FOLDS, "rule_cutoff_hz": rule_cutoffs, "candidates": [], "dips": dips}
-    candidates = cutoff_candidates(rule_cutoffs)
+    rate_hz = min((1.0 / dt for dt in (sample_period(sp.series.t) for sp in plan.sources) if dt > 0), default=0.0)
+    candidates, rule_at = cutoff_candidates(rule_cutoffs, MAX_CUTOFF_SHARE * rate_hz if raised else None)
     scored: dict[int, CvScore | None] = {}  # by index in candidates; None: could not be scored
     folds: dict[int, list[Observation] | None] = {}  # the long layout's, for choose_min_speed
 
@@ -360,21 +386,27 @@ def choose_by_cross_validation(plan: FitPlan, requested: Preprocessing, asymmetr
                 record.setdefault("failed", {})[f"{max(candidates[i].values()):.4g}"] = str(exc)
         return scored[i]
 
-    if score(0) is None:  # the rule's own cut-offs: the data are too short for the folds
+    if score(rule_at) is None:  # the rule's own cut-offs: the data are too short for the folds
         record["skipped"] = record.pop("failed", {}).popitem()[1]
         return None, record
-    for i in range(1, len(candidates)):  # coarse: the caps at a whole decade
+    for i in range(rule_at + 1, len(candidates)):  # coarse: the caps at a whole decade
         if _at_decade(max(candidates[i].values())):
             score(i)
+    below = rule_at  # … and the floors at a whole decade, upwards while each predicts better than the one below
+    for i in (i for i in range(rule_at - 1, -1, -1) if _at_decade(min(candidates[i].values()))):
+        if score(i) is None or scored[i].relerr_pct >= scored[below].relerr_pct:
+            break
+        below = i
     top = min((i for i in scored if scored[i] is not None), key=lambda i: scored[i].relerr_pct)
+    first = 0 if below < rule_at else rule_at  # the floors in between only where a decade's beat the rule's
     while True:  # fine: the grid's neighbours of the best, while one predicts better
-        around = [i for i in (top - 1, top + 1) if 0 <= i < len(candidates) and score(i) is not None]
+        around = [i for i in (top - 1, top + 1) if first <= i < len(candidates) and score(i) is not None]
         step = min(around, key=lambda i: scored[i].relerr_pct, default=top)
         if scored[step].relerr_pct >= scored[top].relerr_pct:
             break
         top = step
-    scores: list[tuple[dict[str, float], CvScore]] = [(candidates[i], scored[i]) for i in sorted(scored)
-                                                      if scored[i] is not None]
+    scores: list[tuple[dict[str, float], CvScore]] = [  # the rule's first
+        (candidates[i], scored[i]) for i in sorted(scored, key=lambda i: (i != rule_at, i)) if scored[i] is not None]
     record["candidates"] = [{"cutoff_hz": c, "cv_relerr_pct": sc.relerr_pct, "per_joint": sc.per_joint,
                              "curve": sc.curve} for c, sc in scores]
     rule_score = scores[0][1]

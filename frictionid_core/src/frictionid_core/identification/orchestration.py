@@ -190,7 +190,8 @@ def _fit_plan_request(series: Sources, request: IdentifyRequest, progress=None, 
     if settings.cutoff_hz is None:  # those that predict best (a dynamic law raises them where it predicts better)
         folds: dict = {}
         cutoffs, choice = choose_by_cross_validation(fit_plan, settings, request.asymmetric, fixed_request, folds,
-                                                     dips=has_static_dip(request.friction))
+                                                     dips=has_static_dip(request.friction),
+                                                     raised=not get_model(request.friction).is_dynamic)
         if cutoffs is not None:
             chosen = replace(settings, cutoff_hz=cutoffs)
             if settings.min_speed is None and not get_model(request.friction).law.nonlinear:
