@@ -19,14 +19,14 @@ UR5 at 56 Hz whose rule took 3.5–7.8 Hz validated at 3.5 % against 2.05 % for 
 10 Hz (raised to 10 Hz: 2.14 %); quantised Jaco2 logs at 65 and 451 Hz at 39 and 19 % (raised: 24 and
 7.0 %, least squares 23 and 12 %). They are searched coarse to fine: the rule's and the caps at each
 decade (1000, 100, 10, 1 Hz), the raised at each decade upwards while each predicts better than the
-one below (a 5 kHz log's 1000 Hz is costly; only where the rule's error is below INFORMATIVE_PCT), then the grid's neighbours of the best while they predict
-better (the raised ones only where a decade's beat the rule's). The errors of the caps are not
-monotonic (a 12-bit encoder at 4.3 kHz, read by the rule as 1.6 kHz of motion: 104, 73, 102, 109 %
-from its 859 Hz down to 100 Hz, where a search stopping on rising errors stopped, while 10 Hz
-validates at 2.5 %), so no decade below the rule is ruled out by the ones above it. (Scoring every
-candidate costs twice as many on a 5 kHz log; a real 7-DOF arm's joint sweep, 84 % at the rule's
-199 Hz, 86 % at 100, 40 % at 46.4, 38 % at 21.5, 151 % at 10 Hz, is found from 100 Hz only when
-100 Hz beats the rule's.) Every joint takes the candidate that predicts its own effort best
+one below (a 5 kHz log's 1000 Hz is costly; only where the rule's error is below INFORMATIVE_PCT),
+then the grid's neighbours of the best while they predict better (the raised ones only where a
+decade's beat the rule's). The errors of the caps are not monotonic (a 12-bit encoder at 4.3 kHz,
+read by the rule as 1.6 kHz of motion: 104, 73, 102, 109 % from its 859 Hz down to 100 Hz, where a
+search stopping on rising errors stopped, while 10 Hz validates at 2.5 %), so no decade below the
+rule is ruled out by the ones above it. (Scoring every candidate costs twice as many on a 5 kHz log;
+a real 7-DOF arm's joint sweep, 84 % at the rule's 199 Hz, 86 % at 100, 40 % at 46.4, 38 % at 21.5,
+151 % at 10 Hz, is found from 100 Hz only when 100 Hz beats the rule's.) Every joint takes the candidate that predicts its own effort best
 (:func:`choose_by_cross_validation`), and that choice stands only where, scored as one candidate, it
 predicts every row better than the candidate it was made from: a joint's cut-off changes the columns
 of every row that sees its motion (a Z1 at 117 Hz whose shoulder preferred 1 Hz alone: 32 % on a
