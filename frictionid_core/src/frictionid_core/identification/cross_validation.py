@@ -26,11 +26,11 @@ read by the rule as 1.6 kHz of motion: 104, 73, 102, 109 % from its 859 Hz down 
 search stopping on rising errors stopped, while 10 Hz validates at 2.5 %), so no decade below the
 rule is ruled out by the ones above it. (Scoring every candidate costs twice as many on a 5 kHz log;
 a real 7-DOF arm's joint sweep, 84 % at the rule's 199 Hz, 86 % at 100, 40 % at 46.4, 38 % at 21.5,
-151 % at 10 Hz, is found from 100 Hz only when 100 Hz beats the rule's.) Every joint takes the candidate that predicts its own effort best
-(:func:`choose_by_cross_validation`), and that choice stands only where, scored as one candidate, it
-predicts every row better than the candidate it was made from: a joint's cut-off changes the columns
-of every row that sees its motion (a Z1 at 117 Hz whose shoulder preferred 1 Hz alone: 32 % on a
-second log).
+151 % at 10 Hz, is found from 100 Hz only when 100 Hz beats the rule's.) Every joint takes the
+candidate that predicts its own effort best (:func:`choose_by_cross_validation`), and that choice
+stands only where, scored as one candidate, it predicts every row better than the candidate it was
+made from: a joint's cut-off changes the columns of every row that sees its motion (a Z1 at 117 Hz
+whose shoulder preferred 1 Hz alone: 32 % on a second log).
 
 For a static law with a dip (Stribeck) the folds' model may have each joint's low-speed friction
 curve too (:func:`dip_basis`): with Coulomb friction alone the misfit of the dip outweighs what a
